@@ -1,0 +1,153 @@
+"""The fixed-size contract, checked on values just before they are sent.
+
+A message can be valid protobuf and still be one a nanopb receiver drops or misreads: an enum value
+the schema does not declare (proto3 enums are open in Python), a string or bytes value longer than
+its ``max_size``, more repeated items than ``max_count``, an integer wider than its ``int_size``.
+``checker(sizes, descriptor)`` returns a function that raises ``EncodeError`` naming the field path
+for any of these, or ``None`` when no value of the type can break the contract.
+
+It runs on every encode, so it is compiled once per message type into straight-line Python (as
+dataclasses and protobuf's own pure-Python runtime do): each submessage is fetched once and all of
+its enum fields are tested in one ``if``. Only when that test fails does the slow path work out
+which field it was.
+"""
+
+import keyword
+from collections.abc import Callable, Mapping
+from operator import attrgetter
+from typing import Any
+
+from google.protobuf.descriptor import Descriptor, FieldDescriptor
+from google.protobuf.message import Message
+
+from ._errors import EncodeError
+from ._schema import enum_of, message_of
+from ._sizes import Sizes
+
+__all__ = ["checker"]
+
+Check = Callable[[Message], None]
+_T = FieldDescriptor
+
+
+def checker(sizes: Sizes, descriptor: Descriptor) -> Check | None:
+    """A function raising ``EncodeError`` when a ``descriptor`` message breaks the contract."""
+    source = _Source(sizes)
+    body = source.message(descriptor, "m", "")
+    if not body:
+        return None
+    top = descriptor.full_name
+    enums = source.enums
+
+    def fail(message: Message) -> None:
+        for path, allowed, enum_name in enums:
+            value = attrgetter(path)(message)
+            if value not in allowed:
+                raise EncodeError(f"{top}.{path} = {value} is not a declared value of {enum_name}")
+
+    namespace: dict[str, Any] = {"fail": fail, **source.names}
+    exec("\n".join(["def check(m):", *body]), namespace)  # our own generated code
+    return namespace["check"]  # type: ignore[no-any-return]
+
+
+class _Source:
+    """Emits the lines of a check function, and the constants those lines refer to."""
+
+    def __init__(self, sizes: Sizes) -> None:
+        self._sizes = sizes
+        self.names: dict[str, Any] = {}
+        self.enums: list[tuple[str, frozenset[int], str]] = []
+        self._variables = 0
+
+    def message(self, descriptor: Descriptor, var: str, prefix: str) -> list[str]:
+        lines: list[str] = []
+        tests: list[str] = []
+        for field in descriptor.fields:
+            if self._sizes.ignored(field):
+                continue
+            path = prefix + field.name
+            read = (
+                f"{var}.{field.name}"
+                if not keyword.iskeyword(field.name)
+                else (f"getattr({var}, {field.name!r})")
+            )
+            if (
+                field.is_repeated
+                or field.type in (_T.TYPE_STRING, _T.TYPE_BYTES)
+                or self._sizes.int_range(field) is not None
+            ):
+                check = _field_check(self._sizes, field, f"{descriptor.full_name}.{field.name}")
+                lines.append(f" {self._name(check)}({read})")
+            elif field.type == _T.TYPE_ENUM:
+                allowed = frozenset(value.number for value in enum_of(field).values)
+                self.enums.append((path, allowed, enum_of(field).full_name))
+                tests.append(f"{read} not in {self._name(allowed)}")
+            elif field.type == _T.TYPE_MESSAGE:
+                self._variables += 1
+                inner = f"v{self._variables}"
+                nested = self.message(message_of(field), inner, path + ".")
+                if nested:
+                    lines += [f" {inner} = {read}", *nested]
+        if tests:
+            lines.insert(0, f" if {' or '.join(tests)}: fail(m)")
+        return lines
+
+    def _name(self, value: object) -> str:
+        name = f"c{len(self.names)}"
+        self.names[name] = value
+        return name
+
+
+def _field_check(sizes: Sizes, field: FieldDescriptor, where: str) -> Callable[[Any], None]:
+    """Check the value of one repeated, string, bytes or int_size field."""
+    element = _element_check(sizes, field)
+    if not field.is_repeated:
+        return lambda value: element(value, where)
+    count = sizes.max_count(field)
+
+    def check(value: Any) -> None:
+        if count is not None and len(value) > count:
+            raise EncodeError(f"{where} holds {len(value)} items, more than its max_count {count}")
+        items = value.values() if isinstance(value, Mapping) else value
+        for index, item in enumerate(items):
+            element(item, f"{where}[{index}]")
+
+    return check
+
+
+def _element_check(sizes: Sizes, field: FieldDescriptor) -> Callable[[Any, str], None]:
+    if field.message_type is not None and field.message_type.GetOptions().map_entry:
+        field = field.message_type.fields_by_name["value"]
+    if field.type == _T.TYPE_ENUM:
+        allowed = frozenset(value.number for value in enum_of(field).values)
+        enum_name = enum_of(field).full_name
+
+        def enum_item(value: Any, path: str) -> None:
+            if value not in allowed:
+                raise EncodeError(f"{path} = {value} is not a declared value of {enum_name}")
+
+        return enum_item
+    if field.type in (_T.TYPE_STRING, _T.TYPE_BYTES):
+        limit = sizes.max_bytes(field)
+        text = field.type == _T.TYPE_STRING
+
+        def sized_item(value: Any, path: str) -> None:
+            length = len(value.encode("utf-8")) if text else len(value)
+            if limit is not None and length > limit:
+                raise EncodeError(f"{path} is {length} bytes long, more than the {limit} allowed")
+
+        return sized_item
+    bounds = sizes.int_range(field)
+    if bounds is not None:
+        low, high = bounds
+
+        def ranged_item(value: Any, path: str) -> None:
+            if not low <= value <= high:
+                raise EncodeError(f"{path} = {value} does not fit nanopb int_size ({low}..{high})")
+
+        return ranged_item
+    if field.type == _T.TYPE_MESSAGE:
+        nested = checker(sizes, message_of(field))
+        if nested is not None:
+            return lambda value, path: nested(value)
+    return lambda value, path: None

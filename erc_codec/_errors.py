@@ -1,0 +1,23 @@
+"""The codec's exception hierarchy: one base class, one subclass per direction of failure.
+
+Every error names what was wrong and where (a file:line for schemas, a field path for messages, a
+byte offset for datagrams), so a caller can print ``str(error)`` as a complete one-line diagnosis.
+"""
+
+__all__ = ["CodecError", "DecodeError", "EncodeError", "SchemaError"]
+
+
+class CodecError(Exception):
+    """Base class of every error erc_codec raises on purpose."""
+
+
+class SchemaError(CodecError):
+    """A proto tree cannot be loaded, or breaks the fixed-size contract of nanopb receivers."""
+
+
+class EncodeError(CodecError):
+    """A message cannot be sent: a fixed-size receiver would reject or misread it."""
+
+
+class DecodeError(CodecError):
+    """A datagram is not an exact, stripped or zero-padded encoding of a known envelope."""

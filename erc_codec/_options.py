@@ -1,0 +1,139 @@
+"""nanopb's generator options for every field, oneof and message of a schema.
+
+Options come from two places and are resolved exactly as nanopb's generator resolves them: a
+``.options`` file beside each ``.proto`` (``<stem>.options``, lines ``PATTERN option:value ...``
+matched with ``fnmatchcase`` against dotted names, or the file's own name) and in-file annotations
+(``[(nanopb).max_size = 32]``, ``option (nanopb_msgopt)...``, ``option (nanopb_fileopt)...``).
+Each element starts from its parent's options (file, message, then field or oneof); at each level
+matching ``.options`` lines merge in file order, then the annotation, which wins.
+"""
+
+import functools
+import re
+from collections.abc import Iterator
+from fnmatch import fnmatchcase
+from pathlib import Path
+from typing import Any
+
+from google.protobuf import descriptor_pb2, descriptor_pool, message_factory, text_format
+from google.protobuf.message import DecodeError as ProtobufDecodeError
+from google.protobuf.message import Message
+
+from ._errors import SchemaError
+from ._protoc import FALLBACK_INCLUDE, compile_files
+from ._wire import LEN, WireError, read_varint
+
+__all__ = ["Resolved", "resolve"]
+
+_EXTENSION = 1010  # (nanopb), (nanopb_msgopt), (nanopb_fileopt) on the descriptor options
+_COMMENTS = re.compile(r"/\*.*?\*/|//.*$|#.*$")
+
+# NanoPBOptions is a message class built at run time: its instances are typed Any.
+Options = Any
+Rules = list[tuple[str, Options]]
+
+
+class Resolved:
+    """Resolved options, keyed by full name: ``fields["Msg.f"]``, ``oneofs["Msg.o"]``."""
+
+    def __init__(self) -> None:
+        self.fields: dict[str, Options] = {}
+        self.oneofs: dict[str, Options] = {}
+
+
+@functools.cache
+def options_class() -> Any:
+    """The NanoPBOptions message class, compiled from erc-codec's copy of the vocabulary."""
+    files = compile_files(Path(FALLBACK_INCLUDE), ["nanopb.proto"])
+    pool = descriptor_pool.DescriptorPool()
+    for proto in files.file:
+        pool.AddSerializedFile(proto.SerializeToString())
+    return message_factory.GetMessageClass(pool.FindMessageTypeByName("NanoPBOptions"))
+
+
+def resolve(tree: Path, files: tuple[descriptor_pb2.FileDescriptorProto, ...]) -> Resolved:
+    """Resolve the nanopb options of every field and oneof in ``files``."""
+    resolved = Resolved()
+    for proto in files:
+        rules = _read_rules(tree / Path(proto.name).with_suffix(".options"))
+        base = _merge(options_class()(), rules, proto.name, proto.options)
+        prefix = f"{proto.package}." if proto.package else ""
+        for message in proto.message_type:
+            _resolve_message(resolved, rules, base, prefix + message.name, message)
+    return resolved
+
+
+def _resolve_message(
+    resolved: Resolved,
+    rules: Rules,
+    parent: Options,
+    name: str,
+    message: descriptor_pb2.DescriptorProto,
+) -> None:
+    own = _merge(parent, rules, name, message.options)
+    for field in message.field:
+        resolved.fields[f"{name}.{field.name}"] = _merge(
+            own, rules, f"{name}.{field.name}", field.options
+        )
+    for oneof in message.oneof_decl:
+        # oneofs carry no (nanopb) annotation: only .options lines reach them
+        resolved.oneofs[f"{name}.{oneof.name}"] = _merge(own, rules, f"{name}.{oneof.name}", None)
+    for nested in message.nested_type:
+        _resolve_message(resolved, rules, own, f"{name}.{nested.name}", nested)
+
+
+def _merge(parent: Options, rules: Rules, dotted: str, options: Message | None) -> Options:
+    merged = type(parent)()
+    merged.CopyFrom(parent)
+    for pattern, values in rules:
+        if fnmatchcase(dotted, pattern):
+            merged.MergeFrom(values)
+    if options is not None:
+        for annotation in _annotations(options.SerializeToString()):
+            merged.MergeFrom(annotation)
+    return merged
+
+
+def _annotations(data: bytes) -> Iterator[Options]:
+    """The NanoPBOptions carried as extension 1010 inside serialized descriptor options."""
+    if not data:
+        return
+    pos = 0
+    cls = options_class()
+    try:
+        while pos < len(data):
+            key, pos = read_varint(data, pos)
+            number, wire_type = key >> 3, key & 7
+            if wire_type == LEN:
+                length, pos = read_varint(data, pos)
+                if number == _EXTENSION:
+                    yield cls.FromString(data[pos : pos + length])
+                pos += length
+            elif wire_type == 0:
+                _, pos = read_varint(data, pos)
+            else:
+                pos += 8 if wire_type == 1 else 4
+    except (WireError, ProtobufDecodeError) as error:  # protoc wrote these bytes itself
+        raise SchemaError(f"unreadable nanopb annotation: {error}") from None
+
+
+def _read_rules(path: Path) -> Rules:
+    if not path.is_file():
+        return []
+    rules: Rules = []
+    cls = options_class()
+    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        parts = _COMMENTS.sub("", line).split(None, 1)
+        if not parts:
+            continue
+        if len(parts) == 1:
+            raise SchemaError(
+                f"{path}:{number}: '{parts[0]}' names no options (PATTERN option:value)"
+            )
+        values = cls()
+        try:
+            text_format.Merge(parts[1], values)
+        except text_format.ParseError as error:
+            raise SchemaError(f"{path}:{number}: {error}") from None
+        rules.append((parts[0], values))
+    return rules

@@ -1,0 +1,71 @@
+"""protoc, run in-process through grpcio-tools, turning .proto files into a FileDescriptorSet.
+
+Guarantees: no generated code is written anywhere; protoc's own diagnostics (``path:line:col:
+message``) come back as the text of a ``SchemaError``. protoc reports on the process's standard
+error descriptor, so compilation briefly points fd 2 at a temporary file; a lock keeps two
+compilations in this process from interleaving.
+"""
+
+import contextlib
+import os
+import tempfile
+import threading
+from collections.abc import Iterator, Sequence
+from importlib import resources
+from pathlib import Path
+
+from google.protobuf import descriptor_pb2
+from grpc_tools import protoc
+
+from ._errors import SchemaError
+
+__all__ = ["compile_files"]
+
+_LOCK = threading.Lock()
+# google/protobuf/*.proto, shipped with grpcio-tools.
+_WELL_KNOWN = str(resources.files("grpc_tools") / "_proto")
+# A nanopb.proto of our own, used only when a tree imports "nanopb.proto" without shipping it.
+FALLBACK_INCLUDE = str(resources.files("erc_codec") / "_include")
+
+
+def compile_files(
+    root: Path, files: Sequence[str], includes: Sequence[Path] = ()
+) -> descriptor_pb2.FileDescriptorSet:
+    """Compile ``files`` (paths relative to ``root``) with their imports and source locations.
+
+    The result lists every file once, each after the files it imports.
+    """
+    search = [str(root), *map(str, includes), _WELL_KNOWN, FALLBACK_INCLUDE]
+    with tempfile.TemporaryDirectory(prefix="erc-codec-") as scratch:
+        out = os.path.join(scratch, "set.pb")
+        args = [
+            "protoc",
+            *(f"--proto_path={path}" for path in search),
+            f"--descriptor_set_out={out}",
+            "--include_imports",
+            "--include_source_info",
+            *files,
+        ]
+        errors = os.path.join(scratch, "stderr.txt")
+        with _LOCK, _stderr_to(errors):
+            status = protoc.main(args)
+        if status != 0:
+            lines = [line for line in Path(errors).read_text(errors="replace").splitlines() if line]
+            detail = "; ".join(lines) if lines else f"protoc exited with status {status}"
+            raise SchemaError(detail)
+        return descriptor_pb2.FileDescriptorSet.FromString(Path(out).read_bytes())
+
+
+@contextlib.contextmanager
+def _stderr_to(path: str) -> Iterator[None]:
+    """Point file descriptor 2 at ``path`` for the duration of the block."""
+    saved = os.dup(2)
+    try:
+        with open(path, "wb") as sink:
+            os.dup2(sink.fileno(), 2)
+            try:
+                yield
+            finally:
+                os.dup2(saved, 2)
+    finally:
+        os.close(saved)

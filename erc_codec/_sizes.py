@@ -1,0 +1,235 @@
+"""nanopb-identical maximum encoded sizes, and the fixed-size contract they imply.
+
+``max_size(name)`` equals the ``<name>_size`` nanopb's generator (0.4.x) writes into the ``.pb.h``:
+the sum over fields of tag bytes plus the widest value, oneofs counting their widest member,
+submessages their own size plus its length prefix, strings ``varint(max_size) + max_size - 1``,
+bytes ``varint(max_size) + max_size``, repeated fields ``(tag + item) * max_count`` (plus one when
+``max_count`` is 1), and nothing for ignored fields. A message with a field nanopb cannot bound (a
+string, bytes or repeated field with no limit, a callback or pointer field, a type that contains
+itself) has no size, exactly where nanopb writes "depends on runtime parameters".
+"""
+
+from google.protobuf.descriptor import Descriptor, FieldDescriptor, OneofDescriptor
+
+from ._errors import SchemaError
+from ._options import Options, Resolved, resolve
+from ._schema import Schema, descriptor_of, enum_of, message_of
+from ._wire import varint_size
+
+__all__ = ["Sizes"]
+
+_T = FieldDescriptor
+_FT_CALLBACK, _FT_STATIC, _FT_IGNORE, _FT_POINTER = 1, 2, 3, 4
+
+_FIXED_WIDTH = {
+    _T.TYPE_BOOL: 1,
+    _T.TYPE_FLOAT: 4,
+    _T.TYPE_FIXED32: 4,
+    _T.TYPE_SFIXED32: 4,
+    _T.TYPE_DOUBLE: 8,
+    _T.TYPE_FIXED64: 8,
+    _T.TYPE_SFIXED64: 8,
+    _T.TYPE_INT32: 10,  # negative int32 values are sign-extended to ten bytes
+    _T.TYPE_INT64: 10,
+}
+# Varint types whose width follows nanopb's int_size option (IS_DEFAULT is 0).
+_SIZED_VARINTS = {
+    _T.TYPE_UINT32: {0: 5, 8: 2, 16: 3, 32: 5, 64: 10},
+    _T.TYPE_SINT32: {0: 5, 8: 2, 16: 3, 32: 5, 64: 10},
+    _T.TYPE_UINT64: {0: 10, 8: 2, 16: 3, 32: 5, 64: 10},
+    _T.TYPE_SINT64: {0: 10, 8: 2, 16: 3, 32: 5, 64: 10},
+}
+_SIGNED = {_T.TYPE_INT32, _T.TYPE_INT64, _T.TYPE_SINT32, _T.TYPE_SINT64}
+_UNSIGNED = {_T.TYPE_UINT32, _T.TYPE_UINT64}
+
+
+class Sizes:
+    """Maximum sizes and field limits of one schema, computed once per message."""
+
+    def __init__(self, schema: Schema) -> None:
+        self._schema = schema
+        self._options: Resolved = resolve(schema.tree, schema.files)
+        self._optional = {
+            f"{proto.package + '.' if proto.package else ''}{path}"
+            for proto in schema.files
+            for path in _proto3_optional_fields(proto)
+        }
+        self._memo: dict[str, int | None] = {}
+
+    # -- field limits --------------------------------------------------------------------------
+
+    def options(self, field: FieldDescriptor) -> Options:
+        """nanopb's resolved options for ``field`` (defaults when nothing applies)."""
+        return self._options.fields[field.full_name]
+
+    def ignored(self, field: FieldDescriptor) -> bool:
+        """Whether nanopb leaves ``field`` out (``type:FT_IGNORE`` on it or its oneof)."""
+        options = self.options(field)
+        if options.type == _FT_IGNORE:
+            return True
+        if options.discard_deprecated and field.GetOptions().deprecated:
+            return True
+        oneof = self.real_oneof(field)
+        return oneof is not None and self._oneof_options(oneof).type == _FT_IGNORE
+
+    def real_oneof(self, field: FieldDescriptor) -> OneofDescriptor | None:
+        """The oneof ``field`` belongs to, unless it is the synthetic one of an ``optional``."""
+        if field.full_name in self._optional:
+            return None
+        return field.containing_oneof
+
+    def max_count(self, field: FieldDescriptor) -> int | None:
+        """nanopb's ``max_count`` for a repeated field, ``None`` where unbounded."""
+        options = self.options(field)
+        return int(options.max_count) if options.HasField("max_count") else None
+
+    def max_bytes(self, field: FieldDescriptor) -> int | None:
+        """The most bytes a string (without its NUL) or bytes value may hold."""
+        options = self.options(field)
+        if field.type == _T.TYPE_STRING:
+            if options.HasField("max_length"):
+                return int(options.max_length)
+            return int(options.max_size) - 1 if options.HasField("max_size") else None
+        return int(options.max_size) if options.HasField("max_size") else None
+
+    def int_range(self, field: FieldDescriptor) -> tuple[int, int] | None:
+        """The values a varint field with nanopb ``int_size`` can hold, else ``None``."""
+        bits = int(self.options(field).int_size)
+        if not bits:
+            return None
+        if field.type in _SIGNED:
+            return -(2 ** (bits - 1)), 2 ** (bits - 1) - 1
+        if field.type in _UNSIGNED:
+            return 0, 2**bits - 1
+        return None
+
+    # -- sizes ---------------------------------------------------------------------------------
+
+    def max_size(self, name: str) -> int:
+        """nanopb's ``<name>_size``; ``SchemaError`` when nanopb has none for it."""
+        descriptor = descriptor_of(self._schema.message_class(name))
+        size = self._size(descriptor, ())
+        if size is None:
+            self.require_fixed(descriptor)
+        assert size is not None, name  # require_fixed raised otherwise
+        return size
+
+    def all(self) -> dict[str, int | None]:
+        """Every loaded message's size (``None``: "depends on runtime parameters")."""
+        return {message.full_name: self._size(message, ()) for message in self._schema.messages()}
+
+    def require_fixed(self, root: Descriptor) -> None:
+        """``SchemaError`` naming the first field, and its path from ``root``, nanopb can't size."""
+        self._walk(root, root.full_name, (root.full_name,))
+
+    def _walk(self, message: Descriptor, path: str, stack: tuple[str, ...]) -> None:
+        for field in message.fields:
+            if self.ignored(field):
+                continue
+            here = f"{path}.{field.name}"
+            problem = self._problem(field)
+            if field.message_type is not None and problem is None:
+                sub = message_of(field)
+                if sub.full_name in stack:
+                    problem = f"{sub.full_name} contains itself"
+                else:
+                    self._walk(sub, here, (*stack, sub.full_name))
+            if problem is not None:
+                raise SchemaError(
+                    f"{self._schema.where(field.full_name)}: {field.full_name}: {problem}; "
+                    f"nanopb cannot size it (reached from {stack[0]} as {here})"
+                )
+
+    def _problem(self, field: FieldDescriptor) -> str | None:
+        """Why ``field`` itself (not what it contains) has no static size, if it hasn't."""
+        options = self.options(field)
+        if options.type in (_FT_CALLBACK, _FT_POINTER):
+            return f"nanopb type {'FT_CALLBACK' if options.type == _FT_CALLBACK else 'FT_POINTER'}"
+        if field.is_repeated and self.max_count(field) is None:
+            return "repeated field without nanopb max_count"
+        if field.type in (_T.TYPE_STRING, _T.TYPE_BYTES) and self.max_bytes(field) is None:
+            kind = "string" if field.type == _T.TYPE_STRING else "bytes"
+            return f"{kind} field without nanopb max_size"
+        return None
+
+    def _size(self, message: Descriptor, stack: tuple[str, ...]) -> int | None:
+        name = message.full_name
+        if name in self._memo:
+            return self._memo[name]
+        if name in stack:
+            return None  # nanopb turns a static recursion into callbacks
+        inner = (*stack, name)
+        total: int | None = 0
+        for oneof, fields in self._groups(message):
+            sizes = [self._field_size(field, inner) for field in fields]
+            known = [size for size in sizes if size is not None]
+            if total is None or len(known) < len(sizes):
+                total = None
+                break
+            total += max(known, default=0) if oneof else sum(known)
+        if not stack or total is not None:
+            self._memo[name] = total
+        return total
+
+    def _groups(
+        self, message: Descriptor
+    ) -> list[tuple[OneofDescriptor | None, list[FieldDescriptor]]]:
+        """Fields sized together: each union oneof as one group, every other field alone."""
+        groups: list[tuple[OneofDescriptor | None, list[FieldDescriptor]]] = []
+        unions: dict[str, list[FieldDescriptor]] = {}
+        for field in message.fields:
+            if self.ignored(field):
+                continue
+            oneof = self.real_oneof(field)
+            if oneof is None or self._oneof_options(oneof).no_unions:
+                groups.append((None, [field]))
+            elif oneof.full_name in unions:
+                unions[oneof.full_name].append(field)
+            else:
+                unions[oneof.full_name] = [field]
+                groups.append((oneof, unions[oneof.full_name]))
+        return groups
+
+    def _field_size(self, field: FieldDescriptor, stack: tuple[str, ...]) -> int | None:
+        if self._problem(field) is not None:
+            return None
+        options = self.options(field)
+        kind = options.type_override if options.HasField("type_override") else field.type
+        payload: int | None
+        if kind == _T.TYPE_MESSAGE:
+            sub = self._size(message_of(field), stack)
+            payload = None if sub is None else sub + varint_size(sub)
+        elif kind in (_T.TYPE_STRING, _T.TYPE_BYTES):
+            limit = (
+                options.max_length + 1
+                if kind == _T.TYPE_STRING and options.HasField("max_length")
+                else options.max_size
+            )
+            payload = varint_size(limit) + limit - (1 if kind == _T.TYPE_STRING else 0)
+        elif kind == _T.TYPE_ENUM:
+            payload = max(varint_size(value.number) for value in enum_of(field).values)
+        elif kind in _SIZED_VARINTS:
+            payload = _SIZED_VARINTS[kind][options.int_size]
+        else:
+            payload = _FIXED_WIDTH[kind]
+        if payload is None:
+            return None
+        tag = varint_size(field.number << 3)
+        if not field.is_repeated:
+            return tag + payload
+        count = int(options.max_count)
+        return (tag + payload) * count + (1 if count == 1 else 0)
+
+    def _oneof_options(self, oneof: OneofDescriptor) -> Options:
+        return self._options.oneofs[oneof.full_name]
+
+
+def _proto3_optional_fields(proto: object) -> list[str]:
+    """Dotted names of the proto3 ``optional`` fields a FileDescriptorProto defines."""
+    found: list[str] = []
+    stack = [(message.name, message) for message in proto.message_type]  # type: ignore[attr-defined]
+    while stack:
+        name, message = stack.pop()
+        found.extend(f"{name}.{field.name}" for field in message.field if field.proto3_optional)
+        stack.extend((f"{name}.{nested.name}", nested) for nested in message.nested_type)
+    return found

@@ -1,0 +1,141 @@
+"""Hypothesis strategies for any message of a loaded schema, derived from its descriptors.
+
+``messages(codec, "SensorBoardGPSInfo")`` draws messages a fixed-size receiver accepts: declared
+enum values only, every integer over its full range, floats including ±0, subnormals, the extremes
+and ±inf (NaN only on request: NaN != NaN makes equality useless), strings and bytes within their
+nanopb ``max_size``, repeated fields within ``max_count``, and every submessage, oneof member and
+``optional`` field both present and absent. Test your own handlers with it.
+"""
+
+from typing import Any
+
+from google.protobuf.descriptor import Descriptor, FieldDescriptor
+from google.protobuf.message import Message
+from hypothesis import strategies as st
+
+from ._codec import Codec
+from ._schema import descriptor_of, enum_of, message_of
+
+__all__ = ["messages"]
+
+_T = FieldDescriptor
+_INTEGERS = {
+    _T.TYPE_INT32: (-(2**31), 2**31 - 1),
+    _T.TYPE_SINT32: (-(2**31), 2**31 - 1),
+    _T.TYPE_SFIXED32: (-(2**31), 2**31 - 1),
+    _T.TYPE_INT64: (-(2**63), 2**63 - 1),
+    _T.TYPE_SINT64: (-(2**63), 2**63 - 1),
+    _T.TYPE_SFIXED64: (-(2**63), 2**63 - 1),
+    _T.TYPE_UINT32: (0, 2**32 - 1),
+    _T.TYPE_FIXED32: (0, 2**32 - 1),
+    _T.TYPE_UINT64: (0, 2**64 - 1),
+    _T.TYPE_FIXED64: (0, 2**64 - 1),
+}
+# Strings and bytes with no nanopb max_size get this bound, so examples stay small.
+_UNBOUNDED_TEXT = 64
+_UNBOUNDED_COUNT = 8
+
+
+def messages(codec: Codec, name: str, *, allow_nan: bool = False) -> st.SearchStrategy[Message]:
+    """A strategy drawing instances of message ``name`` (a full name) of ``codec``'s schema."""
+    codec.message_class(name)  # SchemaError for an unknown name, before anything is drawn
+    return _Builder(codec, allow_nan).message(descriptor_of(codec.message_class(name)))
+
+
+class _Builder:
+    def __init__(self, codec: Codec, allow_nan: bool) -> None:
+        self._codec = codec
+        self._allow_nan = allow_nan
+        self._memo: dict[str, st.SearchStrategy[Message]] = {}
+
+    def message(self, descriptor: Descriptor) -> st.SearchStrategy[Message]:
+        name = descriptor.full_name
+        if name not in self._memo:
+            # deferred() lets a message type that contains itself refer to its own strategy.
+            self._memo[name] = st.deferred(lambda: built)
+            built = self._build(descriptor)
+            self._memo[name] = built
+        return self._memo[name]
+
+    def _build(self, descriptor: Descriptor) -> st.SearchStrategy[Message]:
+        cls = self._codec.message_class(descriptor.full_name)
+        required: dict[str, st.SearchStrategy[Any]] = {}
+        optional: dict[str, st.SearchStrategy[Any]] = {}
+        choices: list[st.SearchStrategy[dict[str, Any]]] = []
+        for oneof in descriptor.oneofs:
+            if len(oneof.fields) == 1 and _is_optional(oneof.fields[0]):
+                continue  # the synthetic oneof of a proto3 `optional` field
+            members = [
+                st.fixed_dictionaries({field.name: self._field(field)})
+                for field in oneof.fields
+                if not self._codec._sizes.ignored(field)
+            ]
+            choices.append(st.one_of(st.just({}), *members))
+        for field in descriptor.fields:
+            if self._codec._sizes.ignored(field):
+                continue
+            in_real_oneof = field.containing_oneof is not None and not _is_optional(field)
+            if in_real_oneof:
+                continue
+            target = optional if field.has_presence else required
+            target[field.name] = self._field(field)
+        fields = st.fixed_dictionaries(required, optional=optional)
+        for choice in choices:
+            fields = st.builds(_merge, fields, choice)
+        return fields.map(lambda values: cls(**values))
+
+    def _field(self, field: FieldDescriptor) -> st.SearchStrategy[Any]:
+        if field.message_type is not None and field.message_type.GetOptions().map_entry:
+            return self._map(field)
+        value = self._scalar(field)
+        if not field.is_repeated:
+            return value
+        count = self._codec._sizes.max_count(field)
+        return st.lists(value, max_size=_UNBOUNDED_COUNT if count is None else count)
+
+    def _map(self, field: FieldDescriptor) -> st.SearchStrategy[Any]:
+        entry = message_of(field)
+        key, value = entry.fields_by_name["key"], entry.fields_by_name["value"]
+        count = self._codec._sizes.max_count(field)
+        return st.dictionaries(
+            self._scalar(key),
+            self._scalar(value),
+            max_size=_UNBOUNDED_COUNT if count is None else count,
+        )
+
+    def _scalar(self, field: FieldDescriptor) -> st.SearchStrategy[Any]:
+        kind = field.type
+        if kind in _INTEGERS:
+            low, high = _INTEGERS[kind]
+            return st.integers(low, high)
+        if kind == _T.TYPE_BOOL:
+            return st.booleans()
+        if kind == _T.TYPE_FLOAT:
+            return st.floats(width=32, allow_nan=self._allow_nan)
+        if kind == _T.TYPE_DOUBLE:
+            return st.floats(allow_nan=self._allow_nan)
+        if kind == _T.TYPE_ENUM:
+            return st.sampled_from(sorted({value.number for value in enum_of(field).values}))
+        if kind == _T.TYPE_MESSAGE:
+            return self.message(message_of(field))
+        limit = self._codec._sizes.max_bytes(field)
+        if kind == _T.TYPE_BYTES:
+            return st.binary(max_size=_UNBOUNDED_TEXT if limit is None else limit)
+        if kind == _T.TYPE_STRING:
+            room = _UNBOUNDED_TEXT if limit is None else limit
+            return st.text(max_size=room).map(lambda text: _fit_utf8(text, room))
+        raise TypeError(f"{field.full_name}: groups are not supported")  # proto2 only
+
+
+def _is_optional(field: FieldDescriptor) -> bool:
+    oneof = field.containing_oneof
+    return oneof is not None and len(oneof.fields) == 1 and oneof.name == f"_{field.name}"
+
+
+def _merge(left: dict[str, Any], right: dict[str, Any]) -> dict[str, Any]:
+    return {**left, **right}
+
+
+def _fit_utf8(text: str, room: int) -> str:
+    """``text`` cut to at most ``room`` UTF-8 bytes, on a character boundary."""
+    return text.encode("utf-8")[:room].decode("utf-8", "ignore")
