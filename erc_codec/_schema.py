@@ -52,8 +52,9 @@ class Schema:
             self.pool.AddSerializedFile(proto.SerializeToString())
         self.root: Descriptor = self.pool.FindMessageTypeByName(root)
         self.locations: dict[str, Location] = {}
+        self.comments: dict[str, str] = {}  # full name → the comment trailing its definition
         for proto in self.files:
-            self.locations.update(_locations(tree, proto))
+            _index(tree, proto, self.locations, self.comments)
         self._classes: dict[str, type[Message]] = {}
 
     def message_class(self, name: str) -> type[Message]:
@@ -139,20 +140,26 @@ def _message_names(
             stack.append((f"{name}.{nested.name}", nested, (*path, _MESSAGE_NESTED, j)))
 
 
-def _locations(tree: Path, proto: descriptor_pb2.FileDescriptorProto) -> dict[str, Location]:
-    """Full name → location of every message, field, enum and enum value the file defines.
+def _index(
+    tree: Path,
+    proto: descriptor_pb2.FileDescriptorProto,
+    found: dict[str, Location],
+    comments: dict[str, str],
+) -> None:
+    """Record the location and trailing comment of every message, field, enum and enum value.
 
     Enum values are keyed under their enum (``Enum.VALUE``), though C++ scoping puts them beside it.
     """
-    spans = {tuple(loc.path): loc.span for loc in proto.source_code_info.location}
+    sources = {tuple(loc.path): loc for loc in proto.source_code_info.location}
     path_text = str(tree / proto.name)
     prefix = f"{proto.package}." if proto.package else ""
-    found: dict[str, Location] = {}
 
     def put(name: str, path: tuple[int, ...]) -> None:
-        span = spans.get(path)
-        if span:
-            found[prefix + name] = Location(path_text, span[0] + 1, span[1] + 1)
+        source = sources.get(path)
+        if source is not None:
+            found[prefix + name] = Location(path_text, source.span[0] + 1, source.span[1] + 1)
+            if source.trailing_comments.strip():
+                comments[prefix + name] = source.trailing_comments.strip()
 
     def put_enum(
         name: str, enum: descriptor_pb2.EnumDescriptorProto, path: tuple[int, ...]
@@ -171,7 +178,6 @@ def _locations(tree: Path, proto: descriptor_pb2.FileDescriptorProto) -> dict[st
             put(f"{name}.{field.name}", (*path, _MESSAGE_FIELD, j))
         for j, enum in enumerate(message.enum_type):
             put_enum(f"{name}.{enum.name}", enum, (*path, _MESSAGE_ENUM, j))
-    return found
 
 
 def _at(
