@@ -4,8 +4,9 @@ Options come from two places and are resolved exactly as nanopb's generator reso
 ``.options`` file beside each ``.proto`` (``<stem>.options``, lines ``PATTERN option:value ...``
 matched with ``fnmatchcase`` against dotted names, or the file's own name) and in-file annotations
 (``[(nanopb).max_size = 32]``, ``option (nanopb_msgopt)...``, ``option (nanopb_fileopt)...``).
-Each element starts from its parent's options (file, message, then field or oneof); at each level
-matching ``.options`` lines merge in file order, then the annotation, which wins.
+Every message, nested or not, starts from its file's options; a field or oneof starts from its
+message's. At each level matching ``.options`` lines merge in file order, then the annotation, which
+wins.
 """
 
 import functools
@@ -34,9 +35,10 @@ Rules = list[tuple[str, Options]]
 
 
 class Resolved:
-    """Resolved options, keyed by full name: ``fields["Msg.f"]``, ``oneofs["Msg.o"]``."""
+    """Resolved options, keyed by full name: ``messages["Msg"]``, ``fields["Msg.f"]``, ..."""
 
     def __init__(self) -> None:
+        self.messages: dict[str, Options] = {}
         self.fields: dict[str, Options] = {}
         self.oneofs: dict[str, Options] = {}
 
@@ -66,11 +68,11 @@ def resolve(tree: Path, files: tuple[descriptor_pb2.FileDescriptorProto, ...]) -
 def _resolve_message(
     resolved: Resolved,
     rules: Rules,
-    parent: Options,
+    file: Options,
     name: str,
     message: descriptor_pb2.DescriptorProto,
 ) -> None:
-    own = _merge(parent, rules, name, message.options)
+    own = resolved.messages[name] = _merge(file, rules, name, message.options)
     for field in message.field:
         resolved.fields[f"{name}.{field.name}"] = _merge(
             own, rules, f"{name}.{field.name}", field.options
@@ -79,7 +81,7 @@ def _resolve_message(
         # oneofs carry no (nanopb) annotation: only .options lines reach them
         resolved.oneofs[f"{name}.{oneof.name}"] = _merge(own, rules, f"{name}.{oneof.name}", None)
     for nested in message.nested_type:
-        _resolve_message(resolved, rules, own, f"{name}.{nested.name}", nested)
+        _resolve_message(resolved, rules, file, f"{name}.{nested.name}", nested)
 
 
 def _merge(parent: Options, rules: Rules, dotted: str, options: Message | None) -> Options:

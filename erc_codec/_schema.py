@@ -69,8 +69,14 @@ class Schema:
         return cls
 
     def messages(self) -> Iterator[Descriptor]:
-        """Every message the loaded files define, nested ones included, in file order."""
+        """Every message the tree's loaded files define, nested ones included, in file order.
+
+        Files found on protoc's other search paths (google/protobuf/*, erc-codec's stand-in
+        nanopb.proto) are imports, not part of the tree, and are left out.
+        """
         for proto in self.files:
+            if not (self.tree / proto.name).is_file():
+                continue
             file = self.pool.FindFileByName(proto.name)
             stack = list(file.message_types_by_name.values())[::-1]
             while stack:

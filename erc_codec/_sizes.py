@@ -115,8 +115,20 @@ class Sizes:
         return size
 
     def all(self) -> dict[str, int | None]:
-        """Every loaded message's size (``None``: "depends on runtime parameters")."""
-        return {message.full_name: self._size(message, ()) for message in self._schema.messages()}
+        """The size of every message nanopb generates code for in the tree's own files (not in
+        imported option vocabularies such as nanopb.proto), ``None`` where nanopb writes
+        "depends on runtime parameters"."""
+        return {
+            message.full_name: self._size(message, ())
+            for message in self._schema.messages()
+            if self._generated(message)
+        }
+
+    def _generated(self, message: Descriptor) -> bool:
+        options = self._options.messages[message.full_name]
+        if options.skip_message:
+            return False
+        return not (options.discard_deprecated and message.GetOptions().deprecated)
 
     def require_fixed(self, root: Descriptor) -> None:
         """``SchemaError`` naming the first field, and its path from ``root``, nanopb can't size."""
