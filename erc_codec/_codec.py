@@ -7,7 +7,7 @@ from pathlib import Path
 
 from google.protobuf.message import Message
 
-from ._contract import checker
+from ._contract import contract
 from ._envelope import Envelope
 from ._schema import Schema, load_schema
 from ._sizes import Sizes
@@ -40,7 +40,7 @@ class Codec(Envelope):
         super().__init__(
             schema.message_class(root.full_name),
             self._sizes.max_size(root.full_name),
-            functools.partial(checker, self._sizes),
+            functools.partial(contract, self._sizes),
         )
 
     @classmethod

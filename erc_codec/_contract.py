@@ -3,19 +3,26 @@
 A message can be valid protobuf and still be one a nanopb receiver drops or misreads: an enum value
 the schema does not declare (proto3 enums are open in Python), a string or bytes value longer than
 its ``max_size``, more repeated items than ``max_count``, an integer wider than its ``int_size``.
-``checker(sizes, descriptor)`` returns a function that raises ``EncodeError`` naming the field path
-for any of these, or ``None`` when no value of the type can break the contract.
+``contract(sizes, descriptor)`` returns how to check a payload type: an exact check that raises
+``EncodeError`` naming the field path, and a cheap screen deciding whether to run it.
 
-It runs on every encode, so it is compiled once per message type into straight-line Python (as
-dataclasses and protobuf's own pure-Python runtime do): each submessage is fetched once and all of
-its enum fields are tested in one ``if``. Only when that test fails does the slow path work out
-which field it was.
+It runs on every encode. For a type whose exact check reads only a few fields, the screen always
+says yes. Larger types get a real screen: a regular expression over the serialized payload that
+matches wherever an enum field's tag is followed by a value the enum does not declare. Every
+undeclared value makes it match (a tag and its value are adjacent bytes, at any depth of nesting);
+float or integer bytes that happen to look like an enum tag can too, and then the exact check
+merely runs for nothing. The exact check is straight-line Python compiled once per
+message type (as dataclasses and protobuf's own pure-Python runtime do): each submessage fetched
+once, all of its enum fields tested in one ``if``, and it names the field that is wrong. Strings,
+bytes, repeated fields and ``int_size`` leave no such trace in the bytes, so a type that has them
+always runs the exact check.
 """
 
 import keyword
+import re
 from collections.abc import Callable, Mapping
 from operator import attrgetter
-from typing import Any
+from typing import Any, NamedTuple
 
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from google.protobuf.message import Message
@@ -23,11 +30,72 @@ from google.protobuf.message import Message
 from ._errors import EncodeError
 from ._schema import enum_of, message_of
 from ._sizes import Sizes
+from ._wire import encode_varint
 
-__all__ = ["checker"]
+__all__ = ["Contract", "contract"]
 
 Check = Callable[[Message], None]
 _T = FieldDescriptor
+
+
+class Contract(NamedTuple):
+    """How to check one payload type: ``if screen(body): check(message)``."""
+
+    screen: Callable[[bytes], object]
+    check: Check
+
+
+# Above this many attribute reads, screening the bytes first is cheaper than the exact check.
+_SCREEN_ABOVE = 6
+
+
+def contract(sizes: Sizes, descriptor: Descriptor) -> Contract | None:
+    """The contract check of a payload type; ``None`` when no value of it can break the contract."""
+    source = _Source(sizes)
+    if not source.message(descriptor, "m", ""):
+        return None
+    check = checker(sizes, descriptor)
+    assert check is not None
+    tags: dict[bytes, set[bytes]] = {}
+    if source.reads <= _SCREEN_ABOVE or not _enum_tags(sizes, descriptor, tags):
+        return Contract(_always, check)
+    alternatives = [re.escape(tag) + _not_followed_by(valid) for tag, valid in sorted(tags.items())]
+    return Contract(re.compile(b"|".join(alternatives)).search, check)
+
+
+def _enum_tags(sizes: Sizes, descriptor: Descriptor, tags: dict[bytes, set[bytes]]) -> bool:
+    """Collect tag → declared value encodings of every enum field below ``descriptor``.
+
+    A tag shared by several enum fields keeps only the encodings all of them declare. Returns
+    ``False`` when some field's validity cannot be seen in the bytes (see the module's docstring).
+    """
+    for field in descriptor.fields:
+        if sizes.ignored(field):
+            continue
+        if (
+            field.is_repeated
+            or field.type in (_T.TYPE_STRING, _T.TYPE_BYTES)
+            or sizes.int_range(field) is not None
+        ):
+            return False
+        if field.type == _T.TYPE_ENUM:
+            valid = {encode_varint(value.number) for value in enum_of(field).values}
+            tag = encode_varint(field.number << 3)
+            tags[tag] = tags[tag] & valid if tag in tags else valid
+        elif field.type == _T.TYPE_MESSAGE and not _enum_tags(sizes, message_of(field), tags):
+            return False
+    return True
+
+
+def _not_followed_by(valid: set[bytes]) -> bytes:
+    """A pattern for one byte, or more, that cannot start any of the ``valid`` encodings."""
+    if all(len(encoding) == 1 for encoding in valid):
+        return b"[^" + b"".join(re.escape(encoding) for encoding in sorted(valid)) + b"]"
+    return b"(?!" + b"|".join(map(re.escape, sorted(valid))) + b")"
+
+
+def _always(body: bytes) -> bool:
+    return True
 
 
 def checker(sizes: Sizes, descriptor: Descriptor) -> Check | None:
@@ -57,6 +125,7 @@ class _Source:
         self._sizes = sizes
         self.names: dict[str, Any] = {}
         self.enums: list[tuple[str, frozenset[int], str]] = []
+        self.reads = 0  # attribute reads the emitted check makes
         self._variables = 0
 
     def message(self, descriptor: Descriptor, var: str, prefix: str) -> list[str]:
@@ -67,9 +136,9 @@ class _Source:
                 continue
             path = prefix + field.name
             read = (
-                f"{var}.{field.name}"
-                if not keyword.iskeyword(field.name)
-                else (f"getattr({var}, {field.name!r})")
+                f"getattr({var}, {field.name!r})"
+                if keyword.iskeyword(field.name)
+                else f"{var}.{field.name}"
             )
             if (
                 field.is_repeated
@@ -78,16 +147,19 @@ class _Source:
             ):
                 check = _field_check(self._sizes, field, f"{descriptor.full_name}.{field.name}")
                 lines.append(f" {self._name(check)}({read})")
+                self.reads += 1
             elif field.type == _T.TYPE_ENUM:
                 allowed = frozenset(value.number for value in enum_of(field).values)
                 self.enums.append((path, allowed, enum_of(field).full_name))
                 tests.append(f"{read} not in {self._name(allowed)}")
+                self.reads += 1
             elif field.type == _T.TYPE_MESSAGE:
                 self._variables += 1
                 inner = f"v{self._variables}"
                 nested = self.message(message_of(field), inner, path + ".")
                 if nested:
                     lines += [f" {inner} = {read}", *nested]
+                    self.reads += 1
         if tests:
             lines.insert(0, f" if {' or '.join(tests)}: fail(m)")
         return lines

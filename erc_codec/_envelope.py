@@ -26,6 +26,7 @@ from google.protobuf.descriptor import Descriptor
 from google.protobuf.message import DecodeError as ProtobufDecodeError
 from google.protobuf.message import Message
 
+from ._contract import Contract
 from ._errors import DecodeError, EncodeError, SchemaError
 from ._schema import descriptor_of, message_of
 from ._wire import I32, I64, LEN, VARINT, WireError, encode_varint, read_varint, varint_size
@@ -33,7 +34,6 @@ from ._wire import I32, I64, LEN, VARINT, WireError, encode_varint, read_varint,
 __all__ = ["Decoded", "Envelope", "Mode"]
 
 Mode = Literal["strip", "exact", "pad"]
-Check = Callable[[Message], None]
 _FIXED_WIDTH = {I64: 8, I32: 4}
 
 
@@ -56,7 +56,10 @@ class Envelope:
     """Encoder and decoder for one envelope message type, with every lookup precomputed."""
 
     def __init__(
-        self, envelope: type[Message], max_size: int, checker: Callable[[Descriptor], Check | None]
+        self,
+        envelope: type[Message],
+        max_size: int,
+        contract: Callable[[Descriptor], Contract | None],
     ) -> None:
         descriptor = descriptor_of(envelope)
         if len(descriptor.oneofs) != 1 or len(descriptor.oneofs[0].fields) != len(
@@ -72,10 +75,10 @@ class Envelope:
         self._oneof = descriptor.oneofs[0].name
         self._max_size = max_size
         self._kinds = {field.number: field.name for field in descriptor.fields}
-        self._checks: dict[str, Check | None] = {}
+        self._contracts: dict[str, Contract | None] = {}
         # Payload type → (header for each payload length that fits, check); None marks a type that
         # two members share, which cannot be wrapped without saying which member is meant.
-        self._members: dict[type[Message], tuple[list[bytes], Check | None] | None] = {}
+        self._members: dict[type[Message], tuple[list[bytes], Contract | None] | None] = {}
         # First tag byte (or first | second << 8 for two-byte tags) → (kind, payload parser,
         # offset of the length prefix).
         self._tags: dict[int, tuple[str, Callable[[bytes], Message], int]] = {}
@@ -83,7 +86,7 @@ class Envelope:
             payload = field.message_type
             if payload is None:
                 raise SchemaError(f"{field.full_name} must be a message, not a scalar")
-            check = self._checks[field.name] = checker(payload)
+            rules = self._contracts[field.name] = contract(payload)
             tag = encode_varint(field.number << 3 | LEN)
             headers = [
                 tag + encode_varint(length)
@@ -91,7 +94,7 @@ class Envelope:
                 if len(tag) + varint_size(length) + length <= max_size
             ]
             cls = _member_class(envelope, field.name)
-            self._members[cls] = None if cls in self._members else (headers, check)
+            self._members[cls] = None if cls in self._members else (headers, rules)
             if len(tag) <= 2:
                 parse = cls.FromString
                 self._tags[int.from_bytes(tag, "little")] = (field.name, parse, len(tag))
@@ -109,10 +112,10 @@ class Envelope:
         if member is None:
             data = self._encode_other(message)
         else:
-            headers, check = member
-            if check is not None:
-                check(message)
+            headers, rules = member
             body = message.SerializeToString()
+            if rules is not None and rules.screen(body):
+                rules.check(message)
             try:
                 header = headers[len(body)]
             except IndexError:
@@ -135,9 +138,9 @@ class Envelope:
             kind = message.WhichOneof(self._oneof)
             if kind is None:
                 raise EncodeError(f"{self._name} has no payload set")
-            check = self._checks[kind]
-            if check is not None:
-                check(getattr(message, kind))
+            rules = self._contracts[kind]
+            if rules is not None:
+                rules.check(getattr(message, kind))
             data = message.SerializeToString()
             if len(data) > self._max_size:
                 raise self._too_long(message, len(data))
@@ -150,9 +153,9 @@ class Envelope:
                 if member is None
                 else f"{name} is not a payload type of {self._name}"
             )
-        headers, check = member
-        if check is not None:
-            check(message)
+        headers, rules = member
+        if rules is not None:
+            rules.check(message)
         body = message.SerializeToString()
         if len(body) >= len(headers):
             raise self._too_long(message, len(body) + 3)
@@ -250,8 +253,8 @@ class Envelope:
                 if number == 0:
                     raise DecodeError(f"field number 0 in the tag ending at offset {pos}")
                 if pos == end and wire_type in (VARINT, LEN):
-                    return data + b"\0"  # a zero value or zero length was stripped
-                if wire_type == VARINT:
+                    pos += 1  # a zero value or zero length was stripped
+                elif wire_type == VARINT:
                     _, pos = read_varint(data, pos)
                 elif wire_type == LEN:
                     length, pos = read_varint(data, pos)
@@ -259,16 +262,17 @@ class Envelope:
                 elif wire_type in _FIXED_WIDTH:
                     pos += _FIXED_WIDTH[wire_type]
                 else:
+                    kind = "groups" if wire_type in (3, 4) else "undefined in protobuf"
                     raise DecodeError(
-                        f"field {number} uses wire type {wire_type} (groups), "
-                        "which proto3 envelopes never contain"
+                        f"field {number} uses wire type {wire_type} ({kind}), "
+                        "which a proto3 envelope never contains"
                     )
         except WireError as error:
             raise DecodeError(f"truncated or corrupt datagram: {error}") from None
         if pos > self._max_size:
             raise DecodeError(
-                f"the last field declares {pos} bytes in all, more than the envelope's "
-                f"maximum of {self._max_size}"
+                f"restoring its stripped zeros makes the datagram {pos} bytes long, more than "
+                f"the envelope's maximum of {self._max_size}"
             )
         return data + bytes(pos - end)
 
@@ -288,7 +292,13 @@ class Envelope:
         if not exact:
             return DecodeError("datagram holds no payload (only zero bytes)")
         key, _ = read_varint(exact, 0)
+        number, wire_type = key >> 3, key & 7
+        if number in self._kinds:
+            return DecodeError(
+                f"payload number {number} ({self._kinds[number]}) arrived with wire type "
+                f"{wire_type}, not 2 (length-delimited)"
+            )
         return DecodeError(
-            f"payload number {key >> 3} is not a member of {self._name} in this schema "
+            f"payload number {number} is not a member of {self._name} in this schema "
             "(sent by a newer schema?)"
         )

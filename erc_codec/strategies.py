@@ -106,7 +106,7 @@ class _Builder:
     def _scalar(self, field: FieldDescriptor) -> st.SearchStrategy[Any]:
         kind = field.type
         if kind in _INTEGERS:
-            low, high = _INTEGERS[kind]
+            low, high = self._codec._sizes.int_range(field) or _INTEGERS[kind]
             return st.integers(low, high)
         if kind == _T.TYPE_BOOL:
             return st.booleans()

@@ -1,0 +1,53 @@
+"""erc_codec.strategies reaches the corners a fixed-size receiver must handle."""
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import pytest
+from hypothesis import Phase, find, settings
+
+import erc_codec
+from erc_codec import strategies
+
+CODEC = erc_codec.Codec.default()
+# Finding an example is the test; shrinking it would only cost time.
+QUICK = settings(max_examples=5000, phases=[Phase.generate], database=None)
+
+
+def floats(message: Any) -> list[float]:
+    return [value for field, value in message.ListFields() if isinstance(value, float)]
+
+
+@pytest.mark.parametrize(
+    ("name", "condition"),
+    [
+        (
+            "SensorBoardIMUInfo",
+            lambda m: any(v == 0 and math.copysign(1, v) < 0 for v in floats(m)),
+        ),
+        ("SensorBoardIMUInfo", lambda m: any(math.isinf(v) and v < 0 for v in floats(m))),
+        ("SensorBoardIMUInfo", lambda m: any(0 < abs(v) < 1.2e-38 for v in floats(m))),
+        ("SensorBoardGPSInfo", lambda m: m.latitude == 1.7976931348623157e308),
+        ("SensorBoardGPSInfo", lambda m: m.utc_timestamp == -(2**63)),
+        ("SensorBoardGPSInfo", lambda m: m.satellites == 2**31 - 1),
+        ("SensorBoardGPSInfo", lambda m: m.fix_quality == 5),  # RTK_FLOAT, the largest
+        ("SensorBoardDiagnostics", lambda m: not m.HasField("gps_sensor_1")),
+        ("SensorBoardDiagnostics", lambda m: m.HasField("gps_sensor_1")),
+    ],
+)
+def test_corner_cases_are_drawn(name: str, condition: Callable[[Any], bool]) -> None:
+    find(strategies.messages(CODEC, name), condition, settings=QUICK)
+
+
+def test_nan_only_on_request() -> None:
+    find(
+        strategies.messages(CODEC, "SensorBoardPHInfo", allow_nan=True),
+        lambda m: math.isnan(m.ph_value),
+        settings=QUICK,
+    )
+
+
+def test_an_unknown_message_name_is_a_schema_error() -> None:
+    with pytest.raises(erc_codec.SchemaError, match="NoSuchMessage"):
+        strategies.messages(CODEC, "NoSuchMessage")
