@@ -6,16 +6,16 @@ its ``max_size``, more repeated items than ``max_count``, an integer wider than 
 ``contract(sizes, descriptor)`` returns how to check a payload type: an exact check that raises
 ``EncodeError`` naming the field path, and a cheap screen deciding whether to run it.
 
-It runs on every encode. For a type whose exact check reads only a few fields, the screen always
-says yes. Larger types get a real screen: a regular expression over the serialized payload that
-matches wherever an enum field's tag is followed by a value the enum does not declare. Every
-undeclared value makes it match (a tag and its value are adjacent bytes, at any depth of nesting);
-float or integer bytes that happen to look like an enum tag can too, and then the exact check
-merely runs for nothing. The exact check is straight-line Python compiled once per
-message type (as dataclasses and protobuf's own pure-Python runtime do): each submessage fetched
-once, all of its enum fields tested in one ``if``, and it names the field that is wrong. Strings,
-bytes, repeated fields and ``int_size`` leave no such trace in the bytes, so a type that has them
-always runs the exact check.
+It runs on every encode. A type whose exact check reads only a few fields has no screen. Larger
+types get one: a regular expression over the serialized payload that matches wherever an enum
+field's tag is followed by a value the enum does not declare. Every undeclared value makes it match
+(a tag and its value are adjacent bytes, at any depth of nesting); float or integer bytes that
+happen to look like an enum tag can too, and then the exact check merely runs for nothing.
+
+The exact check is straight-line Python compiled once per message type (as dataclasses and
+protobuf's own pure-Python runtime do): each submessage fetched once, all of its enum fields tested
+in one ``if``, and it names the field that is wrong. Strings, bytes, repeated fields and
+``int_size`` leave no trace the screen could see, so a type that has them has no screen.
 """
 
 import keyword
@@ -39,9 +39,9 @@ _T = FieldDescriptor
 
 
 class Contract(NamedTuple):
-    """How to check one payload type: ``if screen(body): check(message)``."""
+    """How to check one payload type: ``if screen is None or screen(body): check(message)``."""
 
-    screen: Callable[[bytes], object]
+    screen: Callable[[bytes], object] | None
     check: Check
 
 
@@ -58,7 +58,7 @@ def contract(sizes: Sizes, descriptor: Descriptor) -> Contract | None:
     assert check is not None
     tags: dict[bytes, set[bytes]] = {}
     if source.reads <= _SCREEN_ABOVE or not _enum_tags(sizes, descriptor, tags):
-        return Contract(_always, check)
+        return Contract(None, check)
     alternatives = [re.escape(tag) + _not_followed_by(valid) for tag, valid in sorted(tags.items())]
     return Contract(re.compile(b"|".join(alternatives)).search, check)
 
@@ -92,10 +92,6 @@ def _not_followed_by(valid: set[bytes]) -> bytes:
     if all(len(encoding) == 1 for encoding in valid):
         return b"[^" + b"".join(re.escape(encoding) for encoding in sorted(valid)) + b"]"
     return b"(?!" + b"|".join(map(re.escape, sorted(valid))) + b")"
-
-
-def _always(body: bytes) -> bool:
-    return True
 
 
 def checker(sizes: Sizes, descriptor: Descriptor) -> Check | None:

@@ -35,6 +35,12 @@ __all__ = ["Decoded", "Envelope", "Mode"]
 
 Mode = Literal["strip", "exact", "pad"]
 _FIXED_WIDTH = {I64: 8, I32: 4}
+_Member = tuple[
+    list[bytes],
+    Callable[[bytes], object] | None,
+    Callable[[Message], None] | None,
+    Callable[[Message], bytes],
+]
 
 
 class Decoded(NamedTuple):
@@ -76,9 +82,12 @@ class Envelope:
         self._max_size = max_size
         self._kinds = {field.number: field.name for field in descriptor.fields}
         self._contracts: dict[str, Contract | None] = {}
-        # Payload type → (header for each payload length that fits, check); None marks a type that
-        # two members share, which cannot be wrapped without saying which member is meant.
-        self._members: dict[type[Message], tuple[list[bytes], Contract | None] | None] = {}
+        # Payload class → (header for each payload length that fits, contract screen and check,
+        # serializer); None
+        # marks a type two members share, which cannot be wrapped without naming the member. The
+        # serializer is the class's own method: looking it up on each instance costs more in upb
+        # than serializing a small message does.
+        self._members: dict[type[Message], _Member | None] = {}
         # First tag byte (or first | second << 8 for two-byte tags) → (kind, payload parser,
         # offset of the length prefix).
         self._tags: dict[int, tuple[str, Callable[[bytes], Message], int]] = {}
@@ -94,7 +103,10 @@ class Envelope:
                 if len(tag) + varint_size(length) + length <= max_size
             ]
             cls = _member_class(envelope, field.name)
-            self._members[cls] = None if cls in self._members else (headers, rules)
+            screen, check = rules or (None, None)
+            self._members[cls] = (
+                None if cls in self._members else (headers, screen, check, cls.SerializeToString)
+            )
             if len(tag) <= 2:
                 parse = cls.FromString
                 self._tags[int.from_bytes(tag, "little")] = (field.name, parse, len(tag))
@@ -112,10 +124,10 @@ class Envelope:
         if member is None:
             data = self._encode_other(message)
         else:
-            headers, rules = member
-            body = message.SerializeToString()
-            if rules is not None and rules.screen(body):
-                rules.check(message)
+            headers, screen, check, serialize = member
+            body = serialize(message)
+            if check is not None and (screen is None or screen(body)):
+                check(message)
             try:
                 header = headers[len(body)]
             except IndexError:
@@ -153,9 +165,9 @@ class Envelope:
                 if member is None
                 else f"{name} is not a payload type of {self._name}"
             )
-        headers, rules = member
-        if rules is not None:
-            rules.check(message)
+        headers, _, check, _ = member
+        if check is not None:
+            check(message)
         body = message.SerializeToString()
         if len(body) >= len(headers):
             raise self._too_long(message, len(body) + 3)
