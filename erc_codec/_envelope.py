@@ -68,9 +68,8 @@ class Envelope:
         contract: Callable[[Descriptor], Contract | None],
     ) -> None:
         descriptor = descriptor_of(envelope)
-        if len(descriptor.oneofs) != 1 or len(descriptor.oneofs[0].fields) != len(
-            descriptor.fields
-        ):
+        oneofs = descriptor.oneofs
+        if len(oneofs) != 1 or len(oneofs[0].fields) != len(descriptor.fields):
             raise SchemaError(
                 f"{descriptor.full_name} must consist of exactly one oneof, "
                 "whose members are the payload types"
@@ -82,11 +81,10 @@ class Envelope:
         self._max_size = max_size
         self._kinds = {field.number: field.name for field in descriptor.fields}
         self._contracts: dict[str, Contract | None] = {}
-        # Payload class → (header for each payload length that fits, contract screen and check,
-        # serializer); None
-        # marks a type two members share, which cannot be wrapped without naming the member. The
-        # serializer is the class's own method: looking it up on each instance costs more in upb
-        # than serializing a small message does.
+        # Payload class → (tag-and-length header for each payload length that fits, contract
+        # screen and check, serializer); None marks a type two members share, which cannot be
+        # wrapped without naming the member. The serializer is the class's own method: looking
+        # it up on each instance costs more in upb than serializing a small message does.
         self._members: dict[type[Message], _Member | None] = {}
         # First tag byte (or first | second << 8 for two-byte tags) → (kind, payload parser,
         # offset of the length prefix).
@@ -131,7 +129,7 @@ class Envelope:
             try:
                 header = headers[len(body)]
             except IndexError:
-                raise self._too_long(message, len(body) + 3) from None
+                raise self._too_long(message, headers, body) from None
             if mode == "strip":  # a body is empty or ends in a field, never in its tag
                 return header + body.rstrip(b"\0") if body else header.rstrip(b"\0")
             data = header + body
@@ -155,7 +153,7 @@ class Envelope:
                 rules.check(getattr(message, kind))
             data = message.SerializeToString()
             if len(data) > self._max_size:
-                raise self._too_long(message, len(data))
+                raise self._too_long(message, [b""], data)
             return data
         member = self._by_name.get(name, ())
         if not member:
@@ -170,12 +168,16 @@ class Envelope:
             check(message)
         body = message.SerializeToString()
         if len(body) >= len(headers):
-            raise self._too_long(message, len(body) + 3)
+            raise self._too_long(message, headers, body)
         return headers[len(body)] + body
 
-    def _too_long(self, message: Message, length: int) -> EncodeError:
+    def _too_long(self, message: Message, headers: list[bytes], body: bytes) -> EncodeError:
+        """The error for a ``body`` too long to fit, ``headers`` being its member's (or ``[b""]``
+        for a whole envelope)."""
+        tag = max(len(headers[0]) - 1, 0)
+        length = tag + (varint_size(len(body)) if tag else 0) + len(body)
         return EncodeError(
-            f"{message.DESCRIPTOR.full_name} encodes to about {length} bytes, more than the "
+            f"{message.DESCRIPTOR.full_name}: the datagram would be {length} bytes, more than the "
             f"{self._max_size} a fixed-size receiver accepts (unknown fields from a newer sender?)"
         )
 
