@@ -59,29 +59,24 @@ class _Builder:
 
     def _build(self, descriptor: Descriptor) -> st.SearchStrategy[Message]:
         cls = self._codec.message_class(descriptor.full_name)
+        sizes = self._codec._sizes
         required: dict[str, st.SearchStrategy[Any]] = {}
         optional: dict[str, st.SearchStrategy[Any]] = {}
-        choices: list[st.SearchStrategy[dict[str, Any]]] = []
-        for oneof in descriptor.oneofs:
-            if len(oneof.fields) == 1 and _is_optional(oneof.fields[0]):
-                continue  # the synthetic oneof of a proto3 `optional` field
-            members = [
-                st.fixed_dictionaries({field.name: self._field(field)})
-                for field in oneof.fields
-                if not self._codec._sizes.ignored(field)
-            ]
-            choices.append(st.one_of(st.just({}), *members))
+        oneofs: dict[str, list[st.SearchStrategy[dict[str, Any]]]] = {}
         for field in descriptor.fields:
-            if self._codec._sizes.ignored(field):
+            if sizes.ignored(field):
                 continue
-            in_real_oneof = field.containing_oneof is not None and not _is_optional(field)
-            if in_real_oneof:
-                continue
-            target = optional if field.has_presence else required
-            target[field.name] = self._field(field)
+            oneof = sizes.real_oneof(field)
+            if oneof is not None:
+                member = st.fixed_dictionaries({field.name: self._field(field)})
+                oneofs.setdefault(oneof.name, [st.just({})]).append(member)
+            elif field.has_presence:  # submessages and proto3 `optional` fields
+                optional[field.name] = self._field(field)
+            else:
+                required[field.name] = self._field(field)
         fields = st.fixed_dictionaries(required, optional=optional)
-        for choice in choices:
-            fields = st.builds(_merge, fields, choice)
+        for members in oneofs.values():
+            fields = st.builds(_merge, fields, st.one_of(members))
         return fields.map(lambda values: cls(**values))
 
     def _field(self, field: FieldDescriptor) -> st.SearchStrategy[Any]:
@@ -125,11 +120,6 @@ class _Builder:
             room = _UNBOUNDED_TEXT if limit is None else limit
             return st.text(max_size=room).map(lambda text: _fit_utf8(text, room))
         raise TypeError(f"{field.full_name}: groups are not supported")  # proto2 only
-
-
-def _is_optional(field: FieldDescriptor) -> bool:
-    oneof = field.containing_oneof
-    return oneof is not None and len(oneof.fields) == 1 and oneof.name == f"_{field.name}"
 
 
 def _merge(left: dict[str, Any], right: dict[str, Any]) -> dict[str, Any]:

@@ -2,10 +2,12 @@
 
 import math
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import pytest
-from hypothesis import Phase, find, settings
+from hypothesis import Phase, find, given, settings
+from hypothesis import strategies as st
 
 import erc_codec
 from erc_codec import strategies
@@ -51,3 +53,31 @@ def test_nan_only_on_request() -> None:
 def test_an_unknown_message_name_is_a_schema_error() -> None:
     with pytest.raises(erc_codec.SchemaError, match="NoSuchMessage"):
         strategies.messages(CODEC, "NoSuchMessage")
+
+
+PRESENCE = erc_codec.Codec.from_path(
+    Path(__file__).parent / "schema_trees" / "presence", root="Env"
+)
+
+
+@pytest.mark.parametrize("name", ["Counter", "Choice"])
+@given(data=st.data())
+def test_presence_is_drawn_and_survives_every_form(name: str, data: st.DataObject) -> None:
+    message = data.draw(strategies.messages(PRESENCE, name))
+    for mode in ("strip", "exact", "pad"):
+        decoded = PRESENCE.decode(PRESENCE.encode(message, mode)).message
+        assert decoded.SerializeToString() == message.SerializeToString()
+        assert decoded.ListFields() == message.ListFields()  # presence included
+
+
+@pytest.mark.parametrize(
+    ("name", "condition"),
+    [
+        ("Counter", lambda m: m.HasField("count") and m.count == 0),  # an explicit zero
+        ("Counter", lambda m: not m.HasField("level")),
+        ("Choice", lambda m: m.WhichOneof("value") is None),
+        ("Choice", lambda m: m.WhichOneof("value") == "flag" and not m.flag),
+    ],
+)
+def test_presence_corners_are_drawn(name: str, condition: Callable[[Any], bool]) -> None:
+    find(strategies.messages(PRESENCE, name), condition, settings=QUICK)
