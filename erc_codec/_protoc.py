@@ -28,14 +28,12 @@ _WELL_KNOWN = str(resources.files("grpc_tools") / "_proto")
 FALLBACK_INCLUDE = str(resources.files("erc_codec") / "_include")
 
 
-def compile_files(
-    root: Path, files: Sequence[str], includes: Sequence[Path] = ()
-) -> descriptor_pb2.FileDescriptorSet:
+def compile_files(root: Path, files: Sequence[str]) -> descriptor_pb2.FileDescriptorSet:
     """Compile ``files`` (paths relative to ``root``) with their imports and source locations.
 
     The result lists every file once, each after the files it imports.
     """
-    search = [str(root), *map(str, includes), _WELL_KNOWN, FALLBACK_INCLUDE]
+    search = [str(root), _WELL_KNOWN, FALLBACK_INCLUDE]
     with tempfile.TemporaryDirectory(prefix="erc-codec-") as scratch:
         out = os.path.join(scratch, "set.pb")
         args = [
