@@ -19,7 +19,7 @@ from grpc_tools import protoc
 
 from ._errors import SchemaError
 
-__all__ = ["compile_files"]
+__all__ = ["ProtocError", "compile_files"]
 
 _LOCK = threading.Lock()
 # google/protobuf/*.proto, shipped with grpcio-tools.
@@ -28,12 +28,23 @@ _WELL_KNOWN = str(resources.files("grpc_tools") / "_proto")
 FALLBACK_INCLUDE = str(resources.files("erc_codec") / "_include")
 
 
-def compile_files(root: Path, files: Sequence[str]) -> descriptor_pb2.FileDescriptorSet:
+class ProtocError(SchemaError):
+    """protoc refused to compile; ``lines`` holds its diagnostics, ``path:line:col: message``."""
+
+    def __init__(self, lines: list[str]) -> None:
+        super().__init__("; ".join(lines))
+        self.lines = lines
+
+
+def compile_files(
+    root: Path, files: Sequence[str], includes: Sequence[Path] = ()
+) -> descriptor_pb2.FileDescriptorSet:
     """Compile ``files`` (paths relative to ``root``) with their imports and source locations.
 
-    The result lists every file once, each after the files it imports.
+    ``includes`` are further import roots, searched after ``root``. The result lists every file
+    once, each after the files it imports.
     """
-    search = [str(root), _WELL_KNOWN, FALLBACK_INCLUDE]
+    search = [str(root), *map(str, includes), _WELL_KNOWN, FALLBACK_INCLUDE]
     with tempfile.TemporaryDirectory(prefix="erc-codec-") as scratch:
         out = os.path.join(scratch, "set.pb")
         args = [
@@ -49,8 +60,7 @@ def compile_files(root: Path, files: Sequence[str]) -> descriptor_pb2.FileDescri
             status = protoc.main(args)
         if status != 0:
             lines = [line for line in Path(errors).read_text(errors="replace").splitlines() if line]
-            detail = "; ".join(lines) if lines else f"protoc exited with status {status}"
-            raise SchemaError(detail)
+            raise ProtocError(lines or [f"protoc exited with status {status}"])
         return descriptor_pb2.FileDescriptorSet.FromString(Path(out).read_bytes())
 
 
