@@ -1,0 +1,59 @@
+"""``[tool.erc-lint]`` in a pyproject.toml: embedded roots, rules to ignore, paths to exclude."""
+
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+__all__ = ["Config", "ConfigError", "find_config", "read_config"]
+
+
+class ConfigError(Exception):
+    """The configuration file cannot be read or says something invalid."""
+
+
+@dataclass(frozen=True)
+class Config:
+    roots: tuple[str, ...] = ("PBEnvelope",)  # embedded roots: fixed-size from here down
+    ignore: frozenset[str] = field(default_factory=frozenset)  # rule IDs
+    exclude: tuple[str, ...] = ()  # fnmatch patterns on paths relative to a tree's root
+
+
+def find_config(*folders: Path) -> Path | None:
+    """The first pyproject.toml in ``folders`` with a ``[tool.erc-lint]`` table."""
+    for folder in folders:
+        candidate = folder / "pyproject.toml"
+        if candidate.is_file() and "erc-lint" in _load(candidate).get("tool", {}):
+            return candidate
+    return None
+
+
+def read_config(path: Path | None, known_rules: set[str]) -> Config:
+    """The configuration in ``path`` (defaults when None)."""
+    if path is None:
+        return Config()
+    table = _load(path).get("tool", {}).get("erc-lint", {})
+    unknown = set(table) - {"roots", "ignore", "exclude"}
+    if unknown:
+        raise ConfigError(f"{path}: unknown [tool.erc-lint] key {sorted(unknown)[0]!r}")
+    values: dict[str, list[str]] = {}
+    for key in ("roots", "ignore", "exclude"):
+        value = table.get(key, [])
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise ConfigError(f"{path}: [tool.erc-lint] {key} must be a list of strings")
+        values[key] = value
+    strange = set(values["ignore"]) - known_rules
+    if strange:
+        raise ConfigError(f"{path}: [tool.erc-lint] ignore names no rule {sorted(strange)[0]!r}")
+    return Config(
+        roots=tuple(values["roots"]) if "roots" in table else Config.roots,
+        ignore=frozenset(values["ignore"]),
+        exclude=tuple(values["exclude"]),
+    )
+
+
+def _load(path: Path) -> dict[str, Any]:
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, tomllib.TOMLDecodeError) as error:
+        raise ConfigError(f"{path}: {error}") from None

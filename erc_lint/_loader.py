@@ -1,0 +1,149 @@
+"""A proto tree as the embedded toolchain sees it: every file compiled, none hiding another.
+
+Guarantees:
+- Every ``.proto`` under the root is compiled with its imports; one that does not compile becomes
+  ``COMPILE`` findings carrying protoc's own ``path:line:col`` and text, and every other file is
+  still loaded. The whole tree goes to protoc at once; only when that fails is it split in halves,
+  recursively, so a tree with k broken files costs about k·log(n) compilations, not n.
+- Files that would collide when compiled together (nanopb compiles one file at a time and never
+  notices) load side by side: the collisions are for the NAME_COLLISION rule to report.
+- Imports resolve whatever their spelling: relative to the root or an ``-I`` folder, prefixed with
+  the repository's own folder name (``ERC-Protobufs/components/x.proto``), or a bare file name
+  found anywhere in the tree. An import that matches several files is an ``IMPORT_AMBIGUOUS``
+  finding. Resolved spellings are rewritten in a scratch copy, line for line, so protoc's
+  locations stay those of the original files.
+"""
+
+import os
+import re
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from fnmatch import fnmatchcase
+from pathlib import Path
+
+from google.protobuf import descriptor_pb2
+
+from erc_codec._protoc import ProtocError, compile_files
+from erc_codec._schema import Location
+
+from ._finding import Finding
+
+__all__ = ["LoadedTree", "load_tree"]
+
+_NOISE = re.compile(r'//[^\n]*|/\*.*?\*/|"(?:\\.|[^"\\\n])*"', re.DOTALL)
+_IMPORT = re.compile(r'\bimport\s+(?:public\s+|weak\s+)?("(?:\\.|[^"\\\n])*")\s*;')
+_DIAGNOSTIC = re.compile(r"^(.*?):(\d+):(\d+): (.*)$")
+
+
+@dataclass
+class LoadedTree:
+    """The compiled files of one tree, with the findings loading produced."""
+
+    root: Path
+    files: dict[str, descriptor_pb2.FileDescriptorProto]  # the tree's own files, by name
+    imported: dict[str, descriptor_pb2.FileDescriptorProto]  # everything protoc read, by name
+    findings: list[tuple[str, Finding]] = field(default_factory=list)  # (key, finding)
+    failed: set[str] = field(default_factory=set)  # files that did not compile
+
+
+def load_tree(root: Path, includes: Sequence[Path] = (), exclude: Sequence[str] = ()) -> LoadedTree:
+    """Compile every ``.proto`` under ``root`` (but those matching an ``exclude`` pattern)."""
+    names = [
+        path.relative_to(root).as_posix()
+        for path in sorted(root.rglob("*.proto"))
+        if path.is_file()
+    ]
+    names = [name for name in names if not any(fnmatchcase(name, p) for p in exclude)]
+    tree = LoadedTree(root, {}, {})
+    with tempfile.TemporaryDirectory(prefix="erc-lint-") as scratch:
+        staged = Path(scratch)
+        for name in names:
+            text = (root / name).read_text(encoding="utf-8", errors="replace")
+            target = staged / name
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_text(_resolve_imports(tree, name, text, names, includes), "utf-8")
+        _compile(tree, staged, names, includes)
+    return tree
+
+
+def _resolve_imports(
+    tree: LoadedTree, name: str, text: str, names: list[str], includes: Sequence[Path]
+) -> str:
+    """``text`` with every import that names a tree file spelled relative to the root."""
+    known = set(names)
+    code = _NOISE.sub(lambda m: m[0] if m[0].startswith('"') else " " * len(m[0]), text)
+    edits: list[tuple[int, int, str]] = []
+    for match in _IMPORT.finditer(code):
+        spelling = match[1][1:-1]
+        if spelling in known or any((folder / spelling).is_file() for folder in includes):
+            continue
+        parts = spelling.split("/")
+        found = sorted({"/".join(parts[k:]) for k in range(1, len(parts))} & known)
+        if not found:
+            found = [other for other in names if other.rsplit("/", 1)[-1] == parts[-1]]
+        if len(found) == 1:
+            edits.append((match.start(1), match.end(1), f'"{found[0]}"'))
+        elif len(found) > 1:
+            line = code.count("\n", 0, match.start(1)) + 1
+            column = match.start(1) - code.rfind("\n", 0, match.start(1))
+            where = Location(str(tree.root / name), line, column)
+            message = f'Import "{spelling}" is ambiguous: it matches {", ".join(found)}.'
+            key = f"{name}:{spelling}"
+            tree.findings.append((key, Finding.at(where, "IMPORT_AMBIGUOUS", message)))
+    for start, end, replacement in reversed(edits):
+        text = text[:start] + replacement + text[end:]
+    return text
+
+
+def _compile(tree: LoadedTree, staged: Path, names: list[str], includes: Sequence[Path]) -> None:
+    if not names:
+        return
+    try:
+        compiled = compile_files(staged, names, includes)
+    except ProtocError as error:
+        if len(names) == 1:
+            tree.failed.add(names[0])
+            _report(tree, staged, names[0], error.lines)
+            return
+        half = len(names) // 2
+        _compile(tree, staged, names[:half], includes)
+        _compile(tree, staged, names[half:], includes)
+        return
+    own = set(names)
+    for proto in compiled.file:
+        tree.imported.setdefault(proto.name, proto)
+        if proto.name in own:
+            tree.files[proto.name] = proto
+
+
+def _report(tree: LoadedTree, staged: Path, name: str, lines: list[str]) -> None:
+    """COMPILE findings from protoc's diagnostics for ``name``, located in the original files.
+
+    An error inside an imported file is reported once, however many files import it.
+    """
+    prefix = str(staged) + os.sep
+    for line in lines:
+        match = _DIAGNOSTIC.match(line)
+        if match is None:
+            where, text = Location(str(tree.root / name), 1, 1), line
+        else:
+            path = match[1].removeprefix(prefix)
+            path = path if os.path.isabs(path) else str(tree.root / path)
+            where, text = Location(path, int(match[2]), int(match[3])), match[4]
+        if any(
+            f.path == where.path and f.line == where.line and f.message.startswith(text)
+            for _, f in tree.findings
+        ):
+            continue
+        # Keyed by the erring file and the error, not by which importer protoc compiled first.
+        key = f"{_relative(tree.root, where.path)}:{text}"
+        if where.path != str(tree.root / name):
+            text = f"{text} (imported by {name})"
+        tree.findings.append((key, Finding.at(where, "COMPILE", text)))
+
+
+def _relative(root: Path, path: str) -> str:
+    """``path`` relative to ``root`` when it lies inside it, so OLD and NEW keys compare."""
+    inside = Path(path).is_relative_to(root)
+    return Path(path).relative_to(root).as_posix() if inside else path

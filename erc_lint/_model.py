@@ -1,0 +1,213 @@
+"""One revision of a proto tree as the rules see it: messages, enums, their members and locations.
+
+Built from the descriptors the loader compiled. Every element carries the ``Location`` of its
+definition; names are full names (``Outer.Inner``; a package, if a file has one, in front).
+"""
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from google.protobuf import descriptor_pb2
+
+from erc_codec._schema import Location
+
+from ._finding import Finding
+from ._loader import LoadedTree
+
+__all__ = ["Enum", "EnumValue", "Field", "Message", "Revision", "build"]
+
+_FD = descriptor_pb2.FieldDescriptorProto
+_SCALARS = {
+    number: name.removeprefix("TYPE_").lower()
+    for name, number in _FD.Type.items()
+    if name not in ("TYPE_MESSAGE", "TYPE_ENUM", "TYPE_GROUP")
+}
+# SourceCodeInfo path components.
+_FILE_MESSAGE, _FILE_ENUM = 4, 5
+_MESSAGE_FIELD, _MESSAGE_NESTED, _MESSAGE_ENUM, _MESSAGE_ONEOF = 2, 3, 4, 8
+_MESSAGE_RESERVED_RANGE, _MESSAGE_RESERVED_NAME = 9, 10
+_ENUM_VALUE, _ENUM_RESERVED_RANGE, _ENUM_RESERVED_NAME = 2, 4, 5
+
+
+@dataclass(frozen=True)
+class Field:
+    owner: str
+    name: str
+    number: int
+    type: str  # "float", "sint32", … or the full name of a message or enum
+    kind: str  # "scalar", "message" or "enum"
+    cardinality: str  # "optional", "repeated" or "required"
+    oneof: str | None  # the real oneof it belongs to (not a proto3 `optional`'s)
+    location: Location
+
+
+@dataclass(frozen=True)
+class EnumValue:
+    owner: str
+    name: str
+    number: int
+    location: Location
+
+
+@dataclass
+class Reserved:
+    """Reserved numbers (inclusive ranges) and names, each with where it was declared."""
+
+    ranges: list[tuple[int, int, Location]] = field(default_factory=list)
+    names: dict[str, Location] = field(default_factory=dict)
+
+    def covers(self, number: int) -> bool:
+        return any(low <= number <= high for low, high, _ in self.ranges)
+
+
+@dataclass
+class Message:
+    name: str
+    file: str
+    location: Location
+    fields: dict[int, Field] = field(default_factory=dict)
+    by_name: dict[str, Field] = field(default_factory=dict)
+    reserved: Reserved = field(default_factory=Reserved)
+
+    def oneof(self, name: str | None) -> frozenset[int]:
+        """The field numbers of oneof ``name`` (none for ``None``)."""
+        return frozenset(f.number for f in self.fields.values() if name and f.oneof == name)
+
+    def body(self) -> frozenset[tuple[int, str, str, str, str | None]]:
+        """What a renamed copy of this message must have to count as the same message."""
+        return frozenset(
+            (f.number, f.name, f.type, f.cardinality, f.oneof) for f in self.fields.values()
+        )
+
+
+@dataclass
+class Enum:
+    name: str
+    file: str
+    location: Location
+    values: dict[int, EnumValue] = field(default_factory=dict)  # the first name of each number
+    by_name: dict[str, EnumValue] = field(default_factory=dict)
+    reserved: Reserved = field(default_factory=Reserved)
+
+    def body(self) -> frozenset[tuple[int, str]]:
+        return frozenset((v.number, v.name) for v in self.by_name.values())
+
+
+@dataclass
+class Revision:
+    """One side of a comparison."""
+
+    tree: LoadedTree
+    messages: dict[str, Message] = field(default_factory=dict)
+    enums: dict[str, Enum] = field(default_factory=dict)
+    # Every global name a definition takes (C++ scoping: enum values beside their enum).
+    definitions: dict[str, list[tuple[str, Location]]] = field(default_factory=dict)
+
+    @property
+    def root(self) -> Path:
+        return self.tree.root
+
+    @property
+    def load_findings(self) -> list[tuple[str, Finding]]:
+        return self.tree.findings
+
+
+def build(tree: LoadedTree) -> Revision:
+    """The model of a loaded tree."""
+    revision = Revision(tree)
+    for proto in tree.files.values():
+        _File(revision, proto).add()
+    return revision
+
+
+class _File:
+    def __init__(self, revision: Revision, proto: descriptor_pb2.FileDescriptorProto) -> None:
+        self.revision = revision
+        self.proto = proto
+        self.path = str(revision.root / proto.name)
+        self.spans = {tuple(loc.path): loc.span for loc in proto.source_code_info.location}
+        self.package = f"{proto.package}." if proto.package else ""
+
+    def where(self, path: tuple[int, ...]) -> Location:
+        span = self.spans.get(path)
+        return Location(self.path, span[0] + 1, span[1] + 1) if span else Location(self.path, 1, 1)
+
+    def define(self, name: str, kind: str, location: Location) -> None:
+        self.revision.definitions.setdefault(name, []).append((kind, location))
+
+    def add(self) -> None:
+        for i, message in enumerate(self.proto.message_type):
+            self.message(self.package + message.name, message, (_FILE_MESSAGE, i))
+        for i, enum in enumerate(self.proto.enum_type):
+            self.enum(self.package + enum.name, self.package, enum, (_FILE_ENUM, i))
+
+    def message(
+        self, name: str, proto: descriptor_pb2.DescriptorProto, path: tuple[int, ...]
+    ) -> None:
+        model = Message(name, self.proto.name, self.where(path))
+        self.define(name, "message", model.location)
+        self.revision.messages.setdefault(name, model)
+        oneofs = [oneof.name for oneof in proto.oneof_decl]
+        for j, f in enumerate(proto.field):
+            real_oneof = f.HasField("oneof_index") and not f.proto3_optional
+            kind = {_FD.TYPE_MESSAGE: "message", _FD.TYPE_ENUM: "enum"}.get(f.type, "scalar")
+            entry = Field(
+                owner=name,
+                name=f.name,
+                number=f.number,
+                type=f.type_name.lstrip(".") if kind != "scalar" else _SCALARS[f.type],
+                kind=kind,
+                cardinality=_FD.Label.Name(f.label).removeprefix("LABEL_").lower(),
+                oneof=oneofs[f.oneof_index] if real_oneof else None,
+                location=self.where((*path, _MESSAGE_FIELD, j)),
+            )
+            model.fields.setdefault(f.number, entry)
+            model.by_name.setdefault(f.name, entry)
+        for j, reserved in enumerate(proto.reserved_range):  # end is exclusive
+            where = self.where((*path, _MESSAGE_RESERVED_RANGE, j))
+            model.reserved.ranges.append((reserved.start, reserved.end - 1, where))
+        for j, reserved_name in enumerate(proto.reserved_name):
+            model.reserved.names[reserved_name] = self.where((*path, _MESSAGE_RESERVED_NAME, j))
+        for j, nested in enumerate(proto.nested_type):
+            self.message(f"{name}.{nested.name}", nested, (*path, _MESSAGE_NESTED, j))
+        for j, enum in enumerate(proto.enum_type):
+            self.enum(f"{name}.{enum.name}", f"{name}.", enum, (*path, _MESSAGE_ENUM, j))
+
+    def enum(
+        self,
+        name: str,
+        scope: str,
+        proto: descriptor_pb2.EnumDescriptorProto,
+        path: tuple[int, ...],
+    ) -> None:
+        model = Enum(name, self.proto.name, self.where(path))
+        self.define(name, "enum", model.location)
+        self.revision.enums.setdefault(name, model)
+        for j, value in enumerate(proto.value):
+            entry = EnumValue(name, value.name, value.number, self.where((*path, _ENUM_VALUE, j)))
+            self.define(scope + value.name, "enum value", entry.location)
+            model.values.setdefault(value.number, entry)
+            model.by_name.setdefault(value.name, entry)
+        for j, reserved in enumerate(proto.reserved_range):  # end is inclusive for enums
+            where = self.where((*path, _ENUM_RESERVED_RANGE, j))
+            model.reserved.ranges.append((reserved.start, reserved.end, where))
+        for j, reserved_name in enumerate(proto.reserved_name):
+            model.reserved.names[reserved_name] = self.where((*path, _ENUM_RESERVED_NAME, j))
+
+
+def walk(revision: Revision, root: str) -> Iterator[tuple[str, Field]]:
+    """Every field reachable from message ``root``, with its path (``Root.a.b``), once each."""
+    seen = {root}
+    queue = [(root, root)]
+    while queue:
+        name, path = queue.pop(0)
+        message = revision.messages.get(name)
+        if message is None:
+            continue
+        for entry in sorted(message.fields.values(), key=lambda f: f.number):
+            here = f"{path}.{entry.name}"
+            yield here, entry
+            if entry.kind == "message" and entry.type not in seen:
+                seen.add(entry.type)
+                queue.append((entry.type, here))

@@ -1,0 +1,99 @@
+"""OLD and NEW, paired the way buf pairs them, plus what buf cannot see.
+
+Messages and enums pair by full name; one that is gone from NEW pairs with a new one whose body is
+identical (same fields, numbers, names and types), which makes it a rename, not a deletion. Inside
+a pair, each OLD member is seen twice in NEW: by number and by name, so a rule can tell a field
+that moved from one that was deleted while another took its number.
+"""
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import Generic, TypeVar
+
+from ._config import Config
+from ._model import Enum, EnumValue, Field, Message, Revision
+
+__all__ = ["Change", "MemberPair"]
+
+Member = TypeVar("Member", Field, EnumValue)
+Container = TypeVar("Container", Message, Enum)
+
+# Scalar types that share a wire encoding (wire-facts §6); string → bytes is checked apart.
+_WIRE_GROUPS = [
+    {"int32", "int64", "uint32", "uint64", "bool"},
+    {"sint32", "sint64"},
+    {"fixed32", "sfixed32"},
+    {"fixed64", "sfixed64"},
+]
+
+
+@dataclass(frozen=True)
+class MemberPair(Generic[Container, Member]):
+    """One OLD member and what NEW has at its number and under its name."""
+
+    old_owner: Container
+    new_owner: Container
+    old: Member
+    by_number: Member | None
+    by_name: Member | None
+
+
+@dataclass
+class Change:
+    old: Revision
+    new: Revision
+    config: Config
+    messages: list[tuple[Message, Message]] = field(default_factory=list)
+    enums: list[tuple[Enum, Enum]] = field(default_factory=list)
+    renamed: dict[str, str] = field(default_factory=dict)  # OLD full name → NEW full name
+    deleted_messages: list[Message] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.messages, gone = _pair(self.old.messages, self.new.messages, self.renamed)
+        # A message whose file no longer compiles is unknown in NEW, not gone: COMPILE says so.
+        self.deleted_messages = [m for m in gone if m.file not in self.new.tree.failed]
+        self.enums, _ = _pair(self.old.enums, self.new.enums, self.renamed)
+
+    def fields(self) -> Iterator[MemberPair[Message, Field]]:
+        for old, new in self.messages:
+            for entry in old.fields.values():
+                yield MemberPair(
+                    old, new, entry, new.fields.get(entry.number), new.by_name.get(entry.name)
+                )
+
+    def values(self) -> Iterator[MemberPair[Enum, EnumValue]]:
+        for old, new in self.enums:
+            for entry in old.by_name.values():
+                yield MemberPair(
+                    old, new, entry, new.values.get(entry.number), new.by_name.get(entry.name)
+                )
+
+    def compatible(self, old: Field, new: Field) -> bool:
+        """Whether NEW's field reads OLD's bytes as the same value kind."""
+        if old.kind != "scalar" or new.kind != "scalar":
+            return old.kind == new.kind and self.renamed.get(old.type, old.type) == new.type
+        if old.type == new.type or (old.type, new.type) == ("string", "bytes"):
+            return True
+        return any(old.type in group and new.type in group for group in _WIRE_GROUPS)
+
+
+def _pair(
+    old: dict[str, Container], new: dict[str, Container], renamed: dict[str, str]
+) -> tuple[list[tuple[Container, Container]], list[Container]]:
+    """Pairs by full name, then renames by identical body; and OLD's unpaired leftovers."""
+    pairs = [(old[name], new[name]) for name in old if name in new]
+    added: dict[object, list[Container]] = {}
+    for name, element in new.items():
+        if name not in old:
+            added.setdefault(element.body(), []).append(element)
+    gone = []
+    for name, element in old.items():
+        if name in new:
+            continue
+        twins = added.get(element.body(), [])
+        if len(twins) == 1 and element.body():
+            renamed[name] = twins[0].name
+            pairs.append((element, twins[0]))
+        else:
+            gone.append(element)
+    return pairs, gone

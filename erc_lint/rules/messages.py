@@ -1,0 +1,110 @@
+"""Rules on whole messages and enums: deletions, renames, reservations, the envelope's size."""
+
+from collections.abc import Iterator
+
+from google.protobuf import descriptor_pb2
+
+from erc_codec._errors import SchemaError
+from erc_codec._schema import Location, Schema
+from erc_codec._sizes import Sizes
+
+from .._model import Enum, Message, Revision
+from .._pairing import Change
+from ._registry import pair_rule
+
+Report = Iterator[tuple[Location, str, bool]]
+
+
+@pair_rule("MESSAGE_DELETED", "A message disappeared.", severity="warning")
+def deleted(change: Change) -> Report:
+    for message in change.deleted_messages:
+        yield message.location, f'Previously present message "{message.name}" was deleted.', True
+
+
+@pair_rule(
+    "MESSAGE_RENAMED",
+    "A message changed its name but not its fields: harmless on the wire, breaks code.",
+    severity="warning",
+)
+def renamed(change: Change) -> Report:
+    for old, new in change.messages:
+        if old.name != new.name:
+            yield (
+                new.location,
+                f'Message "{old.name}" was renamed to "{new.name}"; its fields are unchanged.',
+                False,
+            )
+
+
+@pair_rule("RESERVED_REMOVED", "A reserved number or name is no longer reserved.")
+def reserved_removed(change: Change) -> Report:
+    pairs: list[tuple[Message | Enum, Message | Enum, str]] = [
+        *((old, new, "message") for old, new in change.messages),
+        *((old, new, "enum") for old, new in change.enums),
+    ]
+    for old, new, kind in pairs:
+        for low, high, _ in old.reserved.ranges:
+            free = [n for n in _numbers(low, high) if not new.reserved.covers(n)]
+            if free:
+                span = f'"{low}"' if low == high else f'"{low} to {high}"'
+                yield (
+                    new.location,
+                    f'Previously reserved range {span} on {kind} "{new.name}" is no longer '
+                    f"reserved (first free number: {free[0]}).",
+                    False,
+                )
+        for name in old.reserved.names:
+            if name not in new.reserved.names:
+                yield (
+                    new.location,
+                    f'Previously reserved name "{name}" on {kind} "{new.name}" is no longer '
+                    "reserved.",
+                    False,
+                )
+
+
+def _numbers(low: int, high: int) -> Iterator[int]:
+    """The range's numbers, but at most a few thousand of a huge range (ends included)."""
+    yield from range(low, min(high, low + 4096) + 1)
+    if high > low + 4096:
+        yield high
+
+
+@pair_rule(
+    "ENVELOPE_SIZE_GROWN",
+    "An embedded root's nanopb maximum size grew: receivers built with the old size drop more.",
+    severity="warning",
+)
+def envelope_size_grown(change: Change) -> Report:
+    for root in change.config.roots:
+        before, after = max_size(change.old, root), max_size(change.new, root)
+        message = change.new.messages.get(root)
+        if before is not None and after is not None and after > before and message is not None:
+            yield (
+                message.location,
+                f'Maximum size of message "{root}" grew from {before} to {after} bytes: receivers '
+                f"built with the old {root}_size drop the longer datagrams.",
+                False,
+            )
+
+
+def max_size(revision: Revision, root: str) -> int | None:
+    """nanopb's ``<root>_size`` in this revision, ``None`` where it has none (or no such root)."""
+    message = revision.messages.get(root)
+    if message is None:
+        return None
+    files = revision.tree.imported
+    order: list[descriptor_pb2.FileDescriptorProto] = []
+
+    def visit(name: str) -> None:
+        if name in files and files[name] not in order:
+            for dependency in files[name].dependency:
+                visit(dependency)
+            order.append(files[name])
+
+    visit(message.file)
+    try:
+        schema = Schema(revision.root, root, descriptor_pb2.FileDescriptorSet(file=order))
+        return Sizes(schema).all().get(root)
+    except SchemaError:
+        return None

@@ -1,0 +1,99 @@
+"""Rules over one revision: what the tree holds, graded by whether OLD held it too."""
+
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from erc_codec._options import resolve
+from erc_codec._schema import Location
+
+from .._model import Revision, walk
+from .._pairing import Change
+from ._registry import tree_rule
+
+Report = Iterator[tuple[str, Location, str]]
+
+
+@tree_rule("COMPILE", "A file does not compile (protoc's own diagnostic); the rest still load.")
+def compile_errors(revision: Revision, change: Change) -> Report:
+    for key, finding in revision.load_findings:
+        if finding.rule == "COMPILE":
+            yield key, _location(finding), finding.message
+
+
+@tree_rule("IMPORT_AMBIGUOUS", "An import's spelling matches more than one file of the tree.")
+def import_ambiguous(revision: Revision, change: Change) -> Report:
+    for key, finding in revision.load_findings:
+        if finding.rule == "IMPORT_AMBIGUOUS":
+            yield key, _location(finding), finding.message
+
+
+@tree_rule(
+    "NAME_COLLISION",
+    "Two definitions (message, enum or enum value) share a global name anywhere in the tree.",
+)
+def name_collision(revision: Revision, change: Change) -> Report:
+    for name, places in sorted(revision.definitions.items()):
+        if len(places) < 2:
+            continue
+        places = sorted(places, key=lambda place: place[1])
+        listed = " and ".join(f"{kind} at {where}" for kind, where in places)
+        # Point at a definition the other revision lacks, if any: that is the one to look at.
+        other = change.old if revision is change.new else change.new
+        known = {_relative(other, where) for _, where in other.definitions.get(name, [])}
+        fresh = [where for _, where in places if _relative(revision, where) not in known]
+        yield (
+            name,
+            (fresh or [places[-1][1]])[-1],
+            f'Name "{name}" is defined {len(places)} times: {listed}.',
+        )
+
+
+@tree_rule(
+    "EMBEDDED_REPEATED",
+    "A repeated field in a message an embedded root reaches: embedded boards need fixed sizes.",
+)
+def embedded_repeated(revision: Revision, change: Change) -> Report:
+    for root in change.config.roots:
+        for path, field in walk(revision, root):
+            if field.cardinality == "repeated":
+                yield (
+                    f"{root}:{field.owner}.{field.name}",
+                    field.location,
+                    f'Field "{field.number}" with name "{field.name}" on message "{field.owner}" '
+                    f'is repeated, and embedded root "{root}" reaches it as {path}.',
+                )
+
+
+@tree_rule(
+    "EMBEDDED_UNBOUNDED",
+    "A string or bytes field without nanopb max_size in a message an embedded root reaches.",
+)
+def embedded_unbounded(revision: Revision, change: Change) -> Report:
+    options: Any = None
+    for root in change.config.roots:
+        for path, field in walk(revision, root):
+            if field.type not in ("string", "bytes"):
+                continue
+            if options is None:
+                options = resolve(revision.root, tuple(revision.tree.imported.values())).fields
+            bound = options.get(f"{field.owner}.{field.name}")
+            if bound is not None and (bound.HasField("max_size") or bound.HasField("max_length")):
+                continue
+            yield (
+                f"{root}:{field.owner}.{field.name}",
+                field.location,
+                f'Field "{field.number}" with name "{field.name}" on message "{field.owner}" is '
+                f'{field.type} without nanopb max_size, and embedded root "{root}" reaches it as '
+                f"{path}.",
+            )
+
+
+def _relative(revision: Revision, where: Location) -> tuple[str, int]:
+    path = Path(where.path)
+    inside = path.is_relative_to(revision.root)
+    return (path.relative_to(revision.root).as_posix() if inside else where.path), where.line
+
+
+def _location(finding: Any) -> Location:
+    return Location(finding.path, finding.line, finding.column)

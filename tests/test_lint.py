@@ -1,0 +1,233 @@
+"""erc_lint's loader, configuration and command line (the rules have tests/lint_cases/)."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import erc_lint
+from erc_lint import Config, Finding
+
+
+def tree(root: Path, files: dict[str, str]) -> Path:
+    for name, text in files.items():
+        path = root / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text('syntax = "proto3";\n' + text)
+    return root
+
+
+def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "erc_lint", *args], capture_output=True, text=True, cwd=cwd
+    )
+
+
+def rules(findings: list[Finding]) -> list[str]:
+    return [finding.rule for finding in findings]
+
+
+SHAPES = {
+    "components/a/shape.proto": "message Shape { float width = 1; }\n",
+    "components/b/prefixed.proto": 'import "ERC-Protobufs/components/a/shape.proto";\n'
+    "message Prefixed { Shape shape = 1; }\n",
+    "components/b/bare.proto": 'import "shape.proto";\nmessage Bare { Shape shape = 1; }\n',
+    "proto/components/c/rooted.proto": 'import "components/a/shape.proto";\n'
+    "message Rooted { Shape shape = 1; }\n",
+}
+
+
+def test_imports_resolve_whatever_their_spelling(tmp_path: Path) -> None:
+    root = tree(tmp_path / "t", SHAPES)
+    assert erc_lint.lint(root, root) == []
+
+
+def test_an_import_matching_two_files_is_ambiguous(tmp_path: Path) -> None:
+    root = tree(
+        tmp_path / "t",
+        {
+            "a/shape.proto": "message ShapeA { float w = 1; }\n",
+            "b/shape.proto": "message ShapeB { float w = 1; }\n",
+            "user.proto": 'import "shape.proto";\nmessage User { int32 x = 1; }\n',
+        },
+    )
+    findings = erc_lint.lint(root, root)
+    (ambiguous,) = [f for f in findings if f.rule == "IMPORT_AMBIGUOUS"]
+    assert (
+        ambiguous.message
+        == 'Import "shape.proto" is ambiguous: it matches a/shape.proto, b/shape.proto.'
+    )
+    assert (ambiguous.path, ambiguous.line, ambiguous.column) == (str(root / "user.proto"), 2, 8)
+    assert ambiguous.severity == "warning"  # OLD has it too
+
+
+def test_include_folders_resolve_imports_from_outside(tmp_path: Path) -> None:
+    shared = tree(tmp_path / "shared", {"units/units.proto": "message Metres { float m = 1; }\n"})
+    root = tree(
+        tmp_path / "t",
+        {"walk.proto": 'import "units/units.proto";\nmessage Walk { Metres length = 1; }\n'},
+    )
+    assert "COMPILE" in rules(erc_lint.lint(root, root))
+    assert erc_lint.lint(root, root, includes=[shared]) == []
+
+
+def test_broken_files_are_reported_and_hide_nothing(tmp_path: Path) -> None:
+    files = {f"m{i}.proto": f"message M{i} {{ float v = 1; }}\n" for i in range(9)}
+    old = tree(tmp_path / "old", files)
+    files["m3.proto"] = "message M3 { Nope v = 1; }\n"
+    files["m7.proto"] = "message M7 { float v = 1 }\n"
+    files["m5.proto"] = "message M5 { sint32 v = 1; }\n"
+    new = tree(tmp_path / "new", files)
+    findings = erc_lint.lint(old, new)
+    assert [(Path(f.path).name, f.line, f.rule) for f in findings] == [
+        ("m3.proto", 2, "COMPILE"),
+        ("m5.proto", 2, "FIELD_TYPE_CHANGED"),
+        ("m7.proto", 2, "COMPILE"),
+    ]
+    assert findings[0].message == '"Nope" is not defined.'
+    assert findings[0].column == 14
+    # The broken files' messages are unknown in NEW, not deleted: only COMPILE speaks of them.
+    assert all(f.severity == "error" for f in findings)
+
+
+def test_collisions_between_files_never_compiled_together(tmp_path: Path) -> None:
+    root = tree(
+        tmp_path / "t",
+        {
+            "gps.proto": "message SensorBoardGPSInfo { double latitude = 1; }\n",
+            "leftover/message_types.proto": "enum PBMessageType { SensorBoardGPSInfo = 0; }\n",
+        },
+    )
+    (collision,) = erc_lint.lint(tmp_path / "t", root)
+    assert collision.rule == "NAME_COLLISION"
+    assert str(root / "gps.proto") in collision.message
+    assert str(root / "leftover/message_types.proto") in collision.message
+
+
+def test_exit_codes(tmp_path: Path) -> None:
+    old = tree(tmp_path / "old", {"a.proto": "message A { float x = 1; }\n"})
+    renamed = tree(tmp_path / "renamed", {"a.proto": "message A { float y = 1; }\n"})
+    retyped = tree(tmp_path / "retyped", {"a.proto": "message A { sint32 x = 1; }\n"})
+    assert run(str(old), str(old)).returncode == 0
+    warned = run(str(old), str(renamed))
+    assert warned.returncode == 0  # a warning only
+    assert "FIELD_RENAMED (warning)" in warned.stdout
+    assert run(str(old), str(retyped)).returncode == 1
+    missing = run(str(old), str(tmp_path / "nowhere"))
+    assert missing.returncode == 2
+    assert missing.stderr.count("\n") == 1
+    assert "Traceback" not in missing.stderr
+
+
+def test_configuration_in_new_tree(tmp_path: Path) -> None:
+    old = tree(tmp_path / "old", {"a.proto": "message A { float x = 1; }\n"})
+    new = tree(
+        tmp_path / "new",
+        {
+            "a.proto": "message A { float y = 1; }\n",
+            "drafts/broken.proto": "message Broken { Nope x = 1; }\n",
+        },
+    )
+    assert set(rules(erc_lint.lint(old, new))) == {"FIELD_RENAMED", "COMPILE"}
+    (new / "pyproject.toml").write_text(
+        '[tool.erc-lint]\nignore = ["FIELD_RENAMED"]\nexclude = ["drafts/*"]\n'
+    )
+    done = run(str(old), str(new))
+    assert (done.returncode, done.stdout) == (0, "")
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[tool.erc-lint]\nignore = ["NO_SUCH_RULE"]\n')
+    refused = run(str(old), str(new), "--config", str(bad))
+    assert refused.returncode == 2
+    assert "NO_SUCH_RULE" in refused.stderr
+
+
+def test_roots_come_from_configuration(tmp_path: Path) -> None:
+    files = {
+        "env.proto": "message Item { repeated int32 values = 1; }\n"
+        "message Env { oneof payload { Item item = 1; } }\n"
+    }
+    old = tree(tmp_path / "old", {"env.proto": "message Item { int32 value = 1; }\n"})
+    new = tree(tmp_path / "new", files)
+    assert "EMBEDDED_REPEATED" not in rules(erc_lint.lint(old, new))
+    found = erc_lint.lint(old, new, Config(roots=("Env",)))
+    (repeated,) = [f for f in found if f.rule == "EMBEDDED_REPEATED"]
+    assert "Env.item.values" in repeated.message
+
+
+def test_output_formats(tmp_path: Path) -> None:
+    old = tree(tmp_path / "old", {"a.proto": "message A { float x = 1; float z = 2; }\n"})
+    new = tree(tmp_path / "new", {"a.proto": "message A { float y = 1; }\n"})
+    lines = [
+        json.loads(line) for line in run(str(old), str(new), "--format", "json").stdout.splitlines()
+    ]
+    assert [(line["rule"], line["severity"], line["in_old"]) for line in lines] == [
+        ("FIELD_RENAMED", "warning", False),
+        ("FIELD_DELETED", "error", True),
+    ]
+    assert set(lines[0]) >= {"rule", "severity", "path", "line", "column", "message"}
+    github = run(str(old), str(new), "--format", "github").stdout.splitlines()
+    assert github[0].startswith(f"::warning file={new / 'a.proto'},line=2,col=")
+    assert github[1].startswith(f"::error file={old / 'a.proto'},line=2,col=")
+    assert "::FIELD_DELETED " in github[1]
+
+
+def test_rules_lists_every_rule() -> None:
+    listed = run("rules").stdout.splitlines()
+    assert [line.split()[0] for line in listed] == list(erc_lint.RULES)
+
+
+@pytest.mark.parametrize("spelling", ["ERC-Protobufs/components/a/shape.proto", "shape.proto"])
+def test_a_moved_field_reads_as_moved_whatever_the_import_spelling(
+    tmp_path: Path, spelling: str
+) -> None:
+    files = dict(SHAPES)
+    old = tree(tmp_path / "old", files)
+    files["components/b/bare.proto"] = (
+        f'import "{spelling}";\nmessage Bare {{ Shape shape = 2; }}\n'
+    )
+    new = tree(tmp_path / "new", files)
+    assert rules(erc_lint.lint(old, new)) == ["FIELD_RENUMBERED"]
+
+
+def test_the_pre_commit_hook_compares_against_head(tmp_path: Path) -> None:
+    hooks = (Path(__file__).parent.parent / ".pre-commit-hooks.yaml").read_text()
+    entry = hooks.split("entry: ", 1)[1].splitlines()[0]
+    script = entry.removeprefix("sh -c '").removesuffix("'")
+    repo = tree(tmp_path, {"proto/a.proto": "message A { float x = 1; }\n"})
+    git = ["git", "-c", "user.name=t", "-c", "user.email=t@t.invalid"]
+    for command in (["init", "-q"], ["add", "."], ["commit", "-qm", "one"]):
+        subprocess.run([*git, *command], cwd=repo, check=True)
+    hook = ["sh", "-c", script, "proto"]
+    assert subprocess.run(hook, cwd=repo, capture_output=True).returncode == 0
+    (repo / "proto" / "a.proto").write_text('syntax = "proto3";\nmessage A { sint32 x = 1; }\n')
+    broken = subprocess.run(hook, cwd=repo, capture_output=True, text=True)
+    assert broken.returncode == 1
+    assert "FIELD_TYPE_CHANGED" in broken.stdout
+
+
+def test_a_renamed_oneof_moves_nothing(tmp_path: Path) -> None:
+    old = tree(
+        tmp_path / "old", {"m.proto": "message M { oneof a { int32 x = 1; float y = 2; } }\n"}
+    )
+    renamed = tree(
+        tmp_path / "new", {"m.proto": "message M { oneof b { int32 x = 1; float y = 2; } }\n"}
+    )
+    assert erc_lint.lint(old, renamed) == []
+    split = tree(
+        tmp_path / "split", {"m.proto": "message M { oneof b { int32 x = 1; } float y = 2; }\n"}
+    )
+    assert rules(erc_lint.lint(old, split)) == ["FIELD_ONEOF_CHANGED"] * 2  # x and y
+
+
+def test_old_damage_in_an_imported_file_stays_old_when_its_importer_is_renamed(
+    tmp_path: Path,
+) -> None:
+    broken = {"b.proto": "message B { float x = 1 }\n"}
+    users = 'import "b.proto";\nmessage {name} {{ B b = 1; }}\n'
+    old = tree(tmp_path / "old", {**broken, "a.proto": users.format(name="A")})
+    new = tree(tmp_path / "new", {**broken, "aa.proto": users.format(name="A")})
+    (in_b,) = [f for f in erc_lint.lint(old, new) if f.path == str(new / "b.proto")]
+    assert (in_b.rule, in_b.severity) == ("COMPILE", "warning")
+    assert in_b.message == 'Expected ";". (imported by aa.proto)'
