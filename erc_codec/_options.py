@@ -16,7 +16,7 @@ from fnmatch import fnmatchcase
 from pathlib import Path
 from typing import Any
 
-from google.protobuf import descriptor_pb2, descriptor_pool, message_factory, text_format
+from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from google.protobuf.message import DecodeError as ProtobufDecodeError
 from google.protobuf.message import Message
 
@@ -122,6 +122,8 @@ def _annotations(data: bytes) -> Iterator[Options]:
 def _read_rules(path: Path) -> Rules:
     if not path.is_file():
         return []
+    from google.protobuf import text_format  # only when there is a file to read
+
     rules: Rules = []
     cls = options_class()
     for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):

@@ -11,9 +11,9 @@ import os
 import tempfile
 import threading
 from collections.abc import Iterator, Sequence
-from importlib import resources
 from pathlib import Path
 
+import grpc_tools
 from google.protobuf import descriptor_pb2
 from grpc_tools import protoc
 
@@ -23,9 +23,9 @@ __all__ = ["ProtocError", "compile_files"]
 
 _LOCK = threading.Lock()
 # google/protobuf/*.proto, shipped with grpcio-tools.
-_WELL_KNOWN = str(resources.files("grpc_tools") / "_proto")
+_WELL_KNOWN = str(Path(grpc_tools.__file__).parent / "_proto")
 # A nanopb.proto of our own, used only when a tree imports "nanopb.proto" without shipping it.
-FALLBACK_INCLUDE = str(resources.files("erc_codec") / "_include")
+FALLBACK_INCLUDE = str(Path(__file__).parent / "_include")
 
 
 class ProtocError(SchemaError):

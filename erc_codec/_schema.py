@@ -6,6 +6,7 @@ whose values collide with message names, a half-written draft) therefore never s
 any problem in a file the root depends on is a ``SchemaError`` carrying protoc's ``path:line:col``.
 """
 
+import functools
 import os
 import re
 from collections.abc import Iterator
@@ -51,11 +52,25 @@ class Schema:
         for proto in self.files:
             self.pool.AddSerializedFile(proto.SerializeToString())
         self.root: Descriptor = self.pool.FindMessageTypeByName(root)
-        self.locations: dict[str, Location] = {}
-        self.comments: dict[str, str] = {}  # full name → the comment trailing its definition
-        for proto in self.files:
-            _index(tree, proto, self.locations, self.comments)
         self._classes: dict[str, type[Message]] = {}
+
+    @functools.cached_property
+    def locations(self) -> dict[str, Location]:
+        """Full name → where a message, field, enum or enum value is defined."""
+        return self._index[0]
+
+    @functools.cached_property
+    def comments(self) -> dict[str, str]:
+        """Full name → the comment trailing a definition."""
+        return self._index[1]
+
+    @functools.cached_property
+    def _index(self) -> tuple[dict[str, Location], dict[str, str]]:
+        locations: dict[str, Location] = {}
+        comments: dict[str, str] = {}
+        for proto in self.files:
+            _index(self.tree, proto, locations, comments)
+        return locations, comments
 
     def message_class(self, name: str) -> type[Message]:
         """The message class for a full message name, e.g. ``SensorBoardGPSInfo``."""

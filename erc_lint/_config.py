@@ -1,6 +1,5 @@
 """``[tool.erc-lint]`` in a pyproject.toml: embedded roots, rules to ignore, paths to exclude."""
 
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -53,6 +52,8 @@ def read_config(path: Path | None, known_rules: set[str]) -> Config:
 
 
 def _load(path: Path) -> dict[str, Any]:
+    import tomllib  # only when there is a file to read
+
     try:
         return tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, tomllib.TOMLDecodeError) as error:

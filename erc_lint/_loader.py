@@ -10,8 +10,9 @@ Guarantees:
 - Imports resolve whatever their spelling: relative to the root or an ``-I`` folder, prefixed with
   the repository's own folder name (``ERC-Protobufs/components/x.proto``), or a bare file name
   found anywhere in the tree. An import that matches several files is an ``IMPORT_AMBIGUOUS``
-  finding. Resolved spellings are rewritten in a scratch copy, line for line, so protoc's
-  locations stay those of the original files.
+  finding. Only when a spelling needs rewriting is the tree copied to a scratch folder (with
+  the spelling rewritten in place, line for line, so protoc's locations stay the originals');
+  otherwise protoc reads the tree where it is.
 """
 
 import os
@@ -45,6 +46,7 @@ class LoadedTree:
     imported: dict[str, descriptor_pb2.FileDescriptorProto]  # everything protoc read, by name
     findings: list[tuple[str, Finding]] = field(default_factory=list)  # (key, finding)
     failed: set[str] = field(default_factory=set)  # files that did not compile
+    texts: dict[str, str] = field(default_factory=dict)  # the tree's files as read
 
 
 def load_tree(root: Path, includes: Sequence[Path] = (), exclude: Sequence[str] = ()) -> LoadedTree:
@@ -56,59 +58,72 @@ def load_tree(root: Path, includes: Sequence[Path] = (), exclude: Sequence[str] 
     ]
     names = [name for name in names if not any(fnmatchcase(name, p) for p in exclude)]
     tree = LoadedTree(root, {}, {})
+    texts = {name: (root / name).read_text(encoding="utf-8", errors="replace") for name in names}
+    tree.texts = texts
+    rewritten = _resolve_imports(tree, texts, includes)
+    if not rewritten:
+        _compile(tree, root, names, includes)
+        return tree
     with tempfile.TemporaryDirectory(prefix="erc-lint-") as scratch:
         staged = Path(scratch)
-        for name in names:
-            text = (root / name).read_text(encoding="utf-8", errors="replace")
+        for name, text in texts.items():
             target = staged / name
             target.parent.mkdir(parents=True, exist_ok=True)
-            target.write_text(_resolve_imports(tree, name, text, names, includes), "utf-8")
+            target.write_text(rewritten.get(name, text), "utf-8")
         _compile(tree, staged, names, includes)
     return tree
 
 
 def _resolve_imports(
-    tree: LoadedTree, name: str, text: str, names: list[str], includes: Sequence[Path]
-) -> str:
-    """``text`` with every import that names a tree file spelled relative to the root."""
-    known = set(names)
-    code = _NOISE.sub(lambda m: m[0] if m[0].startswith('"') else " " * len(m[0]), text)
-    edits: list[tuple[int, int, str]] = []
-    for match in _IMPORT.finditer(code):
-        spelling = match[1][1:-1]
-        if spelling in known or any((folder / spelling).is_file() for folder in includes):
+    tree: LoadedTree, texts: dict[str, str], includes: Sequence[Path]
+) -> dict[str, str]:
+    """The texts whose imports needed respelling (relative to the root), respelled."""
+    known = set(texts)
+    by_basename: dict[str, list[str]] = {}
+    for name in texts:
+        by_basename.setdefault(name.rsplit("/", 1)[-1], []).append(name)
+    rewritten = {}
+    for name, text in texts.items():
+        if "import" not in text:
             continue
-        parts = spelling.split("/")
-        found = sorted({"/".join(parts[k:]) for k in range(1, len(parts))} & known)
-        if not found:
-            found = [other for other in names if other.rsplit("/", 1)[-1] == parts[-1]]
-        if len(found) == 1:
-            edits.append((match.start(1), match.end(1), f'"{found[0]}"'))
-        elif len(found) > 1:
-            line = code.count("\n", 0, match.start(1)) + 1
-            column = match.start(1) - code.rfind("\n", 0, match.start(1))
-            where = Location(str(tree.root / name), line, column)
-            message = f'Import "{spelling}" is ambiguous: it matches {", ".join(found)}.'
-            key = f"{name}:{spelling}"
-            tree.findings.append((key, Finding.at(where, "IMPORT_AMBIGUOUS", message)))
-    for start, end, replacement in reversed(edits):
-        text = text[:start] + replacement + text[end:]
-    return text
+        code = _NOISE.sub(lambda m: m[0] if m[0].startswith('"') else " " * len(m[0]), text)
+        edits: list[tuple[int, int, str]] = []
+        for match in _IMPORT.finditer(code):
+            spelling = match[1][1:-1]
+            if spelling in known or any((folder / spelling).is_file() for folder in includes):
+                continue
+            parts = spelling.split("/")
+            found = sorted({"/".join(parts[k:]) for k in range(1, len(parts))} & known)
+            found = found or by_basename.get(parts[-1], [])
+            if len(found) == 1:
+                edits.append((match.start(1), match.end(1), f'"{found[0]}"'))
+            elif len(found) > 1:
+                line = code.count("\n", 0, match.start(1)) + 1
+                column = match.start(1) - code.rfind("\n", 0, match.start(1))
+                where = Location(str(tree.root / name), line, column)
+                message = f'Import "{spelling}" is ambiguous: it matches {", ".join(found)}.'
+                finding = Finding.at(where, "IMPORT_AMBIGUOUS", message)
+                tree.findings.append((f"{name}:{spelling}", finding))
+        for start, end, replacement in reversed(edits):
+            text = text[:start] + replacement + text[end:]
+        if edits:
+            rewritten[name] = text
+    return rewritten
 
 
-def _compile(tree: LoadedTree, staged: Path, names: list[str], includes: Sequence[Path]) -> None:
+def _compile(tree: LoadedTree, base: Path, names: list[str], includes: Sequence[Path]) -> None:
     if not names:
         return
     try:
-        compiled = compile_files(staged, names, includes)
+        compiled = compile_files(base, names, includes)
     except ProtocError as error:
         if len(names) == 1:
             tree.failed.add(names[0])
-            _report(tree, staged, names[0], error.lines)
+            _report(tree, base, names[0], error.lines)
             return
         half = len(names) // 2
-        _compile(tree, staged, names[:half], includes)
-        _compile(tree, staged, names[half:], includes)
+        _compile(tree, base, names[:half], includes)
+        _compile(tree, base, names[half:], includes)
         return
     own = set(names)
     for proto in compiled.file:
@@ -117,12 +132,12 @@ def _compile(tree: LoadedTree, staged: Path, names: list[str], includes: Sequenc
             tree.files[proto.name] = proto
 
 
-def _report(tree: LoadedTree, staged: Path, name: str, lines: list[str]) -> None:
+def _report(tree: LoadedTree, base: Path, name: str, lines: list[str]) -> None:
     """COMPILE findings from protoc's diagnostics for ``name``, located in the original files.
 
     An error inside an imported file is reported once, however many files import it.
     """
-    prefix = str(staged) + os.sep
+    prefix = str(base) + os.sep
     for line in lines:
         match = _DIAGNOSTIC.match(line)
         if match is None:

@@ -7,6 +7,7 @@ definition; names are full names (``Outer.Inner``; a package, if a file has one,
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 from google.protobuf import descriptor_pb2
 
@@ -30,8 +31,7 @@ _MESSAGE_RESERVED_RANGE, _MESSAGE_RESERVED_NAME = 9, 10
 _ENUM_VALUE, _ENUM_RESERVED_RANGE, _ENUM_RESERVED_NAME = 2, 4, 5
 
 
-@dataclass(frozen=True)
-class Field:
+class Field(NamedTuple):
     owner: str
     name: str
     number: int
@@ -42,8 +42,7 @@ class Field:
     location: Location
 
 
-@dataclass(frozen=True)
-class EnumValue:
+class EnumValue(NamedTuple):
     owner: str
     name: str
     number: int
@@ -126,7 +125,12 @@ class _File:
         self.revision = revision
         self.proto = proto
         self.path = str(revision.root / proto.name)
-        self.spans = {tuple(loc.path): loc.span for loc in proto.source_code_info.location}
+        # Declarations sit at even-length paths; the odd ones (names, numbers, types) are many.
+        self.spans = {
+            tuple(loc.path): loc.span
+            for loc in proto.source_code_info.location
+            if not len(loc.path) % 2
+        }
         self.package = f"{proto.package}." if proto.package else ""
 
     def where(self, path: tuple[int, ...]) -> Location:

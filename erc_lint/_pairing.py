@@ -6,6 +6,7 @@ a pair, each OLD member is seen twice in NEW: by number and by name, so a rule c
 that moved from one that was deleted while another took its number.
 """
 
+import functools
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Generic, TypeVar
@@ -54,19 +55,29 @@ class Change:
         self.deleted_messages = [m for m in gone if m.file not in self.new.tree.failed]
         self.enums, _ = _pair(self.old.enums, self.new.enums, self.renamed)
 
+    @functools.cached_property
+    def _fields(self) -> list[MemberPair[Message, Field]]:
+        return [
+            MemberPair(old, new, entry, new.fields.get(entry.number), new.by_name.get(entry.name))
+            for old, new in self.messages
+            for entry in old.fields.values()
+        ]
+
+    @functools.cached_property
+    def _values(self) -> list[MemberPair[Enum, EnumValue]]:
+        return [
+            MemberPair(old, new, entry, new.values.get(entry.number), new.by_name.get(entry.name))
+            for old, new in self.enums
+            for entry in old.by_name.values()
+        ]
+
     def fields(self) -> Iterator[MemberPair[Message, Field]]:
-        for old, new in self.messages:
-            for entry in old.fields.values():
-                yield MemberPair(
-                    old, new, entry, new.fields.get(entry.number), new.by_name.get(entry.name)
-                )
+        """Every field of every paired message, seen in NEW by number and by name."""
+        return iter(self._fields)
 
     def values(self) -> Iterator[MemberPair[Enum, EnumValue]]:
-        for old, new in self.enums:
-            for entry in old.by_name.values():
-                yield MemberPair(
-                    old, new, entry, new.values.get(entry.number), new.by_name.get(entry.name)
-                )
+        """Every value of every paired enum, seen in NEW by number and by name."""
+        return iter(self._values)
 
     def compatible(self, old: Field, new: Field) -> bool:
         """Whether NEW's field reads OLD's bytes as the same value kind."""

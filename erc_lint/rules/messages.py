@@ -1,6 +1,7 @@
 """Rules on whole messages and enums: deletions, renames, reservations, the envelope's size."""
 
 from collections.abc import Iterator
+from pathlib import Path
 
 from google.protobuf import descriptor_pb2
 
@@ -77,9 +78,13 @@ def _numbers(low: int, high: int) -> Iterator[int]:
 )
 def envelope_size_grown(change: Change) -> Report:
     for root in change.config.roots:
-        before, after = max_size(change.old, root), max_size(change.new, root)
         message = change.new.messages.get(root)
-        if before is not None and after is not None and after > before and message is not None:
+        if message is None or root not in change.old.messages:
+            continue
+        if _closure(change.old, root) == _closure(change.new, root):
+            continue  # not a byte changed in what the root's size depends on
+        before, after = max_size(change.old, root), max_size(change.new, root)
+        if before is not None and after is not None and after > before:
             yield (
                 message.location,
                 f'Maximum size of message "{root}" grew from {before} to {after} bytes: receivers '
@@ -88,23 +93,37 @@ def envelope_size_grown(change: Change) -> Report:
             )
 
 
+def _closure(revision: Revision, root: str) -> dict[str, tuple[str, str | None]]:
+    """The text, and the .options text, of every tree file message ``root`` depends on."""
+    files, texts, found = revision.tree.imported, revision.tree.texts, {}
+    pending = [revision.messages[root].file]
+    while pending:
+        name = pending.pop()
+        if name in found or name not in files:
+            continue
+        options = revision.root / Path(name).with_suffix(".options")
+        found[name] = (texts.get(name, ""), options.read_text() if options.is_file() else None)
+        pending.extend(files[name].dependency)
+    return found
+
+
 def max_size(revision: Revision, root: str) -> int | None:
     """nanopb's ``<root>_size`` in this revision, ``None`` where it has none (or no such root)."""
     message = revision.messages.get(root)
     if message is None:
         return None
     files = revision.tree.imported
-    order: list[descriptor_pb2.FileDescriptorProto] = []
+    order: dict[str, descriptor_pb2.FileDescriptorProto] = {}
 
     def visit(name: str) -> None:
-        if name in files and files[name] not in order:
+        if name in files and name not in order:
             for dependency in files[name].dependency:
                 visit(dependency)
-            order.append(files[name])
+            order[name] = files[name]
 
     visit(message.file)
     try:
-        schema = Schema(revision.root, root, descriptor_pb2.FileDescriptorSet(file=order))
-        return Sizes(schema).all().get(root)
+        schema = Schema(revision.root, root, descriptor_pb2.FileDescriptorSet(file=order.values()))
+        return Sizes(schema).max_size(root)
     except SchemaError:
         return None
