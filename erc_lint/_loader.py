@@ -30,7 +30,7 @@ from erc_codec._schema import Location
 
 from ._finding import Finding
 
-__all__ = ["LoadedTree", "load_tree"]
+__all__ = ["LoadedTree", "load_tree", "relative"]
 
 _NOISE = re.compile(r'//[^\n]*|/\*.*?\*/|"(?:\\.|[^"\\\n])*"', re.DOTALL)
 _IMPORT = re.compile(r'\bimport\s+(?:public\s+|weak\s+)?("(?:\\.|[^"\\\n])*")\s*;')
@@ -152,13 +152,13 @@ def _report(tree: LoadedTree, base: Path, name: str, lines: list[str]) -> None:
         ):
             continue
         # Keyed by the erring file and the error, not by which importer protoc compiled first.
-        key = f"{_relative(tree.root, where.path)}:{text}"
+        key = f"{relative(tree.root, where.path)}:{text}"
         if where.path != str(tree.root / name):
             text = f"{text} (imported by {name})"
         tree.findings.append((key, Finding.at(where, "COMPILE", text)))
 
 
-def _relative(root: Path, path: str) -> str:
+def relative(root: Path, path: str) -> str:
     """``path`` relative to ``root`` when it lies inside it, so OLD and NEW keys compare."""
     inside = Path(path).is_relative_to(root)
     return Path(path).relative_to(root).as_posix() if inside else path

@@ -1,12 +1,12 @@
 """Rules over one revision: what the tree holds, graded by whether OLD held it too."""
 
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 from erc_codec._options import resolve
 from erc_codec._schema import Location
 
+from .._loader import relative
 from .._model import Revision, walk
 from .._pairing import Change
 from ._registry import tree_rule
@@ -40,8 +40,15 @@ def name_collision(revision: Revision, change: Change) -> Report:
         listed = " and ".join(f"{kind} at {where}" for kind, where in places)
         # Point at a definition the other revision lacks, if any: that is the one to look at.
         other = change.old if revision is change.new else change.new
-        known = {_relative(other, where) for _, where in other.definitions.get(name, [])}
-        fresh = [where for _, where in places if _relative(revision, where) not in known]
+        known = {
+            (relative(other.root, where.path), where.line)
+            for _, where in other.definitions.get(name, [])
+        }
+        fresh = [
+            where
+            for _, where in places
+            if (relative(revision.root, where.path), where.line) not in known
+        ]
         yield (
             name,
             (fresh or [places[-1][1]])[-1],
@@ -87,12 +94,6 @@ def embedded_unbounded(revision: Revision, change: Change) -> Report:
                 f'{field.type} without nanopb max_size, and embedded root "{root}" reaches it as '
                 f"{path}.",
             )
-
-
-def _relative(revision: Revision, where: Location) -> tuple[str, int]:
-    path = Path(where.path)
-    inside = path.is_relative_to(revision.root)
-    return (path.relative_to(revision.root).as_posix() if inside else where.path), where.line
 
 
 def _location(finding: Any) -> Location:
