@@ -239,11 +239,12 @@ class Envelope:
 
     def _parse_restored(self, data: bytes) -> Message:
         if not data:
-            raise DecodeError("empty datagram")
+            raise DecodeError("empty datagram", "empty")
         if len(data) > self._max_size:
             raise DecodeError(
                 f"datagram of {len(data)} bytes is longer than the envelope's maximum of "
-                f"{self._max_size}: a fixed-size receiver drops it"
+                f"{self._max_size}: a fixed-size receiver drops it",
+                "too_long",
             )
         data = bytes(data)
         exact = self._restore(data)
@@ -304,7 +305,7 @@ class Envelope:
     def _no_payload(self, data: bytes) -> DecodeError:
         exact = self._restore(bytes(data))
         if not exact:
-            return DecodeError("datagram holds no payload (only zero bytes)")
+            return DecodeError("datagram holds no payload (only zero bytes)", "no_payload")
         key, _ = read_varint(exact, 0)
         number, wire_type = key >> 3, key & 7
         if number in self._kinds:
@@ -314,5 +315,6 @@ class Envelope:
             )
         return DecodeError(
             f"payload number {number} is not a member of {self._name} in this schema "
-            "(sent by a newer schema?)"
+            "(sent by a newer schema?)",
+            "unknown_member",
         )

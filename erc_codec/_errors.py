@@ -20,4 +20,12 @@ class EncodeError(CodecError):
 
 
 class DecodeError(CodecError):
-    """A datagram is not an exact, stripped or zero-padded encoding of a known envelope."""
+    """A datagram is not an exact, stripped or zero-padded encoding of a known envelope.
+
+    ``reason`` sorts the failure for counters: ``"empty"``, ``"too_long"``, ``"no_payload"``,
+    ``"unknown_member"`` (a payload number this schema lacks: a newer sender) or ``"corrupt"``.
+    """
+
+    def __init__(self, message: str, reason: str = "corrupt") -> None:
+        super().__init__(message)
+        self.reason = reason
