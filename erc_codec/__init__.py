@@ -14,21 +14,48 @@ if TYPE_CHECKING:
     from google.protobuf.message import Message
 
     from ._codec import Codec
+    from ._dispatch import Dispatcher, DispatchStats, Drop
     from ._envelope import Decoded, Mode
+    from ._frames import AssemblerStats, Frame, FrameAssembler, FrameLoss, Rejected
+    from ._watchdog import Liveness, Watchdog
 
 __all__ = [
+    "AssemblerStats",
     "Codec",
     "CodecError",
     "DecodeError",
     "Decoded",
+    "DispatchStats",
+    "Dispatcher",
+    "Drop",
     "EncodeError",
+    "Frame",
+    "FrameAssembler",
+    "FrameLoss",
+    "Liveness",
     "Mode",
+    "Rejected",
     "SchemaError",
+    "Watchdog",
     "decode",
     "encode",
 ]
 
-_LAZY = {"Codec": "._codec", "Decoded": "._envelope", "Mode": "._envelope"}
+_LAZY = {
+    "Codec": "._codec",
+    "Decoded": "._envelope",
+    "Mode": "._envelope",
+    "Dispatcher": "._dispatch",
+    "DispatchStats": "._dispatch",
+    "Drop": "._dispatch",
+    "Watchdog": "._watchdog",
+    "Liveness": "._watchdog",
+    "FrameAssembler": "._frames",
+    "Frame": "._frames",
+    "FrameLoss": "._frames",
+    "Rejected": "._frames",
+    "AssemblerStats": "._frames",
+}
 
 
 def __getattr__(name: str) -> Any:

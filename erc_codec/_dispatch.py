@@ -1,0 +1,115 @@
+"""Dispatch: each decoded payload to the handler registered for its kind, and nothing lost silently.
+
+Guarantees: every datagram fed ends in exactly one counter: handled (per kind), unhandled (a kind
+with no handler), undecodable (per ``DecodeError.reason``) or a handler error (per kind). Every
+drop also goes to the optional ``on_drop`` callback with the datagram and the reason. A handler's
+exception is caught and counted; the next datagram is dispatched as usual. No threads, no I/O.
+"""
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple, TypeVar
+
+from google.protobuf.message import Message
+
+from ._codec import Codec
+from ._errors import DecodeError, SchemaError
+
+__all__ = ["DispatchStats", "Dispatcher", "Drop"]
+
+Handler = Callable[[Message], object]
+H = TypeVar("H", bound=Handler)
+
+
+class Drop(NamedTuple):
+    """A datagram that reached no handler, or whose handler failed."""
+
+    reason: str  # "unhandled", "handler_error", or a DecodeError reason ("corrupt", ...)
+    kind: str | None  # the payload kind, when the datagram decoded
+    data: bytes
+    error: Exception | None
+
+
+@dataclass
+class DispatchStats:
+    """Counters since the dispatcher was made (copies: changing them changes nothing)."""
+
+    handled: dict[str, int] = field(default_factory=dict)  # kind → datagrams handled
+    unhandled: dict[str, int] = field(default_factory=dict)  # kind → datagrams with no handler
+    undecodable: dict[str, int] = field(default_factory=dict)  # DecodeError reason → datagrams
+    handler_errors: dict[str, int] = field(default_factory=dict)  # kind → handler exceptions
+
+    @property
+    def dropped(self) -> int:
+        """Datagrams that reached no handler, or whose handler failed."""
+        return (
+            sum(self.unhandled.values())
+            + sum(self.undecodable.values())
+            + sum(self.handler_errors.values())
+        )
+
+
+class Dispatcher:
+    """Decodes datagrams with ``codec`` and calls the handler registered for each payload kind."""
+
+    def __init__(
+        self, codec: Codec | None = None, on_drop: Callable[[Drop], object] | None = None
+    ) -> None:
+        self._codec = codec or Codec.default()
+        self._decode = self._codec.decode
+        self._kinds = set(self._codec.kinds().values())
+        # kind → [handler, datagrams handled]: one lookup finds both on the hot path.
+        self._handlers: dict[str, list[Any]] = {}
+        self._on_drop = on_drop
+        self._stats = DispatchStats()
+
+    def register(self, kind: str, handler: Handler) -> None:
+        """Call ``handler(payload)`` for every datagram of ``kind`` (an envelope member name)."""
+        if kind not in self._kinds:
+            raise SchemaError(f"{kind!r} is not a payload kind of {self._codec.root}")
+        self._handlers.setdefault(kind, [handler, 0])[0] = handler
+
+    def on(self, kind: str) -> Callable[[H], H]:
+        """The decorator form of ``register``: ``@dispatcher.on("gps_info")``."""
+
+        def decorate(handler: H) -> H:
+            self.register(kind, handler)
+            return handler
+
+        return decorate
+
+    def feed(self, data: bytes) -> bool:
+        """Decode one datagram and hand it to its handler; whether a handler took it."""
+        try:
+            kind, message = self._decode(data)
+        except DecodeError as error:
+            return self._drop(
+                self._stats.undecodable, error.reason, Drop(error.reason, None, data, error)
+            )
+        try:
+            entry = self._handlers[kind]
+        except KeyError:
+            return self._drop(self._stats.unhandled, kind, Drop("unhandled", kind, data, None))
+        try:
+            entry[0](message)
+        except Exception as error:  # a handler's failure must not stop dispatching
+            return self._drop(
+                self._stats.handler_errors, kind, Drop("handler_error", kind, data, error)
+            )
+        entry[1] += 1
+        return True
+
+    def stats(self) -> DispatchStats:
+        """A snapshot of the counters."""
+        return DispatchStats(
+            {kind: entry[1] for kind, entry in self._handlers.items() if entry[1]},
+            dict(self._stats.unhandled),
+            dict(self._stats.undecodable),
+            dict(self._stats.handler_errors),
+        )
+
+    def _drop(self, counter: dict[str, int], key: str, drop: Drop) -> bool:
+        counter[key] = counter.get(key, 0) + 1
+        if self._on_drop is not None:
+            self._on_drop(drop)
+        return False

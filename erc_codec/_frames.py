@@ -1,0 +1,149 @@
+"""Reassembly of camera frames sent one ``BasestationDetectedObject`` per datagram.
+
+Each object carries ``frame_id``, ``total_count`` and its ``index`` (0 ≤ index < total_count); a
+frame with no detections is one object with ``total_count`` 0. Guarantees:
+- a frame is returned once, when all ``total_count`` objects have arrived, ordered by index,
+  whatever the arrival order, with duplicates ignored (and counted);
+- an object that cannot belong to its frame (index out of range, a ``total_count`` other than
+  the frame's, more objects than ``max_objects``) is rejected, counted and reported;
+- an incomplete frame is dropped when ``timeout`` passes after its first object, or when starting
+  a newer frame would leave more than ``keep_frames`` incomplete; each drop is counted and
+  reported with how many objects had arrived;
+- memory stays bounded whatever arrives: at most ``keep_frames`` frames of at most
+  ``max_objects`` objects, and the ids of the last completed frames (to recognise late repeats).
+The clock is the caller's ``now``; nothing here reads time.
+"""
+
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
+
+__all__ = ["AssemblerStats", "Frame", "FrameAssembler", "FrameLoss", "Rejected"]
+
+_REMEMBERED = 64  # completed frame ids kept to recognise late duplicates
+
+
+class Frame(NamedTuple):
+    frame_id: int
+    objects: tuple[Any, ...]  # the frame's BasestationDetectedObject messages, by index
+
+
+class FrameLoss(NamedTuple):
+    frame_id: int
+    received: int
+    expected: int
+    reason: str  # "timeout" or "superseded"
+
+
+@dataclass(frozen=True)
+class Rejected:
+    frame_id: int
+    index: int
+    total_count: int
+    reason: str  # "index_out_of_range", "total_count_changed" or "too_many_objects"
+
+
+@dataclass
+class AssemblerStats:
+    completed: int = 0
+    duplicates: int = 0
+    lost: dict[str, int] = field(default_factory=dict)  # reason → frames
+    rejected: dict[str, int] = field(default_factory=dict)  # reason → objects
+
+
+@dataclass
+class _Pending:
+    total: int
+    started: float
+    objects: dict[int, Any] = field(default_factory=dict)
+
+
+class FrameAssembler:
+    """Collects detected objects by frame and returns each frame once it is whole."""
+
+    def __init__(
+        self,
+        timeout: float = 1.0,
+        keep_frames: int = 4,
+        max_objects: int = 256,
+        on_loss: Callable[[FrameLoss], object] | None = None,
+        on_reject: Callable[[Rejected], object] | None = None,
+    ) -> None:
+        if timeout <= 0 or keep_frames < 1 or max_objects < 1:
+            raise ValueError("timeout, keep_frames and max_objects must be positive")
+        self._timeout = timeout
+        self._keep = keep_frames
+        self._max_objects = max_objects
+        self._on_loss = on_loss
+        self._on_reject = on_reject
+        self._pending: dict[int, _Pending] = {}  # in the order frames started
+        self._done: deque[int] = deque(maxlen=_REMEMBERED)
+        self._stats = AssemblerStats()
+
+    def add(self, detected: Any, now: float) -> Frame | None:
+        """Take one ``BasestationDetectedObject``; the frame it completes, if any."""
+        frame_id, total, index = detected.frame_id, detected.total_count, detected.index
+        pending = self._pending.get(frame_id)
+        if pending is None and frame_id in self._done:
+            self._stats.duplicates += 1  # a late repeat of a frame already returned
+            return None
+        if total > self._max_objects:
+            return self._reject(Rejected(frame_id, index, total, "too_many_objects"))
+        if pending is not None and total != pending.total:
+            return self._reject(Rejected(frame_id, index, total, "total_count_changed"))
+        if total == 0:  # "no detections in this frame"
+            return self._complete(frame_id, [])
+        if index >= total:
+            return self._reject(Rejected(frame_id, index, total, "index_out_of_range"))
+        if pending is None:
+            while len(self._pending) >= self._keep:
+                self._lose(next(iter(self._pending)), "superseded")
+            pending = self._pending[frame_id] = _Pending(total, now)
+        if index in pending.objects:
+            self._stats.duplicates += 1
+            return None
+        pending.objects[index] = detected
+        if len(pending.objects) < total:
+            return None
+        del self._pending[frame_id]
+        return self._complete(frame_id, [pending.objects[i] for i in range(total)])
+
+    def poll(self, now: float) -> list[FrameLoss]:
+        """Drop the frames whose timeout passed; what was lost."""
+        lost = []
+        for frame_id, pending in list(self._pending.items()):
+            if now < pending.started:  # the clock stepped back: measure from here
+                pending.started = now
+            elif now - pending.started > self._timeout:
+                lost.append(self._lose(frame_id, "timeout"))
+        return lost
+
+    def pending(self) -> int:
+        """How many incomplete frames are held."""
+        return len(self._pending)
+
+    def stats(self) -> AssemblerStats:
+        """A snapshot of the counters."""
+        s = self._stats
+        return AssemblerStats(s.completed, s.duplicates, dict(s.lost), dict(s.rejected))
+
+    def _complete(self, frame_id: int, objects: list[Any]) -> Frame:
+        self._done.append(frame_id)
+        self._stats.completed += 1
+        return Frame(frame_id, tuple(objects))
+
+    def _reject(self, rejected: Rejected) -> Frame | None:
+        """Count and report ``rejected``; ``add`` returns what this returns (no frame)."""
+        self._stats.rejected[rejected.reason] = self._stats.rejected.get(rejected.reason, 0) + 1
+        if self._on_reject is not None:
+            self._on_reject(rejected)
+        return None
+
+    def _lose(self, frame_id: int, reason: str) -> FrameLoss:
+        pending = self._pending.pop(frame_id)
+        loss = FrameLoss(frame_id, len(pending.objects), pending.total, reason)
+        self._stats.lost[reason] = self._stats.lost.get(reason, 0) + 1
+        if self._on_loss is not None:
+            self._on_loss(loss)
+        return loss

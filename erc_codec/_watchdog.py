@@ -1,0 +1,107 @@
+"""Liveness: which periodic messages are arriving, and the moment one stops ("engage the brakes").
+
+Guarantees: the clock is the caller's (``now`` in seconds, any origin); nothing here reads time,
+sleeps or starts a thread. Each watched kind follows Proton's node states: INACTIVE until its
+first arrival, ACTIVE while arrivals keep within the timeout, INACTIVE again once ``poll`` sees the
+timeout pass, which calls ``on_timeout(kind)`` once; the next arrival calls ``on_recover(kind)``.
+A clock that steps backwards never fires a timeout early and delays one by at most one timeout
+(the last arrival is re-anchored to the new clock). Memory per kind is bounded (the rate is
+measured over the last arrivals only).
+"""
+
+import enum
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+__all__ = ["Liveness", "Watchdog"]
+
+_RATE_WINDOW = 16  # arrivals the measured rate is computed over
+
+
+class Liveness(enum.Enum):
+    """Proton's node states, per watched kind."""
+
+    UNCONFIGURED = "unconfigured"  # not watched
+    INACTIVE = "inactive"  # watched, but nothing arrived within the timeout (or ever)
+    ACTIVE = "active"  # arriving
+
+
+@dataclass
+class _Watched:
+    period: float
+    timeout: float
+    state: Liveness = Liveness.INACTIVE
+    last: float | None = None
+    timed_out: bool = False  # INACTIVE because a timeout passed, not because nothing came yet
+    arrivals: deque[float] = field(default_factory=lambda: deque(maxlen=_RATE_WINDOW))
+
+
+class Watchdog:
+    """Expected periods per payload kind, checked against the arrivals the caller reports."""
+
+    def __init__(
+        self,
+        on_timeout: Callable[[str], object] | None = None,
+        on_recover: Callable[[str], object] | None = None,
+        timeout_periods: float = 3.0,
+    ) -> None:
+        self._on_timeout = on_timeout
+        self._on_recover = on_recover
+        self._timeout_periods = timeout_periods
+        self._watched: dict[str, _Watched] = {}
+
+    def watch(self, kind: str, period: float, timeout: float | None = None) -> None:
+        """Expect ``kind`` every ``period`` seconds; time out after ``timeout`` (default: a
+        multiple of the period, ``timeout_periods``) without one."""
+        if period <= 0 or (timeout is not None and timeout <= 0):
+            raise ValueError(f"{kind}: period and timeout must be positive seconds")
+        self._watched[kind] = _Watched(period, timeout or period * self._timeout_periods)
+
+    def seen(self, kind: str, now: float) -> None:
+        """``kind`` arrived at ``now``. Unwatched kinds are ignored."""
+        watched = self._watched.get(kind)
+        if watched is None:
+            return
+        watched.last = now
+        watched.arrivals.append(now)
+        if watched.state is Liveness.INACTIVE:
+            watched.state = Liveness.ACTIVE
+            if watched.timed_out:
+                watched.timed_out = False
+                if self._on_recover is not None:
+                    self._on_recover(kind)
+
+    def poll(self, now: float) -> list[str]:
+        """Kinds whose timeout passed since the last poll (``on_timeout`` is called for each)."""
+        expired = []
+        for kind, watched in self._watched.items():
+            if watched.state is not Liveness.ACTIVE or watched.last is None:
+                continue
+            if now < watched.last:  # the clock stepped back: measure from here
+                watched.last = now
+            elif now - watched.last > watched.timeout:
+                watched.state = Liveness.INACTIVE
+                watched.timed_out = True
+                expired.append(kind)
+                if self._on_timeout is not None:
+                    self._on_timeout(kind)
+        return expired
+
+    def state(self, kind: str) -> Liveness:
+        """The kind's liveness."""
+        watched = self._watched.get(kind)
+        return Liveness.UNCONFIGURED if watched is None else watched.state
+
+    def rate(self, kind: str) -> float | None:
+        """The measured arrival rate in Hz over the last arrivals, ``None`` before two."""
+        watched = self._watched.get(kind)
+        if watched is None or len(watched.arrivals) < 2:
+            return None
+        span = watched.arrivals[-1] - watched.arrivals[0]
+        return (len(watched.arrivals) - 1) / span if span > 0 else None
+
+    def expected(self, kind: str) -> float | None:
+        """The expected rate in Hz (1 / period), ``None`` for an unwatched kind."""
+        watched = self._watched.get(kind)
+        return None if watched is None else 1 / watched.period
