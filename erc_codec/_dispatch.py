@@ -61,7 +61,9 @@ class Dispatcher:
         # kind → [handler, datagrams handled]: one lookup finds both on the hot path.
         self._handlers: dict[str, list[Any]] = {}
         self._on_drop = on_drop
-        self._stats = DispatchStats()
+        self._unhandled: dict[str, int] = {}
+        self._undecodable: dict[str, int] = {}
+        self._handler_errors: dict[str, int] = {}
 
     def register(self, kind: str, handler: Handler) -> None:
         """Call ``handler(payload)`` for every datagram of ``kind`` (an envelope member name)."""
@@ -84,18 +86,16 @@ class Dispatcher:
             kind, message = self._decode(data)
         except DecodeError as error:
             return self._drop(
-                self._stats.undecodable, error.reason, Drop(error.reason, None, data, error)
+                self._undecodable, error.reason, Drop(error.reason, None, data, error)
             )
         try:
             entry = self._handlers[kind]
         except KeyError:
-            return self._drop(self._stats.unhandled, kind, Drop("unhandled", kind, data, None))
+            return self._drop(self._unhandled, kind, Drop("unhandled", kind, data, None))
         try:
             entry[0](message)
         except Exception as error:  # a handler's failure must not stop dispatching
-            return self._drop(
-                self._stats.handler_errors, kind, Drop("handler_error", kind, data, error)
-            )
+            return self._drop(self._handler_errors, kind, Drop("handler_error", kind, data, error))
         entry[1] += 1
         return True
 
@@ -103,9 +103,9 @@ class Dispatcher:
         """A snapshot of the counters."""
         return DispatchStats(
             {kind: entry[1] for kind, entry in self._handlers.items() if entry[1]},
-            dict(self._stats.unhandled),
-            dict(self._stats.undecodable),
-            dict(self._stats.handler_errors),
+            dict(self._unhandled),
+            dict(self._undecodable),
+            dict(self._handler_errors),
         )
 
     def _drop(self, counter: dict[str, int], key: str, drop: Drop) -> bool:
