@@ -17,6 +17,7 @@ if TYPE_CHECKING:
     from ._dispatch import Dispatcher, DispatchStats, Drop
     from ._envelope import Decoded, Mode
     from ._frames import AssemblerStats, Frame, FrameAssembler, FrameLoss, Rejected
+    from ._framing import Deframer, DeframerStats, frame
     from ._watchdog import Liveness, Watchdog
 
 __all__ = [
@@ -25,6 +26,8 @@ __all__ = [
     "CodecError",
     "DecodeError",
     "Decoded",
+    "Deframer",
+    "DeframerStats",
     "DispatchStats",
     "Dispatcher",
     "Drop",
@@ -39,6 +42,7 @@ __all__ = [
     "Watchdog",
     "decode",
     "encode",
+    "frame",
 ]
 
 _LAZY = {
@@ -55,6 +59,9 @@ _LAZY = {
     "FrameLoss": "._frames",
     "Rejected": "._frames",
     "AssemblerStats": "._frames",
+    "Deframer": "._framing",
+    "DeframerStats": "._framing",
+    "frame": "._framing",
 }
 
 
