@@ -70,37 +70,39 @@ class Deframer:
         """Take the next bytes of the stream; the payloads of the frames they complete."""
         buffer = self._buffer
         buffer += chunk
-        payloads = []
+        payloads: list[bytes] = []
+        append, find, crc, limit = payloads.append, buffer.find, binascii.crc_hqx, self._max
         pos, end = 0, len(buffer)
         while True:
-            start = buffer.find(MAGIC, pos)
+            start = find(MAGIC, pos)
             if start < 0:
                 # Keep a last "P": it may be the first half of the next frame's magic.
                 keep = end - 1 if end > pos and buffer[end - 1] == MAGIC[0] else end
                 self._discard("garbage", keep - pos)
                 pos = keep
                 break
-            self._discard("garbage", start - pos)
-            pos = start
+            if start != pos:
+                self._discard("garbage", start - pos)
+                pos = start
             if end - start < _HEADER:
                 break  # wait for the length
-            length = buffer[start + 2] | buffer[start + 3] << 8
-            if length > self._max:
+            body = start + _HEADER
+            stop = body + (buffer[start + 2] | buffer[start + 3] << 8)
+            if stop - body > limit:
                 self._reject("too_long")
                 pos = start + 1
                 continue
-            stop = start + _HEADER + length + _TRAILER
-            if stop > end:
+            if stop + _TRAILER > end:
                 break  # wait for the rest of the frame
-            payload = bytes(buffer[start + _HEADER : stop - _TRAILER])
-            if crc16(payload) != buffer[stop - 2] | buffer[stop - 1] << 8:
+            payload = bytes(buffer[body:stop])
+            if crc(payload, 0xFFFF) != buffer[stop] | buffer[stop + 1] << 8:
                 self._reject("bad_crc")
                 pos = start + 1
                 continue
-            payloads.append(payload)
-            self._stats.frames += 1
-            pos = stop
+            append(payload)
+            pos = stop + _TRAILER
         del buffer[:pos]
+        self._stats.frames += len(payloads)
         return payloads
 
     def buffered(self) -> int:
