@@ -18,6 +18,7 @@ if TYPE_CHECKING:
     from ._envelope import Decoded, Mode
     from ._frames import AssemblerStats, Frame, FrameAssembler, FrameLoss, Rejected
     from ._framing import Deframer, DeframerStats, frame
+    from ._transport import UdpEndpoint, open_udp, read_serial
     from ._watchdog import Liveness, Watchdog
 
 __all__ = [
@@ -39,10 +40,13 @@ __all__ = [
     "Mode",
     "Rejected",
     "SchemaError",
+    "UdpEndpoint",
     "Watchdog",
     "decode",
     "encode",
     "frame",
+    "open_udp",
+    "read_serial",
 ]
 
 _LAZY = {
@@ -62,6 +66,9 @@ _LAZY = {
     "Deframer": "._framing",
     "DeframerStats": "._framing",
     "frame": "._framing",
+    "UdpEndpoint": "._transport",
+    "open_udp": "._transport",
+    "read_serial": "._transport",
 }
 
 

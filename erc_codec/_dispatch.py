@@ -53,9 +53,15 @@ class Dispatcher:
     """Decodes datagrams with ``codec`` and calls the handler registered for each payload kind."""
 
     def __init__(
-        self, codec: Codec | None = None, on_drop: Callable[[Drop], object] | None = None
+        self,
+        codec: Codec | None = None,
+        on_drop: Callable[[Drop], object] | None = None,
+        on_decoded: Callable[[str], object] | None = None,
     ) -> None:
+        """``on_drop`` hears of every drop; ``on_decoded`` (an attribute, too) of the kind of every
+        datagram that decodes, handled or not, before its handler runs: liveness feeds on it."""
         self._codec = codec or Codec.default()
+        self.on_decoded = on_decoded
         self._decode = self._codec.decode
         self._kinds = set(self._codec.kinds().values())
         # kind → [handler, datagrams handled]: one lookup finds both on the hot path.
@@ -64,6 +70,11 @@ class Dispatcher:
         self._unhandled: dict[str, int] = {}
         self._undecodable: dict[str, int] = {}
         self._handler_errors: dict[str, int] = {}
+
+    @property
+    def codec(self) -> Codec:
+        """The codec this dispatcher decodes with."""
+        return self._codec
 
     def register(self, kind: str, handler: Handler) -> None:
         """Call ``handler(payload)`` for every datagram of ``kind`` (an envelope member name)."""
@@ -88,6 +99,8 @@ class Dispatcher:
             return self._drop(
                 self._undecodable, error.reason, Drop(error.reason, None, data, error)
             )
+        if self.on_decoded is not None:
+            self.on_decoded(kind)
         try:
             entry = self._handlers[kind]
         except KeyError:
