@@ -41,9 +41,9 @@ def test_sizes_json_lists_members_and_messages() -> None:
     assert document["messages"]["DrivingBoardDiagnostics"] == 252
 
 
-def test_a_bad_tree_is_one_line_and_exit_1(tmp_path: Path) -> None:
+def test_a_tree_that_does_not_load_is_one_line_and_exit_2(tmp_path: Path) -> None:
     done = run("sizes", "--proto", str(tmp_path))
-    assert done.returncode == 1
+    assert done.returncode == 2
     assert done.stderr.count("\n") == 1
     assert "no .proto file defines message PBEnvelope" in done.stderr
     assert "Traceback" not in done.stderr

@@ -1,0 +1,403 @@
+"""``erc-codec encode`` and ``erc-codec decode``, run as a user would (a subprocess)."""
+
+import json
+import struct
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import pytest
+from conftest import REPO
+from google.protobuf import json_format
+
+import erc_codec
+
+PRESENCE = REPO / "tests" / "schema_trees" / "presence"
+
+# (kind, payload JSON): plain scalars, enums and int64 (in proto and camelCase spelling), a
+# submessage, and an all-default payload, whose stripped form is its tag alone.
+PAYLOADS: list[tuple[str, dict[str, Any]]] = [
+    (
+        "gps_info",
+        {"latitude": 52.2389, "longitude": 6.8566, "satellites": 9, "fixQuality": "DGPS_FIX"},
+    ),
+    (
+        "arm_diagnostics",
+        {
+            "state": "ARM_BOARD_STATE_OPERATING",
+            "base_motor": {"motorId": 3, "rpm": -12.5, "state": "MOTOR_STATE_OPERATING"},
+        },
+    ),
+    ("arm_movement_feedback", {}),
+]
+
+
+class Done(NamedTuple):
+    code: int
+    out: str
+    err: str
+
+
+def run(*args: str, stdin: bytes = b"") -> Done:
+    done = subprocess.run(
+        [sys.executable, "-m", "erc_codec", *args], input=stdin, capture_output=True, check=False
+    )
+    return Done(done.returncode, done.stdout.decode(), done.stderr.decode())
+
+
+def run_many(*commands: list[str]) -> list[Done]:
+    """``run`` for several commands at once, in parallel (each loads the schema: 0.3 s)."""
+    started = [
+        subprocess.Popen(
+            [sys.executable, "-m", "erc_codec", *args],
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+        )
+        for args in commands
+    ]
+    done = []
+    for process in started:
+        out, err = process.communicate()
+        done.append(Done(process.returncode, out.decode(), err.decode()))
+    return done
+
+
+def records(out: str) -> list[dict[str, Any]]:
+    return [json.loads(line) for line in out.splitlines()]
+
+
+def one_line_error(done: Done, code: int) -> str:
+    assert done.code == code, done
+    assert done.out == ""
+    assert done.err.count("\n") == 1, done.err
+    assert "Traceback" not in done.err
+    return done.err
+
+
+def payload(codec: erc_codec.Codec, kind: str, document: dict[str, Any]) -> Any:
+    """The payload message that ``document`` spells, built in-process for comparison."""
+    envelope = codec.message_class(codec.root)()
+    return json_format.ParseDict(document, getattr(envelope, kind))
+
+
+@pytest.mark.parametrize("mode", ["strip", "exact", "pad"])
+def test_encode_then_decode_round_trips(codec: erc_codec.Codec, mode: str) -> None:
+    lines = []
+    encoded = run_many(*(["encode", k, json.dumps(d), "--mode", mode] for k, d in PAYLOADS))
+    for (kind, document), done in zip(PAYLOADS, encoded, strict=True):
+        assert done.code == 0, done.err
+        expected = codec.encode(payload(codec, kind, document), mode)  # type: ignore[arg-type]
+        assert done.out == expected.hex() + "\n"
+        lines.append(done.out)
+    done = run("decode", stdin="".join(lines).encode())
+    assert done.code == 0, done.err
+    decoded = records(done.out)
+    assert [(r["kind"], r["length"]) for r in decoded] == [
+        (kind, len(bytes.fromhex(line))) for (kind, _), line in zip(PAYLOADS, lines, strict=True)
+    ]
+    for (kind, document), record in zip(PAYLOADS, decoded, strict=True):
+        sent = payload(codec, kind, document)
+        assert json_format.ParseDict(record["message"], type(sent)()) == sent
+
+
+def test_decode_shows_every_field_in_proto_order_with_enum_names() -> None:
+    done = run("encode", "gps_info", '{"satellites": 9, "latitude": 52.5}')
+    record = records(run("decode", done.out.strip()).out)[0]
+    message = record["message"]
+    assert list(message)[:3] == ["latitude", "longitude", "altitude"]
+    assert message["latitude"] == 52.5
+    assert message["satellites"] == 9
+    assert message["speed"] == 0.0
+    assert message["fix_quality"] == "NO_FIX"
+    assert message["utc_timestamp"] == "0"
+
+
+def test_frame_and_framed_round_trip(codec: erc_codec.Codec) -> None:
+    frames = []
+    encoded = run_many(*(["encode", k, json.dumps(d), "--frame"] for k, d in PAYLOADS))
+    for (kind, document), done in zip(PAYLOADS, encoded, strict=True):
+        assert done.code == 0, done.err
+        datagram = codec.encode(payload(codec, kind, document))
+        assert bytes.fromhex(done.out) == erc_codec.frame(datagram)
+        frames.append(bytes.fromhex(done.out))
+    stream = b"noise" + frames[0] + frames[1] + b"\x00\x13" + frames[2] + b"PR\x05"
+    for done in (
+        run("decode", "--framed", stdin=stream),  # raw bytes on stdin
+        run("decode", "--framed", "-", stdin=stream.hex(" ", 4).encode()),  # hex text on stdin
+        *run_many(["decode", "--framed", stream.hex(":")]),  # one hex argument, no stdin
+    ):
+        assert done.code == 0, done.err
+        assert [r["kind"] for r in records(done.out)] == [kind for kind, _ in PAYLOADS]
+        assert done.err == (
+            "3 frames, 0 undecodable, 7 bytes discarded (garbage 7), "
+            "3 bytes left in an unfinished frame\n"
+        )
+
+
+def test_a_framed_payload_that_does_not_decode_is_reported() -> None:
+    stream = erc_codec.frame(bytes.fromhex("b20100")) + erc_codec.frame(b"\x22")
+    done = run("decode", "--framed", stdin=stream)
+    assert done.code == 1
+    first, second = records(done.out)
+    assert first["reason"] == "unknown_member"
+    assert second["kind"] == "arm_movement_feedback"
+    assert done.err == "2 frames, 1 undecodable\n"
+
+
+def test_hex_with_spaces_or_colons_quoted_or_not() -> None:
+    datagram = run("encode", "gps_info", '{"satellites": 9, "hdop": 1.5}').out.strip()
+    spaced = bytes.fromhex(datagram).hex(" ")
+    expected = run("decode", datagram)
+    assert expected.code == 0, expected.err
+    assert records(expected.out)[0]["kind"] == "gps_info"
+    forms = ([spaced], spaced.split(), [bytes.fromhex(datagram).hex(":")])
+    assert run_many(*(["decode", *args] for args in forms)) == [expected] * 3
+
+
+def test_stdin_hex_lines_go_on_after_a_bad_line() -> None:
+    good = run("encode", "gps_info", '{"satellites": 9}').out.strip()
+    text = f"{good}\n\n  b2 01 00\nthis is no hex\n0a 1\n22:00\r\n{good}"
+    done = run("decode", stdin=text.encode())
+    assert done.code == 1
+    assert done.err == ""
+    lines = records(done.out)
+    assert [r.get("kind") or r["reason"] for r in lines] == [
+        "gps_info",
+        "unknown_member",
+        "not_hex",
+        "not_hex",
+        "arm_movement_feedback",
+        "gps_info",
+    ]
+    assert lines[1]["length"] == 3
+    assert (lines[2]["line"], lines[3]["line"]) == (4, 5)
+    assert lines[2]["length"] is None
+    assert "'t' at column 1 is not a hex digit" in lines[2]["error"]
+    assert "odd number of hex digits (3)" in lines[3]["error"]
+
+
+def test_raw_bytes_on_stdin_are_one_datagram(codec: erc_codec.Codec) -> None:
+    gps = codec.message_class("SensorBoardGPSInfo")
+    datagram = codec.encode(gps(latitude=-33.5, satellites=12, hdop=0.75), "pad")
+    done = run("decode", "-", stdin=datagram)
+    assert done.code == 0, done.err
+    (record,) = records(done.out)
+    assert record["kind"] == "gps_info"
+    assert record["length"] == 255
+    assert record["message"]["latitude"] == -33.5
+    assert record["message"]["hdop"] == 0.75
+
+
+@pytest.mark.parametrize(
+    ("data", "reason"),
+    [("b20100", "unknown_member"), ("", "empty"), ("00 00", "no_payload"), ("62 05 08", "corrupt")],
+)
+def test_an_undecodable_datagram_is_one_json_line_and_exit_1(data: str, reason: str) -> None:
+    done = run("decode", data)
+    assert done.code == 1
+    assert done.err == ""
+    (record,) = records(done.out)
+    assert record["reason"] == reason
+    assert record["length"] == len(bytes.fromhex(data))
+    assert set(record) == {"error", "reason", "length"}
+
+
+@pytest.mark.parametrize(
+    ("args", "code", "text"),
+    [
+        (
+            ["gps_info", '{"fix_quality": 9}'],
+            1,
+            "SensorBoardGPSInfo.fix_quality = 9 is not a declared value of GPSFixQuality",
+        ),
+        (["gps_info", '{"fix_quality": "FIX_OF_THE_DAY"}'], 1, "Invalid enum value"),
+        (["gps_info", '{"altitude_m": 3}'], 1, 'has no field named "altitude_m"'),
+        (["gps_info", '{"satellites": 4294967296}'], 1, "satellites"),
+        (["gps_info", "{satellites: 9}"], 1, "JSON is not valid"),
+        (["gps_info", "[9]"], 1, "JSON must be an object"),
+        (["gps_fix", "{}"], 2, "unknown kind 'gps_fix': PBEnvelope has ph_info, "),
+    ],
+)
+def test_encode_errors_are_one_line(args: list[str], code: int, text: str) -> None:
+    assert text in one_line_error(run("encode", *args), code)
+
+
+def test_encode_reads_json_from_stdin() -> None:
+    done = run("encode", "arm_movement_feedback", "-", "--mode", "exact", stdin=b"{}")
+    assert (done.code, done.out) == (0, "2200\n")
+
+
+def test_another_schema_with_proto_and_root(codec: erc_codec.Codec) -> None:
+    tree = ["--proto", str(PRESENCE), "--root", "Env"]
+    done = run("encode", "counter", '{"id": 7, "count": 0}', *tree)
+    assert (done.code, done.out) == (0, "0a04080710\n")  # the explicit zero count, stripped
+    decoded = run("decode", done.out.strip(), *tree)
+    assert decoded.code == 0, decoded.err
+    (record,) = records(decoded.out)
+    assert record["kind"] == "counter"
+    assert record["message"] == {"id": 7, "count": 0, "stamp": 0, "offset": "0"}
+    gps = codec.message_class("SensorBoardGPSInfo")
+    rover = codec.encode(gps(satellites=1)).hex()
+    assert records(run("decode", rover, *tree).out)[0]["reason"] == "unknown_member"
+    assert "unknown kind 'gps_info': Env has counter, choice" in one_line_error(
+        run("encode", "gps_info", "{}", *tree), 2
+    )
+
+
+def test_a_tree_that_does_not_load_is_one_line_and_exit_2(tmp_path: Path) -> None:
+    for args in (["decode", "22"], ["encode", "gps_info", "{}"]):
+        error = one_line_error(run(*args, "--proto", str(tmp_path)), 2)
+        assert "no .proto file defines message PBEnvelope" in error
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["decode", "0x22"],
+        ["decode", "-", "22"],
+        ["decode", "--pcap", "capture.pcap", "22"],
+        ["decode", "--pcap", "capture.pcap", "--framed"],
+        ["encode", "gps_info", "{}", "--mode", "zip"],
+        ["encode", "gps_info"],
+    ],
+)
+def test_usage_errors_exit_2(args: list[str]) -> None:
+    done = run(*args)
+    assert done.code == 2
+    assert done.out == ""
+    assert "Usage:" in done.err
+    assert "Traceback" not in done.err
+
+
+# -- captures -------------------------------------------------------------------------------
+
+ETHERNET, LINUX_SLL = 1, 113
+
+
+def udp4(payload: bytes, sport: int = 5005, dport: int = 6006) -> bytes:
+    udp = struct.pack("!HHHH", sport, dport, 8 + len(payload), 0) + payload
+    return ipv4(17, udp)
+
+
+def ipv4(protocol: int, body: bytes) -> bytes:
+    header = struct.pack(
+        "!BBHHHBBH4s4s",
+        0x45,
+        0,
+        20 + len(body),
+        1,
+        0x4000,
+        64,
+        protocol,
+        0,
+        bytes([192, 168, 1, 20]),
+        bytes([192, 168, 1, 2]),
+    )
+    words = struct.unpack("!10H", header)
+    total = sum(words)
+    total = (total & 0xFFFF) + (total >> 16)
+    total = (total & 0xFFFF) + (total >> 16)
+    return header[:10] + struct.pack("!H", ~total & 0xFFFF) + header[12:] + body
+
+
+def udp6(payload: bytes) -> bytes:
+    udp = struct.pack("!HHHH", 7007, 8008, 8 + len(payload), 0) + payload
+    source = bytes.fromhex("fd000000000000000000000000000001")
+    target = bytes.fromhex("fd000000000000000000000000000002")
+    return struct.pack("!IHBB16s16s", 6 << 28, len(udp), 17, 64, source, target) + udp
+
+
+def tcp4(payload: bytes) -> bytes:
+    tcp = struct.pack("!HHIIBBHHH", 40000, 6006, 1, 0, 5 << 4, 0x18, 1024, 0, 0) + payload
+    return ipv4(6, tcp)
+
+
+def link(linktype: int, packet: bytes) -> bytes:
+    kind = b"\x86\xdd" if packet[0] >> 4 == 6 else b"\x08\x00"
+    if linktype == ETHERNET:
+        return bytes.fromhex("020000000002") + bytes.fromhex("020000000001") + kind + packet
+    # Linux cooked: packet type, ARPHRD_ETHER, address length, address (8 bytes), protocol
+    return struct.pack("!HHH8s", 0, 1, 6, bytes.fromhex("0200000000010000")) + kind + packet
+
+
+def write_capture(path: Path, form: str, linktype: int, packets: list[bytes]) -> None:
+    dpkt = pytest.importorskip("dpkt")
+    with path.open("wb") as file:
+        module = dpkt.pcap if form == "pcap" else dpkt.pcapng
+        writer = module.Writer(file, linktype=linktype)
+        for number, packet in enumerate(packets):
+            writer.writepkt(link(linktype, packet), ts=1_700_000_000 + number / 4)
+
+
+@pytest.mark.parametrize(
+    ("form", "linktype"), [("pcap", ETHERNET), ("pcapng", ETHERNET), ("pcap", LINUX_SLL)]
+)
+def test_pcap_decodes_every_udp_payload(
+    codec: erc_codec.Codec, tmp_path: Path, form: str, linktype: int
+) -> None:
+    gps = codec.message_class("SensorBoardGPSInfo")
+    feedback = codec.message_class("ArmBoardMovementFeedback")
+    fix, stop = codec.encode(gps(satellites=5)), codec.encode(feedback())
+    capture = tmp_path / f"rover.{form}"
+    packets = [udp4(fix), tcp4(fix), udp6(stop), udp4(bytes.fromhex("b20100"))]
+    write_capture(capture, form, linktype, packets)
+    done = run("decode", "--pcap", str(capture))
+    assert done.code == 1
+    assert done.err == "3 datagrams, 1 undecodable, 1 packet skipped (1 not UDP)\n"
+    first, second, third = records(done.out)
+    assert first["kind"] == "gps_info"
+    assert first["message"]["satellites"] == 5
+    assert (first["time"], first["src"], first["dst"]) == (
+        1_700_000_000.0,
+        "192.168.1.20:5005",
+        "192.168.1.2:6006",
+    )
+    assert (second["kind"], second["length"]) == ("arm_movement_feedback", len(stop))
+    assert (second["time"], second["src"], second["dst"]) == (
+        1_700_000_000.5,
+        "[fd00::1]:7007",
+        "[fd00::2]:8008",
+    )
+    assert (third["reason"], third["length"], third["time"]) == (
+        "unknown_member",
+        3,
+        1_700_000_000.75,
+    )
+
+
+def test_pcap_problems_exit_2_in_one_line(codec: erc_codec.Codec, tmp_path: Path) -> None:
+    pytest.importorskip("dpkt")
+    missing = tmp_path / "missing.pcap"
+    assert "cannot read" in one_line_error(run("decode", "--pcap", str(missing)), 2)
+    text = tmp_path / "notes.pcap"
+    text.write_text("not a capture\n")
+    error = one_line_error(run("decode", "--pcap", str(text)), 2)
+    assert "is not a pcap or pcapng capture" in error
+    assert "cannot read" in one_line_error(run("decode", "--pcap", str(tmp_path)), 2)
+    cut = tmp_path / "cut.pcap"
+    fix = codec.encode(codec.message_class("SensorBoardGPSInfo")())
+    write_capture(cut, "pcap", ETHERNET, [udp4(fix), udp4(fix)])
+    whole = cut.read_bytes()
+    record = (len(whole) - 24) // 2  # after the 24-byte file header, two records of one size
+    cut.write_bytes(whole[: len(whole) - record + 8])  # the second record's header cut off
+    done = run("decode", "--pcap", str(cut))
+    assert done.code == 2
+    assert [r["kind"] for r in records(done.out)] == ["gps_info"]
+    summary, damage = done.err.splitlines()
+    assert summary == "1 datagram, 0 undecodable, 0 packets skipped"
+    assert "is damaged after packet 1" in damage
+
+
+def test_pcap_without_dpkt_says_what_to_install(tmp_path: Path) -> None:
+    # The same entry point, with dpkt made unimportable (whether or not it is installed).
+    code = "import sys; sys.modules['dpkt'] = None; from erc_codec._cli import main; main()"
+    done = subprocess.run(
+        [sys.executable, "-c", code, "decode", "--pcap", str(tmp_path / "x.pcap")],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 2
+    assert done.stderr == "Error: --pcap needs the dpkt package: pip install 'erc-codec[pcap]'\n"
