@@ -67,7 +67,8 @@ def test_the_watchdog_engages_when_a_stream_stops() -> None:
         sender.close()
         return events
 
-    assert asyncio.run(scenario()) == [
+    # After the one recovering message the stream stops again, so a later timeout may follow.
+    assert asyncio.run(scenario())[:2] == [
         "timeout driving_motor_message",
         "recover driving_motor_message",
     ]
