@@ -1,10 +1,18 @@
 """Fixtures shared by the test modules: the packaged codec and the repository's folders."""
 
+import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 import erc_codec
+
+# CI shares two cores with everything else: no per-example deadline there, and print the blob
+# that reproduces a failure.
+settings.register_profile("ci", deadline=None, print_blob=True)
+if os.environ.get("CI"):
+    settings.load_profile("ci")
 
 REPO = Path(__file__).resolve().parent.parent
 PROTO = REPO / "proto"

@@ -12,7 +12,7 @@ GPS = CODEC.message_class("SensorBoardGPSInfo")
 MOTOR = CODEC.message_class("DrivingBoardMotorMessage")
 
 
-async def until(condition: "asyncio.Future[object] | object", seconds: float = 2.0) -> None:
+async def until(condition: "asyncio.Future[object] | object", seconds: float = 10.0) -> None:
     deadline = asyncio.get_running_loop().time() + seconds
     while not condition() and asyncio.get_running_loop().time() < deadline:  # type: ignore[operator]
         await asyncio.sleep(0.005)
