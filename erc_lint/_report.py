@@ -30,11 +30,17 @@ def _line(finding: Finding, output: str) -> str:
             }
         )
     if output == "github":
-        text = f"{finding.rule} {finding.message}{note}".replace("%", "%25").replace("\n", "%0A")
-        where = f"file={finding.path},line={finding.line},col={finding.column}"
+        text = _escape(f"{finding.rule} {finding.message}{note}")
+        path = _escape(finding.path).replace(",", "%2C").replace(":", "%3A")
+        where = f"file={path},line={finding.line},col={finding.column}"
         return f"::{finding.severity} {where}::{text}"
     label = "" if finding.severity == "error" else " (warning)"
     return (
         f"{finding.path}:{finding.line}:{finding.column}: {finding.rule}{label} "
         f"{finding.message}{note}"
     )
+
+
+def _escape(text: str) -> str:
+    """GitHub's workflow-command escaping of a message (properties also escape , and :)."""
+    return text.replace("%", "%25").replace("\r", "%0D").replace("\n", "%0A")

@@ -231,3 +231,13 @@ def test_old_damage_in_an_imported_file_stays_old_when_its_importer_is_renamed(
     (in_b,) = [f for f in erc_lint.lint(old, new) if f.path == str(new / "b.proto")]
     assert (in_b.rule, in_b.severity) == ("COMPILE", "warning")
     assert in_b.message == 'Expected ";". (imported by aa.proto)'
+
+
+def test_github_annotations_escape_what_their_syntax_uses() -> None:
+    from erc_lint._report import render
+
+    finding = Finding("odd, name: 100%.proto", 3, 4, "COMPILE", 'Expected ";".\nthen 50%')
+    assert render([finding], "github") == (
+        "::error file=odd%2C name%3A 100%25.proto,line=3,col=4::"
+        'COMPILE Expected ";".%0Athen 50%25\n'
+    )
