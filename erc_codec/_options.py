@@ -126,7 +126,11 @@ def _read_rules(path: Path) -> Rules:
 
     rules: Rules = []
     cls = options_class()
-    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as error:
+        raise SchemaError(f"{path}: cannot read: {error}") from None
+    for number, line in enumerate(text.splitlines(), 1):
         parts = _COMMENTS.sub("", line).split(None, 1)
         if not parts:
             continue

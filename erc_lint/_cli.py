@@ -5,6 +5,8 @@ from pathlib import Path
 
 import click
 
+from erc_codec import CodecError
+
 from . import lint
 from ._config import ConfigError, find_config, read_config
 from ._report import FORMATS, render
@@ -33,6 +35,7 @@ def main() -> None:
 
 
 _TREE = click.Path(file_okay=False, path_type=Path)
+_FOLDER = click.Path(exists=True, file_okay=False, path_type=Path)
 
 
 @main.command()
@@ -44,7 +47,7 @@ _TREE = click.Path(file_okay=False, path_type=Path)
     "--include",
     "includes",
     multiple=True,
-    type=_TREE,
+    type=_FOLDER,
     help="Another folder imports are resolved against (repeatable).",
 )
 @click.option(
@@ -57,11 +60,17 @@ def diff(old: Path, new: Path, output: str, includes: Sequence[Path], config: Pa
     for tree in (old, new):
         if not tree.is_dir():
             raise _Failure(f"{tree}: not a folder holding a proto tree")
+    if not any(new.rglob("*.proto")):
+        raise _Failure(f"{new}: no .proto file in NEW (a wrong path would pass every check)")
     try:
-        settings = read_config(config or find_config(new, Path.cwd()), set(RULES))
+        settings = read_config(
+            config or find_config(new, Path.cwd()), set(RULES), config is not None
+        )
         findings = lint(old, new, settings, includes)
-    except (ConfigError, OSError) as error:
-        raise _Failure(str(error)) from None
+    except (ConfigError, OSError, CodecError) as error:
+        raise _Failure(" ".join(str(error).split())) from None
+    except Exception as error:  # a bug of ours must not read as "errors found" (exit 1)
+        raise _Failure(f"internal error ({type(error).__name__}): {error}") from None
     click.echo(render(findings, output), nl=False)
     if any(finding.severity == "error" for finding in findings):
         raise SystemExit(1)

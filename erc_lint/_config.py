@@ -22,16 +22,20 @@ def find_config(*folders: Path) -> Path | None:
     """The first pyproject.toml in ``folders`` with a ``[tool.erc-lint]`` table."""
     for folder in folders:
         candidate = folder / "pyproject.toml"
-        if candidate.is_file() and "erc-lint" in _load(candidate).get("tool", {}):
+        if candidate.is_file() and _table(candidate) is not None:
             return candidate
     return None
 
 
-def read_config(path: Path | None, known_rules: set[str]) -> Config:
-    """The configuration in ``path`` (defaults when None)."""
+def read_config(path: Path | None, known_rules: set[str], explicit: bool = False) -> Config:
+    """The configuration in ``path`` (defaults when None); an ``explicit`` file must have one."""
     if path is None:
         return Config()
-    table = _load(path).get("tool", {}).get("erc-lint", {})
+    table = _table(path)
+    if table is None:
+        if explicit:
+            raise ConfigError(f"{path}: no [tool.erc-lint] table")
+        return Config()
     unknown = set(table) - {"roots", "ignore", "exclude"}
     if unknown:
         raise ConfigError(f"{path}: unknown [tool.erc-lint] key {sorted(unknown)[0]!r}")
@@ -51,10 +55,16 @@ def read_config(path: Path | None, known_rules: set[str]) -> Config:
     )
 
 
-def _load(path: Path) -> dict[str, Any]:
+def _table(path: Path) -> dict[str, Any] | None:
+    """The ``[tool.erc-lint]`` table of a pyproject.toml, ``None`` if it has none."""
     import tomllib  # only when there is a file to read
 
     try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, tomllib.TOMLDecodeError) as error:
+        document = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
         raise ConfigError(f"{path}: {error}") from None
+    tool = document.get("tool", {})
+    table = tool.get("erc-lint") if isinstance(tool, dict) else None
+    if table is not None and not isinstance(table, dict):
+        raise ConfigError(f"{path}: tool.erc-lint must be a table")
+    return table

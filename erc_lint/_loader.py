@@ -50,17 +50,18 @@ class LoadedTree:
 
 
 def load_tree(root: Path, includes: Sequence[Path] = (), exclude: Sequence[str] = ()) -> LoadedTree:
-    """Compile every ``.proto`` under ``root`` (but those matching an ``exclude`` pattern)."""
-    names = [
+    """Compile every ``.proto`` under ``root`` but those matching an ``exclude`` pattern (which
+    stay importable: excluding a file spares it the checks, not its importers)."""
+    every = [
         path.relative_to(root).as_posix()
         for path in sorted(root.rglob("*.proto"))
         if path.is_file()
     ]
-    names = [name for name in names if not any(fnmatchcase(name, p) for p in exclude)]
+    names = [name for name in every if not any(fnmatchcase(name, p) for p in exclude)]
     tree = LoadedTree(root, {}, {})
-    texts = {name: (root / name).read_text(encoding="utf-8", errors="replace") for name in names}
+    texts = {name: (root / name).read_text(encoding="utf-8", errors="replace") for name in every}
     tree.texts = texts
-    rewritten = _resolve_imports(tree, texts, includes)
+    rewritten = _resolve_imports(tree, {name: texts[name] for name in names}, set(every), includes)
     if not rewritten:
         _compile(tree, root, names, includes)
         return tree
@@ -75,12 +76,12 @@ def load_tree(root: Path, includes: Sequence[Path] = (), exclude: Sequence[str] 
 
 
 def _resolve_imports(
-    tree: LoadedTree, texts: dict[str, str], includes: Sequence[Path]
+    tree: LoadedTree, texts: dict[str, str], known: set[str], includes: Sequence[Path]
 ) -> dict[str, str]:
-    """The texts whose imports needed respelling (relative to the root), respelled."""
-    known = set(texts)
+    """The texts whose imports needed respelling (relative to the root), respelled; ``known``
+    are all the tree's files an import may name."""
     by_basename: dict[str, list[str]] = {}
-    for name in texts:
+    for name in sorted(known):
         by_basename.setdefault(name.rsplit("/", 1)[-1], []).append(name)
     rewritten = {}
     for name, text in texts.items():
@@ -119,7 +120,7 @@ def _compile(tree: LoadedTree, base: Path, names: list[str], includes: Sequence[
     except ProtocError as error:
         if len(names) == 1:
             tree.failed.add(names[0])
-            _report(tree, base, names[0], error.lines)
+            _report(tree, base, names[0], error.lines, includes)
             return
         half = len(names) // 2
         _compile(tree, base, names[:half], includes)
@@ -132,7 +133,9 @@ def _compile(tree: LoadedTree, base: Path, names: list[str], includes: Sequence[
             tree.files[proto.name] = proto
 
 
-def _report(tree: LoadedTree, base: Path, name: str, lines: list[str]) -> None:
+def _report(
+    tree: LoadedTree, base: Path, name: str, lines: list[str], includes: Sequence[Path]
+) -> None:
     """COMPILE findings from protoc's diagnostics for ``name``, located in the original files.
 
     An error inside an imported file is reported once, however many files import it.
@@ -144,7 +147,11 @@ def _report(tree: LoadedTree, base: Path, name: str, lines: list[str]) -> None:
             where, text = Location(str(tree.root / name), 1, 1), line
         else:
             path = match[1].removeprefix(prefix)
-            path = path if os.path.isabs(path) else str(tree.root / path)
+            if not os.path.isabs(path) and not (tree.root / path).is_file():
+                outside = [folder / path for folder in includes if (folder / path).is_file()]
+                path = str(outside[0]) if outside else path  # a file of an -I folder
+            elif not os.path.isabs(path):
+                path = str(tree.root / path)
             where, text = Location(path, int(match[2]), int(match[3])), match[4]
         if any(
             f.path == where.path and f.line == where.line and f.message.startswith(text)

@@ -24,6 +24,8 @@ _SCALARS = {
     for name, number in _FD.Type.items()
     if name not in ("TYPE_MESSAGE", "TYPE_ENUM", "TYPE_GROUP")
 }
+# A proto2 group is a message type as far as the wire and the rules go.
+_KINDS = {_FD.TYPE_MESSAGE: "message", _FD.TYPE_GROUP: "message", _FD.TYPE_ENUM: "enum"}
 # SourceCodeInfo path components.
 _FILE_MESSAGE, _FILE_ENUM = 4, 5
 _MESSAGE_FIELD, _MESSAGE_NESTED, _MESSAGE_ENUM, _MESSAGE_ONEOF = 2, 3, 4, 8
@@ -155,7 +157,7 @@ class _File:
         oneofs = [oneof.name for oneof in proto.oneof_decl]
         for j, f in enumerate(proto.field):
             real_oneof = f.HasField("oneof_index") and not f.proto3_optional
-            kind = {_FD.TYPE_MESSAGE: "message", _FD.TYPE_ENUM: "enum"}.get(f.type, "scalar")
+            kind = _KINDS.get(f.type, "scalar")
             entry = Field(
                 owner=name,
                 name=f.name,

@@ -105,6 +105,7 @@ def _pair(
         if len(twins) == 1 and element.body():
             renamed[name] = twins[0].name
             pairs.append((element, twins[0]))
+            twins.clear()  # a new element is the rename of one old element at most
         else:
             gone.append(element)
     return pairs, gone

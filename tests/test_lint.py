@@ -241,3 +241,66 @@ def test_github_annotations_escape_what_their_syntax_uses() -> None:
         "::error file=odd%2C name%3A 100%25.proto,line=3,col=4::"
         'COMPILE Expected ";".%0Athen 50%25\n'
     )
+
+
+def test_a_file_old_could_not_compile_is_not_passed_over_in_silence(tmp_path: Path) -> None:
+    old = tree(tmp_path / "old", {"a.proto": "message A { int32 x = 1; Missing m = 2; }\n"})
+    new = tree(tmp_path / "new", {"a.proto": "message A { int32 x = 2; }\n"})
+    findings = erc_lint.lint(old, new)
+    assert [(f.rule, f.severity, f.in_old) for f in findings] == [("COMPILE", "warning", True)]
+    assert "a.proto does not compile, so its messages were not compared" in findings[0].message
+
+
+def test_proto2_groups_load(tmp_path: Path) -> None:
+    group = tmp_path / "t" / "g.proto"
+    group.parent.mkdir()
+    group.write_text(
+        'syntax = "proto2";\nmessage G { optional group Item = 1 { optional int32 x = 2; } }\n'
+    )
+    assert erc_lint.lint(group.parent, group.parent) == []
+
+
+def test_excluded_files_stay_importable(tmp_path: Path) -> None:
+    root = tree(
+        tmp_path / "t",
+        {
+            "legacy/l.proto": "message L { int32 x = 1; }\n",
+            "sub/l2.proto": "message L2 { int32 x = 1; }\n",
+            "a.proto": 'import "legacy/l.proto";\nimport "l2.proto";\n'
+            "message A { L l = 1; L2 l2 = 2; }\n",
+        },
+    )
+    assert erc_lint.lint(root, root, Config(exclude=("legacy/*",))) == []
+
+
+def test_reordered_enum_aliases_reuse_nothing(tmp_path: Path) -> None:
+    enum = "enum E {{ option allow_alias = true; {} = 0; {} = 0; C = 1; }}\n"
+    old = tree(tmp_path / "old", {"e.proto": enum.format("A", "B")})
+    new = tree(tmp_path / "new", {"e.proto": enum.format("B", "A")})
+    assert erc_lint.lint(old, new) == []
+
+
+@pytest.mark.parametrize(
+    ("setup", "complaint"),
+    [
+        ("empty", "no .proto file in NEW"),
+        ("tool = 1\n", ""),
+        ("[tool]\nerc-lint = 5\n", "tool.erc-lint must be a table"),
+        ("[tool.other]\nx = 1\n", "no [tool.erc-lint] table"),
+    ],
+)
+def test_what_cannot_run_exits_2_in_one_line(tmp_path: Path, setup: str, complaint: str) -> None:
+    old = tree(tmp_path / "old", {"a.proto": "message A { float x = 1; }\n"})
+    new = tmp_path / "new"
+    if setup == "empty":
+        new.mkdir()
+        done = run(str(old), str(new))
+    else:
+        tree(new, {"a.proto": "message A { float x = 1; }\n"})
+        config = tmp_path / "config.toml"
+        config.write_text(setup)
+        done = run(str(old), str(new), "--config", str(config))
+    assert done.returncode == 2
+    assert done.stderr.count("\n") == 1
+    assert complaint in done.stderr
+    assert "Traceback" not in done.stderr

@@ -22,4 +22,23 @@ def run(change: Change) -> list[Finding]:
             for key, where, message in rule.tree(change.new, change):
                 severity: Severity = "warning" if key in existing else "error"
                 found.append(Finding.at(where, rule.id, message, severity))
+    if "COMPILE" not in change.config.ignore:
+        found += _uncompared(change)
     return sorted(set(found))
+
+
+def _uncompared(change: Change) -> list[Finding]:
+    """A file OLD could not compile hides every change to it: say so, once per file."""
+    return [
+        Finding(
+            str(change.old.root / name),
+            1,
+            1,
+            "COMPILE",
+            f"OLD's {name} does not compile, so its messages were not compared with NEW's.",
+            "warning",
+            in_old=True,
+        )
+        for name in sorted(change.old.tree.failed)
+        if name not in change.new.tree.failed
+    ]

@@ -26,12 +26,13 @@ def renumbered(change: Change) -> Report:
 def reused(change: Change) -> Report:
     for p in change.values():
         taken = p.by_number
-        if taken is not None and taken.name != p.old.name and p.by_name is not None:
+        moved = p.by_name is not None and p.by_name.number != p.old.number
+        if taken is not None and taken.name != p.old.name and moved:
             yield (
                 taken.location,
                 f'Enum value "{p.old.number}" on enum "{p.new_owner.name}" changed from '
                 f'"{p.old.name}" to "{taken.name}", and "{p.old.name}" is now '
-                f'"{p.by_name.number}".',
+                f'"{p.by_name.number if p.by_name else "gone"}".',
                 False,
             )
 

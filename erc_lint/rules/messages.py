@@ -102,7 +102,8 @@ def _closure(revision: Revision, root: str) -> dict[str, tuple[str, str | None]]
         if name in found or name not in files:
             continue
         options = revision.root / Path(name).with_suffix(".options")
-        found[name] = (texts.get(name, ""), options.read_text() if options.is_file() else None)
+        extra = options.read_bytes().decode("utf-8", "replace") if options.is_file() else None
+        found[name] = (texts.get(name, ""), extra)
         pending.extend(files[name].dependency)
     return found
 
