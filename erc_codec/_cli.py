@@ -225,18 +225,27 @@ def _in_field_order(document: dict[str, Any], descriptor: Descriptor) -> dict[st
 def _stdin() -> tuple[bool, Iterator[bytes]]:
     """Whether standard input is hex text, and its chunks (whatever has arrived: ``read1``).
 
-    Hex text is text (printable ASCII and whitespace) whose first non-empty line holds only hex
-    digits, spaces and colons, judged on the first chunk: a raw datagram is almost never all
-    text, and a stray line of text later on is one ``not_hex`` error instead of turning the whole
-    input into one bogus datagram. Reading chunk by chunk decodes a pipe from a serial port or a
+    Hex text is text (printable ASCII and whitespace) whose first non-empty line spells at least
+    one whole byte in hex digits, spaces and colons, judged on the first chunk: a raw datagram is
+    almost never all that (a one-byte stripped datagram such as ``2`` or a newline is raw), and a
+    stray line of text later on is one ``not_hex`` error instead of turning the whole input into
+    one bogus datagram. Reading chunk by chunk decodes a pipe from a serial port or a
     log that is still being written as it comes.
     """
+    if sys.stdin is None:
+        raise _Fatal("standard input is closed: give the datagrams as arguments or a file")
     stream = cast(io.BufferedReader, sys.stdin.buffer)
     first = stream.read1(_CHUNK)
     rest = iter(lambda: stream.read1(_CHUNK), b"")
     lines = first.split(b"\n")
     line = next((line for line in lines if line.strip()), b"")
-    hex_text = not first.translate(None, _TEXT) and not line.translate(None, _HEX_TEXT)
+    digits = len(line.translate(None, _HEX_TEXT.removeprefix(b"0123456789abcdefABCDEF")))
+    hex_text = (
+        not first.translate(None, _TEXT)
+        and not line.translate(None, _HEX_TEXT)
+        and digits >= 2
+        and digits % 2 == 0
+    )
     return hex_text, itertools.chain([first], rest)
 
 
@@ -532,12 +541,24 @@ def encode(kind: str, payload: str, mode: str, framed: bool, tree: Path | None, 
     about KIND, the JSON or the message is one line on stderr.
     """
     codec = _load(tree, root)
+    if payload == "-" and sys.stdin is None:
+        raise _Fatal("standard input is closed: give the JSON as an argument")
     envelope = envelope_from_json(codec, kind, sys.stdin.read() if payload == "-" else payload)
     try:
         datagram = codec.encode(envelope, cast(Mode, mode))
     except EncodeError as error:
         raise click.ClickException(_one_line(str(error))) from None
     click.echo((frame(datagram) if framed else datagram).hex())
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object, refusing a key given twice (json.loads would keep the last silently)."""
+    document: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in document:
+            raise ValueError(f"key {key!r} appears twice")
+        document[key] = value
+    return document
 
 
 def envelope_from_json(codec: Codec, kind: str, text: str) -> Message:
@@ -551,16 +572,16 @@ def envelope_from_json(codec: Codec, kind: str, text: str) -> Message:
     envelope = codec.message_class(codec.root)()
     message = getattr(envelope, kind)
     try:
-        document = json.loads(text)
-    except ValueError as error:
-        raise click.ClickException(f"JSON is not valid: {error}") from None
+        document = json.loads(text, object_pairs_hook=_unique_keys)
+    except (ValueError, RecursionError) as error:
+        raise click.ClickException(f"JSON is not valid: {_one_line(str(error))}") from None
     if not isinstance(document, dict):
         raise click.ClickException(
             f"JSON must be an object: the fields of {message.DESCRIPTOR.full_name}"
         )
     try:
         json_format.ParseDict(document, message)
-    except json_format.ParseError as error:
+    except (json_format.ParseError, RecursionError) as error:
         raise click.ClickException(_one_line(str(error))) from None
     message.SetInParent()  # an all-default payload is still the one sent
     return envelope

@@ -16,7 +16,16 @@ from typing import cast
 import click
 from google.protobuf.message import Message
 
-from ._cli import _emit, _load, _one_line, _schema_options, _to_dict, envelope_from_json, main
+from ._cli import (
+    _emit,
+    _Fatal,
+    _load,
+    _one_line,
+    _schema_options,
+    _to_dict,
+    envelope_from_json,
+    main,
+)
 from ._dispatch import Dispatcher, Drop
 from ._envelope import Mode
 from ._errors import EncodeError
@@ -81,7 +90,7 @@ def send(
             try:
                 sock.sendto(data, (host, port))
             except OSError as error:
-                raise click.ClickException(f"cannot send to {host}:{port}: {error}") from None
+                raise _Fatal(f"cannot send to {host}:{port}: {error}") from None
     click.echo(f"sent {count} datagram(s) of {len(data)} bytes to {host}:{port}", err=True)
 
 
@@ -145,7 +154,7 @@ def listen(
         try:
             sock.bind((host, port))
         except OSError as error:
-            raise click.ClickException(f"cannot listen on {host}:{port}: {error}") from None
+            raise _Fatal(f"cannot listen on {host}:{port}: {error}") from None
         bound = sock.getsockname()
         click.echo(f"listening on {bound[0]}:{bound[1]}", err=True)
         deadline = None if seconds is None else time.monotonic() + seconds

@@ -401,3 +401,30 @@ def test_pcap_without_dpkt_says_what_to_install(tmp_path: Path) -> None:
     )
     assert done.returncode == 2
     assert done.stderr == "Error: --pcap needs the dpkt package: pip install 'erc-codec[pcap]'\n"
+
+
+@pytest.mark.parametrize("byte", [b"\n", b"2", b"B", b"b", b":"])
+def test_a_one_byte_raw_datagram_on_stdin_is_raw(byte: bytes) -> None:
+    done = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "decode"], input=byte, capture_output=True
+    )
+    assert done.returncode == 0, done.stdout
+    (line,) = done.stdout.decode().splitlines()
+    assert json.loads(line)["length"] == 1
+
+
+def test_a_key_given_twice_is_refused() -> None:
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "erc_codec",
+            "encode",
+            "gps_info",
+            '{"satellites":1,"satellites":2}',
+        ],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 1
+    assert "key 'satellites' appears twice" in done.stderr
