@@ -52,10 +52,10 @@ _SCREEN_ABOVE = 6
 def contract(sizes: Sizes, descriptor: Descriptor) -> Contract | None:
     """The contract check of a payload type; ``None`` when no value of it can break the contract."""
     source = _Source(sizes)
-    if not source.message(descriptor, "m", ""):
+    body = source.message(descriptor, "m", "")
+    if not body:
         return None
-    check = checker(sizes, descriptor)
-    assert check is not None
+    check = _compile(descriptor, source, body)
     tags: dict[bytes, set[bytes]] = {}
     if source.reads <= _SCREEN_ABOVE or not _enum_tags(sizes, descriptor, tags):
         return Contract(None, check)
@@ -98,8 +98,11 @@ def checker(sizes: Sizes, descriptor: Descriptor) -> Check | None:
     """A function raising ``EncodeError`` when a ``descriptor`` message breaks the contract."""
     source = _Source(sizes)
     body = source.message(descriptor, "m", "")
-    if not body:
-        return None
+    return _compile(descriptor, source, body) if body else None
+
+
+def _compile(descriptor: Descriptor, source: "_Source", body: list[str]) -> Check:
+    """The check function whose lines ``source`` emitted as ``body``."""
     top = descriptor.full_name
     enums = source.enums
 
