@@ -18,7 +18,7 @@ Guarantees:
 import os
 import re
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Collection, Iterator, Sequence
 from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
 from pathlib import Path
@@ -30,7 +30,7 @@ from erc_codec._schema import Location
 
 from ._finding import Finding
 
-__all__ = ["LoadedTree", "load_tree", "relative"]
+__all__ = ["LoadedTree", "by_basename", "imports", "load_tree", "matches", "relative"]
 
 _NOISE = re.compile(r'//[^\n]*|/\*.*?\*/|"(?:\\.|[^"\\\n])*"', re.DOTALL)
 _IMPORT = re.compile(r'\bimport\s+(?:public\s+|weak\s+)?("(?:\\.|[^"\\\n])*")\s*;')
@@ -49,19 +49,29 @@ class LoadedTree:
     texts: dict[str, str] = field(default_factory=dict)  # the tree's files as read
 
 
-def load_tree(root: Path, includes: Sequence[Path] = (), exclude: Sequence[str] = ()) -> LoadedTree:
+def load_tree(
+    root: Path,
+    includes: Sequence[Path] = (),
+    exclude: Sequence[str] = (),
+    only: Collection[str] | None = None,
+) -> LoadedTree:
     """Compile every ``.proto`` under ``root`` but those matching an ``exclude`` pattern (which
-    stay importable: excluding a file spares it the checks, not its importers)."""
+    stay importable: excluding a file spares it the checks, not its importers), or only those
+    in ``only``."""
     every = [
         path.relative_to(root).as_posix()
         for path in sorted(root.rglob("*.proto"))
         if path.is_file()
     ]
-    names = [name for name in every if not any(fnmatchcase(name, p) for p in exclude)]
+    names = [
+        name
+        for name in every
+        if not any(fnmatchcase(name, p) for p in exclude) and (only is None or name in only)
+    ]
     tree = LoadedTree(root, {}, {})
     texts = {name: (root / name).read_text(encoding="utf-8", errors="replace") for name in every}
     tree.texts = texts
-    rewritten = _resolve_imports(tree, {name: texts[name] for name in names}, set(every), includes)
+    rewritten = _resolve_imports(tree, texts, set(names), includes)
     if not rewritten:
         _compile(tree, root, names, includes)
         return tree
@@ -75,32 +85,49 @@ def load_tree(root: Path, includes: Sequence[Path] = (), exclude: Sequence[str] 
     return tree
 
 
-def _resolve_imports(
-    tree: LoadedTree, texts: dict[str, str], known: set[str], includes: Sequence[Path]
-) -> dict[str, str]:
-    """The texts whose imports needed respelling (relative to the root), respelled; ``known``
-    are all the tree's files an import may name."""
-    by_basename: dict[str, list[str]] = {}
+def imports(text: str) -> Iterator[tuple[int, int, str]]:
+    """``(start, end, spelling)`` of each import's quoted file name (comments skipped)."""
+    if "import" not in text:
+        return
+    code = _NOISE.sub(lambda m: m[0] if m[0].startswith('"') else " " * len(m[0]), text)
+    for match in _IMPORT.finditer(code):
+        yield match.start(1), match.end(1), match[1][1:-1]
+
+
+def matches(spelling: str, known: Collection[str], by_basename: dict[str, list[str]]) -> list[str]:
+    """The tree files an import spelling may mean, when it names none of them as it stands:
+    a suffix of it that is a tree path (a repository prefix in front), else its bare file name
+    found anywhere. ``by_basename`` indexes ``known`` by file name."""
+    parts = spelling.split("/")
+    found = sorted({"/".join(parts[k:]) for k in range(1, len(parts))} & set(known))
+    return found or by_basename.get(parts[-1], [])
+
+
+def by_basename(known: Collection[str]) -> dict[str, list[str]]:
+    index: dict[str, list[str]] = {}
     for name in sorted(known):
-        by_basename.setdefault(name.rsplit("/", 1)[-1], []).append(name)
+        index.setdefault(name.rsplit("/", 1)[-1], []).append(name)
+    return index
+
+
+def _resolve_imports(
+    tree: LoadedTree, texts: dict[str, str], reported: set[str], includes: Sequence[Path]
+) -> dict[str, str]:
+    """The texts whose imports needed respelling (relative to the root), respelled; ambiguous
+    imports of the files in ``reported`` are findings."""
+    known, index = set(texts), by_basename(texts)
     rewritten = {}
     for name, text in texts.items():
-        if "import" not in text:
-            continue
-        code = _NOISE.sub(lambda m: m[0] if m[0].startswith('"') else " " * len(m[0]), text)
         edits: list[tuple[int, int, str]] = []
-        for match in _IMPORT.finditer(code):
-            spelling = match[1][1:-1]
+        for start, end, spelling in imports(text):
             if spelling in known or any((folder / spelling).is_file() for folder in includes):
                 continue
-            parts = spelling.split("/")
-            found = sorted({"/".join(parts[k:]) for k in range(1, len(parts))} & known)
-            found = found or by_basename.get(parts[-1], [])
+            found = matches(spelling, known, index)
             if len(found) == 1:
-                edits.append((match.start(1), match.end(1), f'"{found[0]}"'))
-            elif len(found) > 1:
-                line = code.count("\n", 0, match.start(1)) + 1
-                column = match.start(1) - code.rfind("\n", 0, match.start(1))
+                edits.append((start, end, f'"{found[0]}"'))
+            elif len(found) > 1 and name in reported:
+                line = text.count("\n", 0, start) + 1
+                column = start - text.rfind("\n", 0, start)
                 where = Location(str(tree.root / name), line, column)
                 message = f'Import "{spelling}" is ambiguous: it matches {", ".join(found)}.'
                 finding = Finding.at(where, "IMPORT_AMBIGUOUS", message)
