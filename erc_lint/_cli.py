@@ -1,18 +1,26 @@
 """``erc-lint``: the linter's command line. Exit 0: no errors; 1: errors found; 2: could not run."""
 
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any, TypeVar
 
 import click
 
 from erc_codec import CodecError
 
-from . import lint
-from ._config import ConfigError, find_config, read_config
+from ._config import Config, ConfigError, find_config, read_config
+from ._finding import Finding
+from ._git import GitError
+from ._inputs import Source, open_input
+from ._ledger import LedgerError
 from ._report import FORMATS, render
+from ._run import compare
 from .rules import RULES
 
 __all__ = ["main"]
+
+_Command = TypeVar("_Command", bound=Callable[..., Any])
 
 
 class _Failure(click.ClickException):
@@ -31,49 +39,85 @@ class _LintGroup(click.Group):
 @click.group(cls=_LintGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="erc-codec")
 def main() -> None:
-    """Wire-compatibility linter for proto trees: erc-lint OLD NEW."""
+    """Wire-compatibility linter for proto trees: erc-lint OLD NEW.
+
+    A tree is a folder, or a git revision in buf's spelling, GITDIR#ref=REF[,subdir=PATH],
+    read from the repository's objects without a checkout.
+    """
 
 
-_TREE = click.Path(file_okay=False, path_type=Path)
 _FOLDER = click.Path(exists=True, file_okay=False, path_type=Path)
+_FILE = click.Path(dir_okay=False, path_type=Path)
+
+
+def _common(command: _Command) -> _Command:
+    """The options every linting command takes."""
+    for option in reversed(
+        [
+            click.option(
+                "-I",
+                "--include",
+                "includes",
+                multiple=True,
+                type=_FOLDER,
+                help="Another folder imports are resolved against (repeatable).",
+            ),
+            click.option(
+                "--config",
+                type=_FILE,
+                help="A pyproject.toml with [tool.erc-lint]. Default: the tree's, else the "
+                "working directory's.",
+            ),
+        ]
+    ):
+        command = option(command)
+    return command
+
+
+_LEDGER = click.option(
+    "--ledger",
+    type=_FILE,
+    help="The number ledger. Default: erc-lint.lock beside the (NEW) tree's protos, if any.",
+)
+_FORMAT = click.option(
+    "--format", "output", type=click.Choice(FORMATS), default="text", show_default=True
+)
 
 
 @main.command()
-@click.argument("old", type=_TREE)
-@click.argument("new", type=_TREE)
-@click.option("--format", "output", type=click.Choice(FORMATS), default="text", show_default=True)
-@click.option(
-    "-I",
-    "--include",
-    "includes",
-    multiple=True,
-    type=_FOLDER,
-    help="Another folder imports are resolved against (repeatable).",
-)
-@click.option(
-    "--config",
-    type=click.Path(dir_okay=False, path_type=Path),
-    help="A pyproject.toml with [tool.erc-lint]. Default: NEW's, else the working directory's.",
-)
-def diff(old: Path, new: Path, output: str, includes: Sequence[Path], config: Path | None) -> None:
-    """Compare two revisions of a proto tree (folders) and report what breaks the wire."""
-    for tree in (old, new):
-        if not tree.is_dir():
-            raise _Failure(f"{tree}: not a folder holding a proto tree")
-    if not any(new.rglob("*.proto")):
-        raise _Failure(f"{new}: no .proto file in NEW (a wrong path would pass every check)")
-    try:
-        settings = read_config(
-            config or find_config(new, Path.cwd()), set(RULES), config is not None
-        )
-        findings = lint(old, new, settings, includes)
-    except (ConfigError, OSError, CodecError) as error:
-        raise _Failure(" ".join(str(error).split())) from None
-    except Exception as error:  # a bug of ours must not read as "errors found" (exit 1)
-        raise _Failure(f"internal error ({type(error).__name__}): {error}") from None
-    click.echo(render(findings, output), nl=False)
-    if any(finding.severity == "error" for finding in findings):
-        raise SystemExit(1)
+@click.argument("old")
+@click.argument("new")
+@_FORMAT
+@_common
+@_LEDGER
+def diff(
+    old: str,
+    new: str,
+    output: str,
+    includes: Sequence[Path],
+    config: Path | None,
+    ledger: Path | None,
+) -> None:
+    """Compare two revisions of a proto tree and report what breaks the wire."""
+    with _guard(), _opened(old) as before, _opened(new, "NEW") as after:
+        settings = _settings(config, after)
+        findings = compare(before, after, settings, includes, ledger)
+    _report(findings, output)
+
+
+@main.command()
+@click.argument("tree")
+@_FORMAT
+@_common
+@_LEDGER
+def check(
+    tree: str, output: str, includes: Sequence[Path], config: Path | None, ledger: Path | None
+) -> None:
+    """Lint one tree on its own: compile errors, name collisions, what embedded roots reach
+    (fixed sizes), and reused numbers if there is a ledger."""
+    with _guard(), _opened(tree, "TREE") as source:
+        findings = compare(None, source, _settings(config, source), includes, ledger)
+    _report(findings, output)
 
 
 @main.command(name="rules")
@@ -82,3 +126,44 @@ def list_rules() -> None:
     for rule in RULES.values():
         severity = rule.severity if rule.pair else "error (warning if OLD has it)"
         click.echo(f"{rule.id:<26} {severity:<30} {rule.purpose}")
+
+
+@contextmanager
+def _opened(text: str, role: str = "") -> Iterator[Source]:
+    """The tree ``text`` names; a wrong path is an error rather than an empty, passing tree."""
+    with open_input(text) as source:
+        if not source.folder.is_dir():
+            raise _Failure(f"{text}: not a folder holding a proto tree")
+        if role and not any(source.folder.rglob("*.proto")):
+            raise _Failure(
+                f"{text}: no .proto file in {role} (a wrong path would pass every check)"
+            )
+        yield source
+
+
+def _settings(config: Path | None, tree: Source) -> Config:
+    return read_config(
+        config or find_config(tree.folder, Path.cwd()), set(RULES), config is not None
+    )
+
+
+@contextmanager
+def _guard() -> Iterator[None]:
+    """Every failure to run as one line and exit 2, never a traceback."""
+    try:
+        yield
+    except click.ClickException:
+        raise
+    except (ConfigError, GitError, LedgerError, OSError, CodecError) as error:
+        raise _Failure(" ".join(str(error).split())) from None
+    except Exception as error:  # a bug of ours must not read as "errors found" (exit 1)
+        raise _Failure(f"internal error ({type(error).__name__}): {error}") from None
+
+
+def _report(findings: list[Finding], output: str) -> None:
+    click.echo(render(findings, output), nl=False)
+    if any(finding.severity == "error" for finding in findings):
+        raise SystemExit(1)
+
+
+from . import _cli_ledger  # noqa: E402, F401 - registers `erc-lint ledger`

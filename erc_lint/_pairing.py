@@ -12,9 +12,10 @@ from dataclasses import dataclass, field
 from typing import Generic, TypeVar
 
 from ._config import Config
+from ._ledger import Ledger
 from ._model import Enum, EnumValue, Field, Message, Revision
 
-__all__ = ["Change", "MemberPair"]
+__all__ = ["Change", "MemberPair", "wire_compatible"]
 
 Member = TypeVar("Member", Field, EnumValue)
 Container = TypeVar("Container", Message, Enum)
@@ -44,6 +45,7 @@ class Change:
     old: Revision
     new: Revision
     config: Config
+    ledger: Ledger | None = None
     messages: list[tuple[Message, Message]] = field(default_factory=list)
     enums: list[tuple[Enum, Enum]] = field(default_factory=list)
     renamed: dict[str, str] = field(default_factory=dict)  # OLD full name → NEW full name
@@ -83,9 +85,15 @@ class Change:
         """Whether NEW's field reads OLD's bytes as the same value kind."""
         if old.kind != "scalar" or new.kind != "scalar":
             return old.kind == new.kind and self.renamed.get(old.type, old.type) == new.type
-        if old.type == new.type or (old.type, new.type) == ("string", "bytes"):
-            return True
-        return any(old.type in group and new.type in group for group in _WIRE_GROUPS)
+        return wire_compatible(old.type, new.type)
+
+
+def wire_compatible(old: str, new: str) -> bool:
+    """Whether a field of type ``new`` reads the bytes of type ``old`` as the same kind of value
+    (scalar keywords; a message or enum type only matches itself)."""
+    if old == new or (old, new) == ("string", "bytes"):
+        return True
+    return any(old in group and new in group for group in _WIRE_GROUPS)
 
 
 def _pair(

@@ -1,4 +1,5 @@
-"""Rules over one revision: what the tree holds, graded by whether OLD held it too."""
+"""Rules over one revision: what the tree holds, graded by whether OLD held it too (and, with
+a ledger, what the tree's history held)."""
 
 from collections.abc import Iterator
 from typing import Any
@@ -6,9 +7,10 @@ from typing import Any
 from erc_codec._options import resolve
 from erc_codec._schema import Location
 
+from .._ledger import Entry, Key, Ledger
 from .._loader import relative
 from .._model import Revision, walk
-from .._pairing import Change
+from .._pairing import Change, wire_compatible
 from ._registry import tree_rule
 
 Report = Iterator[tuple[str, Location, str]]
@@ -94,6 +96,65 @@ def embedded_unbounded(revision: Revision, change: Change) -> Report:
                 f'{field.type} without nanopb max_size, and embedded root "{root}" reaches it as '
                 f"{path}.",
             )
+
+
+@tree_rule(
+    "LEDGER_NUMBER_REUSED",
+    "A number the ledger says once carried another name or an incompatible type is used again.",
+)
+def ledger_number_reused(revision: Revision, change: Change) -> Report:
+    ledger = change.ledger
+    if ledger is None:
+        return
+    for message in sorted(revision.messages.values(), key=lambda m: m.name):
+        for entry in sorted(message.fields.values(), key=lambda f: f.number):
+            key = Key("message", message.name, entry.number, entry.name, entry.type)
+            clashes = [
+                past
+                for past in ledger.at("message", message.name, entry.number)
+                if past.key.name != entry.name or not wire_compatible(past.key.type, entry.type)
+            ]
+            if clashes and not _acknowledged(ledger, key):
+                yield (
+                    _id(key),
+                    entry.location,
+                    f'Field "{entry.number}" with name "{entry.name}" on message "{message.name}" '
+                    f"reuses a number that carried {_history(ledger, clashes)}.",
+                )
+    for enum in sorted(revision.enums.values(), key=lambda e: e.name):
+        for value in sorted(enum.values.values(), key=lambda v: v.number):
+            live = {v.name for v in enum.by_name.values() if v.number == value.number}
+            keys = [Key("enum", enum.name, value.number, name, "-") for name in sorted(live)]
+            clashes = [
+                past
+                for past in ledger.at("enum", enum.name, value.number)
+                if past.key.name not in live
+            ]
+            if clashes and not any(_acknowledged(ledger, key) for key in keys):
+                yield (
+                    _id(keys[0]),
+                    value.location,
+                    f'Enum value "{value.number}" with name "{value.name}" on enum "{enum.name}" '
+                    f"reuses a number that carried {_history(ledger, clashes)}.",
+                )
+
+
+def _acknowledged(ledger: Ledger, key: Key) -> bool:
+    entry = ledger.entries.get(key)
+    return entry is not None and entry.ack
+
+
+def _history(ledger: Ledger, clashes: list[Entry]) -> str:
+    def one(past: Entry) -> str:
+        kind = "" if past.key.type == "-" else f' ("{past.key.type}")'
+        since = "" if past.since == "-" else f" since revision {past.since}"
+        return f'"{past.key.name}"{kind}{since} ({ledger.where(past)})'
+
+    return " and ".join(one(past) for past in clashes)
+
+
+def _id(key: Key) -> str:
+    return f"{key.kind}:{key.container}:{key.number}:{key.name}:{key.type}"
 
 
 def _location(finding: Any) -> Location:

@@ -1,0 +1,101 @@
+"""``erc-lint ledger update``: add a tree, a git revision or a whole history to the ledger."""
+
+import os
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+
+import click
+
+from ._cli import _FILE, _common, _Failure, _guard, main
+from ._config import find_config, read_config
+from ._git import Repository
+from ._history import History, keys
+from ._inputs import GitInput, parse
+from ._ledger import FILENAME, Entry, Ledger
+from ._loader import load_tree
+from ._model import build
+from .rules import RULES
+
+
+@main.group()
+def ledger() -> None:
+    """Keep the number ledger (erc-lint.lock) up to date."""
+
+
+@ledger.command()
+@click.argument("tree")
+@click.option(
+    "--history",
+    is_flag=True,
+    help="Add every revision reachable from TREE's git ref, oldest first (TREE must be "
+    "GITDIR#ref=REF[,subdir=PATH]).",
+)
+@click.option("--ledger", "path", type=_FILE, help="Default: erc-lint.lock beside TREE's protos.")
+@click.option(
+    "--check",
+    is_flag=True,
+    help="Change nothing; print the entries the ledger lacks and exit 1 if there are any.",
+)
+@_common
+def update(
+    tree: str,
+    history: bool,
+    path: Path | None,
+    check: bool,
+    includes: Sequence[Path],
+    config: Path | None,
+) -> None:
+    """Record every number TREE's messages and enums use (a folder or GITDIR#ref=REF)."""
+    with _guard():
+        spec = parse(tree)
+        shown = spec.shown if isinstance(spec, GitInput) else spec
+        if not shown.is_dir() and (path is None or not isinstance(spec, GitInput)):
+            raise _Failure(f"{tree}: not a folder holding a proto tree")
+        target = path or shown / FILENAME
+        book = Ledger.read(target) if target.exists() else Ledger(str(target))
+        settings = read_config(config or find_config(shown, Path.cwd()), set(RULES), bool(config))
+        if isinstance(spec, GitInput):
+            with Repository(spec.folder) as repository:
+                commits = repository.history(spec.ref) if history else [repository.commit(spec.ref)]
+                walker = History(repository, spec, includes, settings.exclude)
+                added = walker.update(book, commits)
+            source = f"{len(commits)} revision{'s' * (len(commits) != 1)}"
+        elif history:
+            raise _Failure(f"{tree}: --history needs a git input, GITDIR#ref=REF[,subdir=PATH]")
+        else:
+            loaded = load_tree(spec, [Path(p) for p in includes], settings.exclude)
+            for name in sorted(loaded.failed):
+                click.echo(
+                    f"{spec / name}: does not compile; its numbers are not recorded", err=True
+                )
+            added = book.add(keys(build(loaded)), "-")
+            source = str(spec)
+        if check:
+            _print_missing(book, added, target)
+            return
+        if added:
+            _write(target, book.render())
+        click.echo(
+            f"{target}: {len(added)} entries added from {source} ({len(book.entries)} in all)"
+        )
+
+
+def _print_missing(book: Ledger, added: list[Entry], target: Path) -> None:
+    for entry in added:
+        click.echo(f"{target}: missing entry: {entry.render().rstrip()}")
+    if added:
+        raise SystemExit(1)
+
+
+def _write(target: Path, text: str) -> None:
+    """Replace ``target`` at once, so an interrupted update never leaves half a ledger."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    handle, scratch = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent)
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8", newline="\n") as stream:
+            stream.write(text)
+        os.replace(scratch, target)
+    except BaseException:
+        Path(scratch).unlink(missing_ok=True)
+        raise
