@@ -37,12 +37,18 @@ class ProtocError(SchemaError):
 
 
 def compile_files(
-    root: Path, files: Sequence[str], includes: Sequence[Path] = ()
+    root: Path,
+    files: Sequence[str],
+    includes: Sequence[Path] = (),
+    known: descriptor_pb2.FileDescriptorSet | None = None,
+    locations: bool = True,
 ) -> descriptor_pb2.FileDescriptorSet:
-    """Compile ``files`` (paths relative to ``root``) with their imports and source locations.
+    """Compile ``files`` (paths relative to ``root``) with their imports and, unless told
+    otherwise, source locations.
 
-    ``includes`` are further import roots, searched after ``root``. The result lists every file
-    once, each after the files it imports.
+    ``includes`` are further import roots, searched after ``root``; imports that ``known``
+    (compiled before) holds are taken from it and not parsed again. The result lists every
+    file once, each after the files it imports.
     """
     search = [str(root), *map(str, includes), _WELL_KNOWN, FALLBACK_INCLUDE]
     with tempfile.TemporaryDirectory(prefix="erc-codec-") as scratch:
@@ -52,9 +58,13 @@ def compile_files(
             *(f"--proto_path={path}" for path in search),
             f"--descriptor_set_out={out}",
             "--include_imports",
-            "--include_source_info",
+            *(["--include_source_info"] if locations else []),
             *files,
         ]
+        if known is not None:
+            given = os.path.join(scratch, "known.pb")
+            Path(given).write_bytes(known.SerializeToString())
+            args.insert(1, f"--descriptor_set_in={given}")
         errors = os.path.join(scratch, "stderr.txt")
         with _LOCK, _stderr_to(errors):
             status = protoc.main(args)

@@ -14,7 +14,6 @@ from ._history import History, keys
 from ._inputs import GitInput, parse
 from ._ledger import FILENAME, Entry, Ledger
 from ._loader import load_tree
-from ._model import build
 from .rules import RULES
 
 
@@ -69,7 +68,7 @@ def update(
                 click.echo(
                     f"{spec / name}: does not compile; its numbers are not recorded", err=True
                 )
-            added = book.add(keys(build(loaded)), "-")
+            added = book.add(keys(loaded.files.values()), "-")
             source = str(spec)
         if check:
             _print_missing(book, added, target)

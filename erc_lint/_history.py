@@ -3,40 +3,72 @@
 Guarantees:
 - ``--history`` visits every commit reachable from the ref, each after its parents, so an entry's
   revision is the first commit (in that order) whose tree carried it, on whichever branch.
-- A file is compiled again only when it or a file it imports (transitively) changed: the result
-  of each file is cached under the blob ids of that closure. A history of n revisions that each
-  change one file costs about n compilations of one file, not n of the whole tree.
-- A file that does not compile in a revision records nothing for that revision; the others do.
+- A file is compiled again only when its text changed or a file it imports changed what it
+  defines (the full names and kinds of its messages and enums, which is all a descriptor takes
+  from its imports). Results are cached by blob id and those definitions; a compilation gets the
+  files it imports as descriptors, so protoc parses one file, not the chain behind it. A history
+  whose revisions each add a field costs about one small compilation a revision.
+- A file that does not compile in a revision (or imports one that does not, or imports itself)
+  records nothing for that revision; the others do.
 """
 
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
 from pathlib import Path
 
+from google.protobuf import descriptor_pb2
+
+from erc_codec._protoc import ProtocError, compile_files
+
 from ._git import Repository
-from ._inputs import GitInput, materialize
+from ._inputs import GitInput
 from ._ledger import Entry, Key, Ledger
-from ._loader import by_basename, imports, load_tree, matches
-from ._model import Revision, build
+from ._loader import by_basename, imports, matches
+from ._model import type_of
 
 __all__ = ["History", "keys"]
 
+_FileProto = descriptor_pb2.FileDescriptorProto
+_Definitions = frozenset[tuple[str, str]]  # (full name, "message" | "enum")
 
-def keys(revision: Revision, files: Sequence[str] | None = None) -> set[Key]:
-    """What the ledger records of a revision (of its ``files`` only, when given)."""
-    wanted = None if files is None else set(files)
+
+def keys(files: Iterable[_FileProto]) -> set[Key]:
+    """What the ledger records of compiled files: every field and enum value number."""
     found: set[Key] = set()
-    for message in revision.messages.values():
-        if wanted is None or message.file in wanted:
-            for entry in message.fields.values():
-                found.add(Key("message", message.name, entry.number, entry.name, entry.type))
-    for enum in revision.enums.values():
-        if wanted is None or enum.file in wanted:
-            for value in enum.by_name.values():
-                found.add(Key("enum", enum.name, value.number, value.name, "-"))
+
+    def message(proto: descriptor_pb2.DescriptorProto, name: str) -> None:
+        for f in proto.field:
+            found.add(Key("message", name, f.number, f.name, type_of(f)[0]))
+        for nested in proto.nested_type:
+            message(nested, f"{name}.{nested.name}")
+        for inner in proto.enum_type:
+            enum(inner, f"{name}.{inner.name}")
+
+    def enum(proto: descriptor_pb2.EnumDescriptorProto, name: str) -> None:
+        for value in proto.value:
+            found.add(Key("enum", name, value.number, value.name, "-"))
+
+    for file in files:
+        package = f"{file.package}." if file.package else ""
+        for top in file.message_type:
+            message(top, package + top.name)
+        for top_enum in file.enum_type:
+            enum(top_enum, package + top_enum.name)
     return found
+
+
+@dataclass(frozen=True)
+class _Result:
+    """One file compiled in the context of one revision (``proto`` None: it did not compile)."""
+
+    proto: _FileProto | None
+    keys: frozenset[Key] = frozenset()
+    defines: _Definitions | None = None  # what importers can see; None when it did not compile
+
+
+_FAILED = _Result(None)
 
 
 @dataclass
@@ -48,9 +80,8 @@ class History:
     includes: Sequence[Path] = ()
     exclude: Sequence[str] = ()
     compiled: int = 0  # files compiled so far, for the benchmark's report
-    _cache: dict[tuple[tuple[str, str], ...], frozenset[Key]] = field(default_factory=dict)
-    _imports: dict[str, list[str]] = field(default_factory=dict)  # blob → import spellings
-    _present: dict[str, str] = field(default_factory=dict)  # what the scratch folder holds
+    _cache: dict[tuple[object, ...], _Result] = field(default_factory=dict)
+    _imports: dict[str, list[tuple[int, int, str]]] = field(default_factory=dict)  # by blob
 
     def update(self, ledger: Ledger, commits: Sequence[str]) -> list[Entry]:
         """Add every revision of ``commits`` (parents first) to ``ledger``; the new entries."""
@@ -63,41 +94,132 @@ class History:
 
     def _keys(self, files: dict[str, str], scratch: Path) -> set[Key]:
         protos = {path: blob for path, blob in files.items() if path.endswith(".proto")}
-        checked = [p for p in protos if not any(fnmatchcase(p, x) for x in self.exclude)]
-        closures = self._closures(protos)
-        missing = [path for path in checked if closures[path] not in self._cache]
-        if missing:
-            self._present = materialize(self.repository, protos, scratch, self._present)
-            revision = build(load_tree(scratch, self.includes, self.exclude, only=missing))
-            self.compiled += len(missing)
-            for path in missing:
-                self._cache[closures[path]] = frozenset(keys(revision, [path]))
+        targets = self._targets(protos)
+        results: dict[str, _Result] = {}
+        for path in _ordered(targets):
+            deps = targets[path]
+            seen = tuple(
+                (target, results[target].defines if target in results else None)
+                for _, target in deps
+            )
+            key = (path, protos[path], seen)
+            result = self._cache.get(key)
+            if result is None:
+                broken = any(target in protos and defines is None for target, defines in seen)
+                result = _FAILED if broken else self._compile(path, protos, deps, results, scratch)
+                self._cache[key] = result
+            results[path] = result
         found: set[Key] = set()
-        for path in checked:
-            found |= self._cache[closures[path]]
+        for path, result in results.items():
+            if not any(fnmatchcase(path, pattern) for pattern in self.exclude):
+                found |= result.keys
         return found
 
-    def _closures(self, protos: dict[str, str]) -> dict[str, tuple[tuple[str, str], ...]]:
-        """Each file's cache key: the (path, blob) of itself and of all it imports, sorted."""
+    def _targets(self, protos: dict[str, str]) -> dict[str, list[tuple[str, str]]]:
+        """Each file's imports as ``(spelling, what it names)``: a tree path when it resolves to
+        exactly one file of the tree, else the spelling (for protoc's include folders)."""
         index = by_basename(protos)
-        direct: dict[str, list[str]] = {}
+        targets = {}
         for path, blob in protos.items():
-            spellings = self._imports.get(blob)
-            if spellings is None:
+            spans = self._imports.get(blob)
+            if spans is None:
                 text = self.repository.read(blob).decode("utf-8", "replace")
-                spellings = self._imports[blob] = [s for _, _, s in imports(text)]
-            targets = []
-            for spelling in spellings:
-                found = [spelling] if spelling in protos else matches(spelling, protos, index)
-                targets += found[:1] if len(found) == 1 else [f"?{spelling}"]
-            direct[path] = targets
-        closures = {}
-        for path in protos:
-            seen, pending = {path}, [path]
-            while pending:
-                for target in direct.get(pending.pop(), []):
-                    if target not in seen:
-                        seen.add(target)
-                        pending.append(target)
-            closures[path] = tuple(sorted((name, protos.get(name, "")) for name in seen))
-        return closures
+                spans = self._imports[blob] = list(imports(text))
+            found = []
+            for _, _, spelling in spans:
+                named = [spelling] if spelling in protos else matches(spelling, protos, index)
+                found.append((spelling, named[0] if len(named) == 1 else spelling))
+            targets[path] = found
+        return targets
+
+    def _compile(
+        self,
+        path: str,
+        protos: dict[str, str],
+        deps: list[tuple[str, str]],
+        results: dict[str, _Result],
+        scratch: Path,
+    ) -> _Result:
+        """Compile ``path`` alone, its imports respelled as tree paths and given compiled."""
+        self.compiled += 1
+        text = self.repository.read(protos[path]).decode("utf-8", "replace")
+        respelled = dict(deps)
+        for start, end, spelling in reversed(self._imports[protos[path]]):
+            if respelled.get(spelling, spelling) != spelling:
+                text = f'{text[:start]}"{respelled[spelling]}"{text[end:]}'
+        known = descriptor_pb2.FileDescriptorSet()
+        done: set[str] = set()
+        pending = [target for _, target in deps if target in results]
+        while pending:
+            name = pending.pop()
+            proto = results[name].proto if name in results else None
+            if name in done or proto is None:
+                continue  # a file of an include folder: protoc reads it there
+            done.add(name)
+            known.file.append(proto)
+            pending.extend(proto.dependency)
+        target = scratch / path
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_text(text, encoding="utf-8")
+        try:
+            compiled = compile_files(scratch, [path], self.includes, known, locations=False)
+        except ProtocError:
+            return _FAILED
+        finally:
+            target.unlink()
+        proto = next(file for file in compiled.file if file.name == path)
+        return _Result(proto, frozenset(keys([proto])), _defines(proto, results))
+
+
+def _defines(proto: _FileProto, results: dict[str, _Result]) -> _Definitions:
+    """The names an importer of ``proto`` sees: its own and those it re-exports publicly."""
+    package = f"{proto.package}." if proto.package else ""
+    names: set[tuple[str, str]] = set()
+
+    def message(inner: descriptor_pb2.DescriptorProto, name: str) -> None:
+        names.add((name, "message"))
+        for nested in inner.nested_type:
+            message(nested, f"{name}.{nested.name}")
+        for enum in inner.enum_type:
+            names.add((f"{name}.{enum.name}", "enum"))
+
+    for top in proto.message_type:
+        message(top, package + top.name)
+    for enum in proto.enum_type:
+        names.add((package + enum.name, "enum"))
+    names.add((proto.package, "package"))
+    for index in proto.public_dependency:
+        public = results.get(proto.dependency[index])
+        if public is not None and public.defines is not None:
+            names |= public.defines
+    return frozenset(names)
+
+
+def _ordered(targets: dict[str, list[tuple[str, str]]]) -> list[str]:
+    """The files each after those it imports. A file on an import cycle, or importing one, is
+    left out (protoc refuses both), and so fails its importers."""
+    order: list[str] = []
+    done: set[str] = set()
+    bad: set[str] = set()
+    for start in sorted(targets):
+        if start in done:
+            continue
+        # Depth first without recursion: (file, its imports not yet visited).
+        stack = [(start, iter(targets[start]))]
+        while stack:
+            path, pending = stack[-1]
+            target = next((t for _, t in pending if t in targets and t not in done), None)
+            if target is None:
+                stack.pop()
+                done.add(path)
+                if path in bad or any(t in bad for _, t in targets[path]):
+                    bad.add(path)
+                else:
+                    order.append(path)
+                continue
+            on_stack = [p for p, _ in stack]
+            if target in on_stack:  # a cycle: every file from target up is on it
+                bad.update(on_stack[on_stack.index(target) :])
+            else:
+                stack.append((target, iter(targets[target])))
+    return order

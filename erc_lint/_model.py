@@ -16,7 +16,7 @@ from erc_codec._schema import Location
 from ._finding import Finding
 from ._loader import LoadedTree
 
-__all__ = ["Enum", "EnumValue", "Field", "Message", "Revision", "build"]
+__all__ = ["Enum", "EnumValue", "Field", "Message", "Revision", "build", "type_of", "walk"]
 
 _FD = descriptor_pb2.FieldDescriptorProto
 _SCALARS = {
@@ -157,12 +157,12 @@ class _File:
         oneofs = [oneof.name for oneof in proto.oneof_decl]
         for j, f in enumerate(proto.field):
             real_oneof = f.HasField("oneof_index") and not f.proto3_optional
-            kind = _KINDS.get(f.type, "scalar")
+            type_, kind = type_of(f)
             entry = Field(
                 owner=name,
                 name=f.name,
                 number=f.number,
-                type=f.type_name.lstrip(".") if kind != "scalar" else _SCALARS[f.type],
+                type=type_,
                 kind=kind,
                 cardinality=_FD.Label.Name(f.label).removeprefix("LABEL_").lower(),
                 oneof=oneofs[f.oneof_index] if real_oneof else None,
@@ -200,6 +200,12 @@ class _File:
             model.reserved.ranges.append((reserved.start, reserved.end, where))
         for j, reserved_name in enumerate(proto.reserved_name):
             model.reserved.names[reserved_name] = self.where((*path, _ENUM_RESERVED_NAME, j))
+
+
+def type_of(f: descriptor_pb2.FieldDescriptorProto) -> tuple[str, str]:
+    """A field's type as the rules name it (``float``, or a full name) and its kind."""
+    kind = _KINDS.get(f.type, "scalar")
+    return (f.type_name.lstrip(".") if kind != "scalar" else _SCALARS[f.type]), kind
 
 
 def walk(revision: Revision, root: str) -> Iterator[tuple[str, Field]]:

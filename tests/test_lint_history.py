@@ -10,9 +10,10 @@ import pytest
 
 import erc_lint
 from erc_lint._git import Repository
-from erc_lint._history import History
+from erc_lint._history import History, keys
 from erc_lint._inputs import GitInput
-from erc_lint._ledger import Ledger, LedgerError
+from erc_lint._ledger import Key, Ledger, LedgerError
+from erc_lint._loader import load_tree
 
 HEADER = 'syntax = "proto3";\n'
 
@@ -156,22 +157,48 @@ def test_a_revision_without_the_subdir_records_nothing(tmp_path: Path) -> None:
     assert [(e.key.name, e.since) for e in added] == [("x", last[:12])]
 
 
-def test_unchanged_files_are_compiled_once(tmp_path: Path) -> None:
+def test_a_file_is_compiled_again_only_when_it_or_what_it_imports_changed(
+    tmp_path: Path,
+) -> None:
     repo = Repo(tmp_path / "repo")
     repo.commit(
         "three files",
         base="message Base { int32 x = 1; }\n",
         leaf="message Leaf { int32 y = 1; }\n",
         user='import "base.proto";\nmessage User { Base b = 1; }\n',
-    )
-    for n in range(2, 6):  # the leaf changes four times: only it is compiled again
+    )  # 3 compilations
+    for n in range(2, 6):  # 4: the leaf alone
         repo.commit(f"leaf {n}", leaf=f"message Leaf {{ int32 y = 1; int32 y{n} = {n}; }}\n")
-    repo.commit("base", base="message Base { int32 x = 1; int32 z = 2; }\n")  # base and user
-    repo.commit("nothing")
+    repo.commit("base grows", base="message Base { int32 x = 1; int32 z = 2; }\n")  # 1: base
+    repo.commit("nothing")  # 0
+    repo.commit("base renames", base="message Core { int32 x = 1; }\n")  # 2: user fails
+    last = repo.commit("user follows", user='import "base.proto";\nmessage User { Core b = 1; }\n')
+    book = Ledger("mem")
     with Repository(repo.root) as repository:
         history = History(repository, GitInput(repo.root, "main", "proto"))
-        history.update(Ledger("mem"), repository.history("main"))
-    assert history.compiled == 3 + 4 + 2
+        history.update(book, repository.history("main"))
+    assert history.compiled == 3 + 4 + 1 + 0 + 2 + 1
+    assert book.entries[Key("message", "User", 1, "b", "Core")].since == last[:12]
+
+
+def test_import_cycles_and_broken_imports_record_nothing_of_what_they_touch(
+    tmp_path: Path,
+) -> None:
+    repo = Repo(tmp_path / "repo")
+    repo.commit(
+        "cycle",
+        a='import "b.proto";\nmessage A { int32 a = 1; }\n',
+        b='import "a.proto";\nmessage B { int32 b = 1; }\n',
+        c='import "a.proto";\nmessage C { int32 c = 1; }\n',
+        d="message D { int32 d = 1; }\n",
+        e='import "d.proto";\nmessage E { D d = 1; int32 broken = ; }\n',
+        f='import "e.proto";\nmessage F { int32 f = 1; }\n',
+    )
+    book = Ledger("mem")
+    with Repository(repo.root) as repository:
+        history = History(repository, GitInput(repo.root, "main", "proto"))
+        history.update(book, repository.history("main"))
+    assert sorted(key.container for key in book.entries) == ["D"]
 
 
 def test_update_adds_lines_and_keeps_every_other_one(tmp_path: Path) -> None:
@@ -258,3 +285,20 @@ def test_bad_git_inputs_exit_2_in_one_line(
     assert complaint in done.stderr
     assert done.stderr.count("\n") == 1
     assert "Traceback" not in done.stderr
+
+
+def test_a_revision_records_what_compiling_its_checkout_records(
+    reused: tuple[Repo, dict[str, str]],
+) -> None:
+    repo, _ = reused
+    repo.commit(
+        "spellings",
+        user='import "diag.proto";\nimport "proto/other.proto";\n'
+        "message User { Diag d = 1; Other o = 2; }\n",
+    )
+    with Repository(repo.root) as repository:
+        history = History(repository, GitInput(repo.root, "main", "proto"))
+        walked = history.update(Ledger("mem"), [repository.commit("main")])
+    checkout = keys(load_tree(repo.root / "proto").files.values())
+    assert {entry.key for entry in walked} == checkout
+    assert len(checkout) == 5
