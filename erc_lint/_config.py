@@ -16,6 +16,13 @@ class Config:
     roots: tuple[str, ...] = ("PBEnvelope",)  # embedded roots: fixed-size from here down
     ignore: frozenset[str] = field(default_factory=frozenset)  # rule IDs
     exclude: tuple[str, ...] = ()  # fnmatch patterns on paths relative to a tree's root
+    source: str | None = None  # the file it was read from
+    roots_line: int = 0  # the line of that file that sets roots (0: the default roots)
+
+    @property
+    def roots_chosen(self) -> bool:
+        """Whether someone named the roots (a typo there must not pass in silence)."""
+        return self.roots_line > 0 or self.roots != Config.roots
 
 
 def find_config(*folders: Path) -> Path | None:
@@ -52,7 +59,15 @@ def read_config(path: Path | None, known_rules: set[str], explicit: bool = False
         roots=tuple(values["roots"]) if "roots" in table else Config.roots,
         ignore=frozenset(values["ignore"]),
         exclude=tuple(values["exclude"]),
+        source=str(path),
+        roots_line=_line_of(path, "roots") if "roots" in table else 0,
     )
+
+
+def _line_of(path: Path, key: str) -> int:
+    """The first line of ``path`` that starts with ``key`` (1 if none does)."""
+    lines = path.read_text(encoding="utf-8").splitlines()
+    return next((n for n, line in enumerate(lines, 1) if line.lstrip().startswith(key)), 1)
 
 
 def _table(path: Path) -> dict[str, Any] | None:

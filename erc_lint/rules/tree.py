@@ -59,6 +59,27 @@ def name_collision(revision: Revision, change: Change) -> Report:
 
 
 @tree_rule(
+    "EMBEDDED_ROOT_MISSING",
+    "A configured embedded root is not a message of the tree, so nothing is checked for it.",
+)
+def embedded_root_missing(revision: Revision, change: Change) -> Report:
+    config = change.config
+    if not config.roots_chosen or not revision.tree.files:
+        return
+    where = Location(config.source or str(revision.root), max(config.roots_line, 1), 1)
+    broken = [revision.tree.texts.get(name, "") for name in revision.tree.failed]
+    for root in config.roots:
+        hidden = any(root.rsplit(".", 1)[-1] in text for text in broken)  # in a broken file?
+        if root not in revision.messages and not hidden:
+            yield (
+                root,
+                where,
+                f'Embedded root "{root}" is not a message of the tree: no fixed-size rule or '
+                "size check covers what it was meant to reach.",
+            )
+
+
+@tree_rule(
     "EMBEDDED_REPEATED",
     "A repeated field in a message an embedded root reaches: embedded boards need fixed sizes.",
 )
