@@ -7,6 +7,7 @@ compilations in this process from interleaving.
 """
 
 import contextlib
+import functools
 import os
 import tempfile
 import threading
@@ -47,10 +48,16 @@ def compile_files(
     otherwise, source locations.
 
     ``includes`` are further import roots, searched after ``root``; imports that ``known``
-    (compiled before) holds are taken from it and not parsed again. The result lists every
-    file once, each after the files it imports.
+    (compiled before) holds are taken from it and not parsed again. protoc prefers files it can
+    parse to known ones, so when ``known`` has its own copy of a well-known file or of
+    nanopb.proto, ours come as known files too, after the caller's (which win). The result
+    lists every file once, each after the files it imports.
     """
-    search = [str(root), *map(str, includes), _WELL_KNOWN, FALLBACK_INCLUDE]
+    search = [str(root), *map(str, includes)]
+    if known is not None and {file.name for file in known.file} & _default_names():
+        known = descriptor_pb2.FileDescriptorSet(file=[*known.file, *_defaults().file])
+    else:
+        search += [_WELL_KNOWN, FALLBACK_INCLUDE]
     with tempfile.TemporaryDirectory(prefix="erc-codec-") as scratch:
         out = os.path.join(scratch, "set.pb")
         args = [
@@ -72,6 +79,27 @@ def compile_files(
             lines = [line for line in Path(errors).read_text(errors="replace").splitlines() if line]
             raise ProtocError(lines or [f"protoc exited with status {status}"])
         return descriptor_pb2.FileDescriptorSet.FromString(Path(out).read_bytes())
+
+
+@functools.cache
+def _default_names() -> frozenset[str]:
+    """The files our own include folders provide."""
+    return frozenset(
+        path.relative_to(folder).as_posix()
+        for folder in (Path(_WELL_KNOWN), Path(FALLBACK_INCLUDE))
+        for path in folder.rglob("*.proto")
+    )
+
+
+@functools.cache
+def _defaults() -> descriptor_pb2.FileDescriptorSet:
+    """The well-known types and the fallback nanopb.proto, compiled once."""
+    names = [p.relative_to(_WELL_KNOWN).as_posix() for p in Path(_WELL_KNOWN).rglob("*.proto")]
+    found = compile_files(Path(_WELL_KNOWN), sorted(names), locations=False)
+    fallback = compile_files(Path(FALLBACK_INCLUDE), ["nanopb.proto"], locations=False)
+    seen = {file.name for file in found.file}
+    found.file.extend(file for file in fallback.file if file.name not in seen)
+    return found
 
 
 @contextlib.contextmanager

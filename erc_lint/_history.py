@@ -3,11 +3,13 @@
 Guarantees:
 - ``--history`` visits every commit reachable from the ref, each after its parents, so an entry's
   revision is the first commit (in that order) whose tree carried it, on whichever branch.
-- A file is compiled again only when its text changed or a file it imports changed what it
-  defines (the full names and kinds of its messages and enums, which is all a descriptor takes
-  from its imports). Results are cached by blob id and those definitions; a compilation gets the
-  files it imports as descriptors, so protoc parses one file, not the chain behind it. A history
-  whose revisions each add a field costs about one small compilation a revision.
+- A file is compiled again only when its text changed or what its imports define changed (the
+  symbols of every file it imports, directly or not: names and kinds of messages, enums with
+  their values, extensions with their types, packages and syntax; a descriptor takes nothing
+  else from its imports, save the fields of a message used in an aggregate custom option).
+  Results are cached by blob id and those definitions; a compilation gets the files it imports
+  as descriptors, so protoc parses one file, not the chain behind it. A history whose revisions
+  each add a field costs about one small compilation a revision.
 - A file that does not compile in a revision (or imports one that does not, or imports itself)
   records nothing for that revision; the others do.
 """
@@ -23,15 +25,15 @@ from google.protobuf import descriptor_pb2
 from erc_codec._protoc import ProtocError, compile_files
 
 from ._git import Repository
-from ._inputs import GitInput
+from ._inputs import GitInput, locate
 from ._ledger import Entry, Key, Ledger
-from ._loader import by_basename, imports, matches
+from ._loader import by_basename, imports, matches, utf8_name
 from ._model import type_of
 
 __all__ = ["History", "keys"]
 
 _FileProto = descriptor_pb2.FileDescriptorProto
-_Definitions = frozenset[tuple[str, str]]  # (full name, "message" | "enum")
+_Definitions = frozenset[tuple[object, ...]]  # the symbols a file and its imports define
 
 
 def keys(files: Iterable[_FileProto]) -> set[Key]:
@@ -86,14 +88,19 @@ class History:
     def update(self, ledger: Ledger, commits: Sequence[str]) -> list[Entry]:
         """Add every revision of ``commits`` (parents first) to ``ledger``; the new entries."""
         added: list[Entry] = []
+        inside, _ = locate(self.spec, self.repository)
         with tempfile.TemporaryDirectory(prefix="erc-lint-history-") as scratch:
             for commit in commits:
-                files = self.repository.files(commit, self.spec.subdir)
+                files = self.repository.files(commit, inside, missing_ok=True)
                 added += ledger.add(self._keys(files, Path(scratch)), commit[:12])
         return added
 
     def _keys(self, files: dict[str, str], scratch: Path) -> set[Key]:
-        protos = {path: blob for path, blob in files.items() if path.endswith(".proto")}
+        protos = {
+            path: blob
+            for path, blob in files.items()
+            if path.endswith(".proto") and utf8_name(path)
+        }
         targets = self._targets(protos)
         results: dict[str, _Result] = {}
         for path in _ordered(targets):
@@ -127,6 +134,9 @@ class History:
                 spans = self._imports[blob] = list(imports(text))
             found = []
             for _, _, spelling in spans:
+                if spelling not in protos and any((d / spelling).is_file() for d in self.includes):
+                    found.append((spelling, spelling))  # an -I folder's file, as protoc finds it
+                    continue
                 named = [spelling] if spelling in protos else matches(spelling, protos, index)
                 found.append((spelling, named[0] if len(named) == 1 else spelling))
             targets[path] = found
@@ -168,30 +178,47 @@ class History:
         finally:
             target.unlink()
         proto = next(file for file in compiled.file if file.name == path)
-        return _Result(proto, frozenset(keys([proto])), _defines(proto, results))
+        return _Result(proto, frozenset(keys([proto])), _defines(proto, deps, results))
 
 
-def _defines(proto: _FileProto, results: dict[str, _Result]) -> _Definitions:
-    """The names an importer of ``proto`` sees: its own and those it re-exports publicly."""
+def _defines(
+    proto: _FileProto, deps: list[tuple[str, str]], results: dict[str, _Result]
+) -> _Definitions:
+    """What compiling an importer of ``proto`` can depend on: the symbols of ``proto`` and of
+    everything it imports (protoc loads them all into one pool): packages, syntax, which imports
+    are public, message and enum names, enum values and their numbers, extensions with their
+    types, services."""
     package = f"{proto.package}." if proto.package else ""
-    names: set[tuple[str, str]] = set()
+    names: set[tuple[object, ...]] = {
+        ("file", proto.name, proto.package, proto.syntax, proto.edition),
+        ("imports", proto.name, tuple(proto.dependency), tuple(proto.public_dependency)),
+    }
+
+    def enum(inner: descriptor_pb2.EnumDescriptorProto, name: str) -> None:
+        names.add((name, "enum", tuple((v.name, v.number) for v in inner.value)))
+
+    def extensions(fields: Iterable[descriptor_pb2.FieldDescriptorProto], scope: str) -> None:
+        for f in fields:
+            names.add((scope + f.name, "extension", f.extendee, f.number, f.type, f.type_name))
 
     def message(inner: descriptor_pb2.DescriptorProto, name: str) -> None:
         names.add((name, "message"))
+        extensions(inner.extension, f"{name}.")
         for nested in inner.nested_type:
             message(nested, f"{name}.{nested.name}")
-        for enum in inner.enum_type:
-            names.add((f"{name}.{enum.name}", "enum"))
+        for inner_enum in inner.enum_type:
+            enum(inner_enum, f"{name}.{inner_enum.name}")
 
     for top in proto.message_type:
         message(top, package + top.name)
-    for enum in proto.enum_type:
-        names.add((package + enum.name, "enum"))
-    names.add((proto.package, "package"))
-    for index in proto.public_dependency:
-        public = results.get(proto.dependency[index])
-        if public is not None and public.defines is not None:
-            names |= public.defines
+    for top_enum in proto.enum_type:
+        enum(top_enum, package + top_enum.name)
+    extensions(proto.extension, package)
+    names.update((package + service.name, "service") for service in proto.service)
+    for _, target in deps:
+        found = results.get(target)
+        if found is not None and found.defines is not None:
+            names |= found.defines
     return frozenset(names)
 
 
