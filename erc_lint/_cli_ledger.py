@@ -8,10 +8,10 @@ from pathlib import Path
 import click
 
 from ._cli import _FILE, _common, _Failure, _guard, main
-from ._config import find_config, read_config
+from ._config import Config, find_config, read_config
 from ._git import Repository
 from ._history import History, keys
-from ._inputs import GitInput, parse
+from ._inputs import GitInput, locate, parse
 from ._ledger import FILENAME, Entry, Ledger
 from ._loader import load_tree
 from .rules import RULES
@@ -48,26 +48,31 @@ def update(
     """Record every number TREE's messages and enums use (a folder or GITDIR#ref=REF)."""
     with _guard():
         spec = parse(tree)
-        shown = spec.shown if isinstance(spec, GitInput) else spec
-        if not shown.is_dir() and (path is None or not isinstance(spec, GitInput)):
-            raise _Failure(f"{tree}: not a folder holding a proto tree")
-        target = path or shown / FILENAME
-        book = Ledger.read(target) if target.exists() else Ledger(str(target))
-        settings = read_config(config or find_config(shown, Path.cwd()), set(RULES), bool(config))
         if isinstance(spec, GitInput):
             with Repository(spec.folder) as repository:
+                shown = locate(spec, repository)[1]
+                if shown is None and path is None:
+                    raise _Failure(
+                        f"{tree}: a bare repository has no folder for the ledger; "
+                        "give --ledger FILE"
+                    )
+                target = path or (shown or spec.shown) / FILENAME
+                book = _open(target)
+                settings = _config(config, shown)
                 commits = repository.history(spec.ref) if history else [repository.commit(spec.ref)]
                 walker = History(repository, spec, includes, settings.exclude)
                 added = walker.update(book, commits)
             source = f"{len(commits)} revision{'s' * (len(commits) != 1)}"
         elif history:
             raise _Failure(f"{tree}: --history needs a git input, GITDIR#ref=REF[,subdir=PATH]")
+        elif not spec.is_dir():
+            raise _Failure(f"{tree}: not a folder holding a proto tree")
         else:
-            loaded = load_tree(spec, [Path(p) for p in includes], settings.exclude)
+            target = path or spec / FILENAME
+            book = _open(target)
+            loaded = load_tree(spec, [Path(p) for p in includes], _config(config, spec).exclude)
             for name in sorted(loaded.failed):
-                click.echo(
-                    f"{spec / name}: does not compile; its numbers are not recorded", err=True
-                )
+                click.echo(f"{spec / name}: does not compile; nothing of it recorded", err=True)
             added = book.add(keys(loaded.files.values()), "-")
             source = str(spec)
         if check:
@@ -78,6 +83,17 @@ def update(
         click.echo(
             f"{target}: {len(added)} entries added from {source} ({len(book.entries)} in all)"
         )
+
+
+def _open(target: Path) -> Ledger:
+    """The ledger at ``target``; an empty one if there is no file yet."""
+    return Ledger.read(target) if target.exists() else Ledger(str(target))
+
+
+def _config(config: Path | None, tree: Path | None) -> Config:
+    """``--config``, else the configuration in the tree's working-tree folder or here."""
+    folders = [tree] if tree is not None and tree.is_dir() else []
+    return read_config(config or find_config(*folders, Path.cwd()), set(RULES), bool(config))
 
 
 def _print_missing(book: Ledger, added: list[Entry], target: Path) -> None:

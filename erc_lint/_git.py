@@ -9,12 +9,17 @@ Guarantees:
 - Refs are resolved by git itself (``main``, ``origin/main``, ``HEAD~3``, a tag, an object id).
 """
 
+import os
+import posixpath
 import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO
 
 __all__ = ["GitError", "Repository"]
+
+
+_LINK = "link:"  # marks a symlink's blob in a parsed tree
 
 
 class GitError(Exception):
@@ -26,7 +31,23 @@ class Repository:
 
     def __init__(self, folder: Path) -> None:
         self.folder = folder
-        self.git_dir = Path(self._git("rev-parse", "--absolute-git-dir").strip())
+        found = self._git(
+            "rev-parse",
+            "--absolute-git-dir",
+            "--is-bare-repository",
+            "--is-inside-git-dir",
+            "--show-prefix",
+        ).split("\n")
+        self.git_dir = Path(found[0])
+        # Where ``folder`` sits in the repository's trees ("proto/" when it is that folder of
+        # the working tree), and the working tree's top as ``folder`` is spelled (None: bare).
+        self.prefix = found[3] if found[2] == "false" else ""
+        self.worktree: Path | None = None
+        if found[1] == "false" and found[2] == "true":  # the .git folder of a working tree
+            top = self.git_dir.parent  # spelled as absolutely or relatively as ``folder`` was
+            self.worktree = top if folder.is_absolute() else Path(os.path.relpath(top))
+        elif found[1] == "false":
+            self.worktree = folder
         self._batch: subprocess.Popen[bytes] | None = None
         self._trees: dict[str, dict[str, str]] = {}  # tree id → {path: blob id}, recursive
         self._blobs: dict[str, bytes] = {}
@@ -60,16 +81,41 @@ class Repository:
         commit = self.commit(ref)
         return self._git("rev-list", "--topo-order", "--reverse", commit).split()
 
-    def files(self, commit: str, subdir: str = "") -> dict[str, str]:
+    def files(self, commit: str, subdir: str = "", missing_ok: bool = False) -> dict[str, str]:
         """``{path relative to subdir: blob id}`` of every file under ``subdir`` at ``commit``
-        (empty when the commit has no such folder)."""
+        (empty when the commit has no such folder, or with ``missing_ok`` something else)."""
         found = self._object(f"{commit}:{subdir.strip('/')}" if subdir else f"{commit}^{{tree}}")
         if found is None:
             return {}
         kind, tree_id, _ = found
+        if kind != "tree" and missing_ok:
+            return {}
         if kind != "tree":
             raise GitError(f"{self.folder}: {subdir!r} at {commit[:12]} is not a folder")
-        return self._tree(tree_id)
+        files = self._tree(tree_id)
+        if any(blob.startswith(_LINK) for blob in files.values()):
+            files = self._follow(commit, subdir.strip("/"), files)
+        return files
+
+    def _follow(self, commit: str, subdir: str, files: dict[str, str]) -> dict[str, str]:
+        """``files`` with each symlink replaced by the blob it points to in the same commit;
+        a link leaving the repository, or to nothing, is left out (as a checkout's would
+        dangle)."""
+        followed = {}
+        for path, blob in files.items():
+            if not blob.startswith(_LINK):
+                followed[path] = blob
+                continue
+            link = self.read(blob.removeprefix(_LINK)).decode("utf-8", "surrogateescape")
+            here = posixpath.dirname(posixpath.join(subdir, path))
+            target = posixpath.normpath(posixpath.join(here, link))
+            if link.startswith("/") or target.startswith("../") or target == "..":
+                continue
+            found = self._object(f"{commit}:{target}")
+            if found is not None and found[0] == "blob":
+                followed[path] = found[1]
+                self._blobs.setdefault(found[1], found[2])
+        return followed
 
     def read(self, blob: str) -> bytes:
         """A blob's bytes."""
@@ -99,8 +145,10 @@ class Repository:
             if mode == b"40000":
                 for path, blob in self._tree(entry).items():
                     files[f"{name}/{path}"] = blob
-            elif mode in (b"100644", b"100755"):  # symlinks and submodules hold no protos
+            elif mode in (b"100644", b"100755"):
                 files[name] = entry
+            elif mode == b"120000":  # a symlink: resolved against a commit by files()
+                files[name] = _LINK + entry
         self._trees[tree_id] = files
         return files
 

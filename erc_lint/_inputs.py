@@ -17,7 +17,7 @@ from pathlib import Path
 from ._finding import Finding
 from ._git import GitError, Repository
 
-__all__ = ["GitInput", "Source", "materialize", "open_input", "parse", "relocate"]
+__all__ = ["GitInput", "Source", "locate", "materialize", "open_input", "parse", "relocate"]
 
 # What a tree holds for the linter: the protos, their nanopb options, the configuration and
 # the ledger (these two only at the tree's top).
@@ -35,6 +35,15 @@ class GitInput:
     def shown(self) -> Path:
         """Where the tree sits in a checkout of the repository."""
         return self.folder / self.subdir if self.subdir else self.folder
+
+
+def locate(spec: GitInput, repository: Repository) -> tuple[str, Path | None]:
+    """The tree's folder in the repository's commits (``GITDIR`` may be a folder inside the
+    working tree, or ``.git``), and where it sits in the working tree (None: a bare repository)."""
+    inside = f"{repository.prefix}{spec.subdir}".strip("/")
+    if repository.worktree is None:
+        return inside, None
+    return inside, repository.worktree / spec.subdir if spec.subdir else repository.worktree
 
 
 def parse(text: str) -> Path | GitInput:
@@ -79,11 +88,12 @@ def open_input(text: str) -> Iterator[Source]:
         return
     with Repository(spec.folder) as repository:
         commit = repository.commit(spec.ref)
-        files = repository.files(commit, spec.subdir)
+        inside, shown = locate(spec, repository)
+        files = repository.files(commit, inside)
         with tempfile.TemporaryDirectory(prefix="erc-lint-git-") as scratch:
             folder = Path(scratch)
             materialize(repository, files, folder)
-            yield Source(folder, spec.shown, commit)
+            yield Source(folder, shown or spec.shown, commit)
 
 
 def materialize(
