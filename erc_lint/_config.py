@@ -65,9 +65,15 @@ def read_config(path: Path | None, known_rules: set[str], explicit: bool = False
 
 
 def _line_of(path: Path, key: str) -> int:
-    """The first line of ``path`` that starts with ``key`` (1 if none does)."""
-    lines = path.read_text(encoding="utf-8").splitlines()
-    return next((n for n, line in enumerate(lines, 1) if line.lstrip().startswith(key)), 1)
+    """The line of ``path`` that sets ``key`` in ``[tool.erc-lint]`` (1 if none is found)."""
+    inside = False
+    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        text = line.strip()
+        if text.startswith("["):
+            inside = text.replace(" ", "") in ("[tool.erc-lint]", '[tool."erc-lint"]')
+        elif inside and text.split("=", 1)[0].strip() == key:
+            return number
+    return 1
 
 
 def _table(path: Path) -> dict[str, Any] | None:

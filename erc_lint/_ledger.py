@@ -20,6 +20,7 @@ Guarantees:
   ``LedgerError`` naming the file and the line.
 """
 
+import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,6 +36,8 @@ HEADER = (
 )
 _HEADER_LINES = frozenset(HEADER.splitlines())
 _KINDS = ("message", "enum")
+_NUMBER = re.compile(r"-?[0-9]+")
+_REVISION = re.compile(r"-|[0-9a-f]{4,64}")
 
 
 class LedgerError(Exception):
@@ -90,7 +93,7 @@ class Ledger:
     def parse(cls, text: str, path: str) -> "Ledger":
         ledger = cls(path)
         pending: list[str] = []
-        for number, raw in enumerate(text.splitlines(), 1):
+        for number, raw in enumerate(text.removeprefix("\ufeff").splitlines(), 1):
             line = raw.rstrip()
             if line.startswith(("<<<<<<<", "=======", ">>>>>>>", "|||||||")):
                 raise LedgerError(
@@ -160,10 +163,11 @@ def _entry(line: str, where: str) -> Entry:
     kind, container, number, name, type_, since = words
     if kind not in _KINDS:
         raise LedgerError(f"{where}: kind must be message or enum, not {kind!r}")
-    try:
-        value = int(number)
-    except ValueError:
-        raise LedgerError(f"{where}: number {number!r} is not an integer") from None
+    if not _NUMBER.fullmatch(number):
+        raise LedgerError(f"{where}: number {number!r} is not an integer")
+    if not _REVISION.fullmatch(since):
+        raise LedgerError(f"{where}: revision {since!r} is neither a commit id nor -")
+    value = int(number)
     if (kind == "enum") != (type_ == "-"):
         raise LedgerError(f"{where}: the type of an enum value is -, of a field never")
     return Entry(Key(kind, container, value, name, type_), since, ack, note.rstrip())

@@ -30,7 +30,7 @@ from erc_codec._schema import Location
 
 from ._finding import Finding
 
-__all__ = ["LoadedTree", "by_basename", "imports", "load_tree", "matches", "relative"]
+__all__ = ["LoadedTree", "by_basename", "imports", "load_tree", "matches", "relative", "utf8_name"]
 
 _NOISE = re.compile(r'//[^\n]*|/\*.*?\*/|"(?:\\.|[^"\\\n])*"', re.DOTALL)
 _IMPORT = re.compile(r'\bimport\s+(?:public\s+|weak\s+)?("(?:\\.|[^"\\\n])*")\s*;')
@@ -63,12 +63,18 @@ def load_tree(
         for path in sorted(root.rglob("*.proto"))
         if path.is_file()
     ]
+    tree = LoadedTree(root, {}, {})
+    for name in [name for name in every if not utf8_name(name)]:
+        every.remove(name)
+        tree.failed.add(name)
+        where = Location(str(root / name), 1, 1)
+        text = "File name is not UTF-8: protoc cannot compile it, nor anything importing it."
+        tree.findings.append((repr(name), Finding.at(where, "COMPILE", text)))
     names = [
         name
         for name in every
         if not any(fnmatchcase(name, p) for p in exclude) and (only is None or name in only)
     ]
-    tree = LoadedTree(root, {}, {})
     texts = {name: (root / name).read_text(encoding="utf-8", errors="replace") for name in every}
     tree.texts = texts
     rewritten = _resolve_imports(tree, texts, set(names), includes)
@@ -190,6 +196,15 @@ def _report(
         if where.path != str(tree.root / name):
             text = f"{text} (imported by {name})"
         tree.findings.append((key, Finding.at(where, "COMPILE", text)))
+
+
+def utf8_name(name: str) -> bool:
+    """Whether protoc can be given this file name (a file system's or git's may be any bytes)."""
+    try:
+        name.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
 
 
 def relative(root: Path, path: str) -> str:

@@ -235,10 +235,12 @@ def test_update_adds_lines_and_keeps_every_other_one(tmp_path: Path) -> None:
     [
         ("message A 1 x int32\n", "ledger.lock:1: expected KIND CONTAINER NUMBER"),
         ("message A one x int32 -\n", "ledger.lock:1: number 'one' is not an integer"),
+        ("message A +1 x int32 -\n", "ledger.lock:1: number '+1' is not an integer"),
+        ("message A 1 x int32 ack\n", "ledger.lock:1: revision 'ack' is neither a commit id"),
         ("field A 1 x int32 -\n", "ledger.lock:1: kind must be message or enum"),
         ("enum E 1 X int32 -\n", "ledger.lock:1: the type of an enum value is -"),
         (
-            "message A 1 x int32 -\n\nmessage A 1 x int32 abc ack\n",
+            "message A 1 x int32 -\n\nmessage A 1 x int32 abcd1234 ack\n",
             "ledger.lock:3: entry given twice (first on line 1)",
         ),
         (
@@ -302,3 +304,70 @@ def test_a_revision_records_what_compiling_its_checkout_records(
     checkout = keys(load_tree(repo.root / "proto").files.values())
     assert {entry.key for entry in walked} == checkout
     assert len(checkout) == 5
+
+
+def test_gitdir_may_be_a_folder_of_the_working_tree_or_its_dot_git(
+    reused: tuple[Repo, dict[str, str]], tmp_path: Path
+) -> None:
+    repo, _ = reused
+    ledger = tmp_path / "erc-lint.lock"
+    erc_lint_cli("ledger", "update", repo.spec("main"), "--history", "--ledger", str(ledger))
+    expected = str(repo.root / "proto" / "diag.proto")
+    for spec in (f"{repo.root}/proto#ref=main", f"{repo.root}/.git#ref=main,subdir=proto"):
+        found = erc_lint.check(spec, ledger=ledger)
+        assert [(f.rule, f.path) for f in found] == [("LEDGER_NUMBER_REUSED", expected)], spec
+    # From inside the folder, "." is that folder: names are relative to it, as typed.
+    inside = erc_lint_cli("check", ".#ref=main", "--ledger", str(ledger), cwd=repo.root / "proto")
+    assert inside.stdout.startswith("diag.proto:2:34: LEDGER_NUMBER_REUSED"), inside
+    # Written beside the protos of the working tree, never into .git.
+    done = erc_lint_cli("ledger", "update", f"{repo.root}/.git#ref=main,subdir=proto")
+    assert done.returncode == 0, done.stderr
+    assert (repo.root / "proto" / "erc-lint.lock").is_file()
+    assert not (repo.root / ".git" / "erc-lint.lock").exists()
+
+
+def test_symlinked_protos_are_read_through_their_links(tmp_path: Path) -> None:
+    repo = Repo(tmp_path / "repo")
+    shared = repo.root / "shared"
+    shared.mkdir()
+    (shared / "common.proto").write_text(HEADER + "message Common { int32 x = 1; }\n")
+    (repo.root / "proto").mkdir()
+    (repo.root / "proto" / "common.proto").symlink_to("../shared/common.proto")
+    repo.commit("linked", user='import "common.proto";\nmessage User { Common c = 1; }\n')
+    assert erc_lint.check(repo.root / "proto") == []
+    assert erc_lint.check(repo.spec("main")) == []
+    book = Ledger("mem")
+    with Repository(repo.root) as repository:
+        History(repository, GitInput(repo.root, "main", "proto")).update(
+            book, repository.history("main")
+        )
+    assert sorted(key.container for key in book.entries) == ["Common", "User"]
+
+
+def test_a_field_keeping_a_renamed_type_reuses_nothing(tmp_path: Path) -> None:
+    old, new = tmp_path / "old", tmp_path / "new"
+    for folder, name in ((old, "Foo"), (new, "Bar")):
+        folder.mkdir()
+        (folder / "m.proto").write_text(
+            HEADER + f"message {name} {{ int32 a = 1; }}\nmessage M {{ {name} x = 1; }}\n"
+        )
+    assert (
+        erc_lint_cli("ledger", "update", str(old), "--ledger", str(tmp_path / "l")).returncode == 0
+    )
+    found = erc_lint.lint(old, new, ledger=tmp_path / "l")
+    assert [f.rule for f in found] == ["MESSAGE_RENAMED"]
+
+
+def test_a_tree_s_own_nanopb_proto_wins_over_the_bundled_one(tmp_path: Path) -> None:
+    repo = Repo(tmp_path / "repo")
+    repo.commit(
+        "vendored",
+        nanopb="message Extra { int32 e = 1; }\n",
+        a='import "nanopb.proto";\nmessage A { Extra extra = 1; }\n',
+    )
+    book = Ledger("mem")
+    with Repository(repo.root) as repository:
+        History(repository, GitInput(repo.root, "main", "proto")).update(
+            book, repository.history("main")
+        )
+    assert Key("message", "A", 1, "extra", "Extra") in book.entries

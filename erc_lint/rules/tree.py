@@ -1,6 +1,7 @@
 """Rules over one revision: what the tree holds, graded by whether OLD held it too (and, with
 a ledger, what the tree's history held)."""
 
+import re
 from collections.abc import Iterator
 from typing import Any
 
@@ -69,7 +70,8 @@ def embedded_root_missing(revision: Revision, change: Change) -> Report:
     where = Location(config.source or str(revision.root), max(config.roots_line, 1), 1)
     broken = [revision.tree.texts.get(name, "") for name in revision.tree.failed]
     for root in config.roots:
-        hidden = any(root.rsplit(".", 1)[-1] in text for text in broken)  # in a broken file?
+        defined = re.compile(rf"\bmessage\s+{re.escape(root.rsplit('.', 1)[-1])}\b")
+        hidden = any(defined.search(text) for text in broken)  # in a file that failed?
         if root not in revision.messages and not hidden:
             yield (
                 root,
@@ -133,7 +135,7 @@ def ledger_number_reused(revision: Revision, change: Change) -> Report:
             clashes = [
                 past
                 for past in ledger.at("message", message.name, entry.number)
-                if past.key.name != entry.name or not wire_compatible(past.key.type, entry.type)
+                if past.key.name != entry.name or not _same_kind(change, past.key.type, entry.type)
             ]
             if clashes and not _acknowledged(ledger, key):
                 yield (
@@ -158,6 +160,12 @@ def ledger_number_reused(revision: Revision, change: Change) -> Report:
                     f'Enum value "{value.number}" with name "{value.name}" on enum "{enum.name}" '
                     f"reuses a number that carried {_history(ledger, clashes)}.",
                 )
+
+
+def _same_kind(change: Change, past: str, now: str) -> bool:
+    """Whether a field of type ``now`` reads what type ``past`` wrote (a message or enum type
+    renamed with an identical body in this change counts as itself)."""
+    return wire_compatible(past, now) or change.renamed.get(past) == now
 
 
 def _acknowledged(ledger: Ledger, key: Key) -> bool:
