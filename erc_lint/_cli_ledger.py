@@ -76,7 +76,7 @@ def update(
             added = book.add(keys(loaded.files.values()), "-")
             source = str(spec)
         if check:
-            _print_missing(book, added, target)
+            _check(book, added, target)
             return
         if added:
             _write(target, book.render())
@@ -96,10 +96,15 @@ def _config(config: Path | None, tree: Path | None) -> Config:
     return read_config(config or find_config(*folders, Path.cwd()), set(RULES), bool(config))
 
 
-def _print_missing(book: Ledger, added: list[Entry], target: Path) -> None:
+def _check(book: Ledger, added: list[Entry], target: Path) -> None:
+    """Exit 1, saying why, when an update would change the ledger file."""
+    before = target.read_bytes().decode("utf-8", "replace") if target.exists() else None
+    reordered = before is not None and before != book.render()
     for entry in added:
         click.echo(f"{target}: missing entry: {entry.render().rstrip()}")
-    if added:
+    if reordered and not added:
+        click.echo(f"{target}: not in canonical form (order or spacing): run ledger update")
+    if added or reordered:
         raise SystemExit(1)
 
 

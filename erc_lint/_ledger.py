@@ -15,7 +15,8 @@ number that carried something else before; ``#`` starts a comment.
 Guarantees:
 - Rendering is canonical: entries sorted by container, kind, number, name and type, one a line,
   so adding numbers adds lines and nothing else moves. An update never changes or drops an entry,
-  an acknowledgement or a comment (a comment on its own line stays above the entry it precedes).
+  an acknowledgement or a comment: a comment on its own line stays above the entry it precedes,
+  one set apart by a blank line before the first entry stays at the top; line endings stay.
 - A line that is not an entry, an entry given twice, or a merge conflict left in the file is a
   ``LedgerError`` naming the file and the line.
 """
@@ -75,7 +76,9 @@ class Entry:
 class Ledger:
     path: str  # how messages name the file
     entries: dict[Key, Entry] = field(default_factory=dict)
+    preamble: list[str] = field(default_factory=list)  # comments before the first entry
     trailer: list[str] = field(default_factory=list)  # comment lines after the last entry
+    newline: str = "\n"  # as the file had them
     _numbers: dict[tuple[str, str, int], list[Entry]] | None = None
 
     @classmethod
@@ -83,7 +86,7 @@ class Ledger:
         """The ledger in ``path`` (named ``shown`` in messages)."""
         name = shown or str(path)
         try:
-            text = path.read_text(encoding="utf-8")
+            text = path.read_bytes().decode("utf-8")  # line endings as they are
         except (OSError, UnicodeDecodeError) as error:
             reason = error.strerror if isinstance(error, OSError) else "not UTF-8 text"
             raise LedgerError(f"{name}: {reason}") from None
@@ -91,7 +94,7 @@ class Ledger:
 
     @classmethod
     def parse(cls, text: str, path: str) -> "Ledger":
-        ledger = cls(path)
+        ledger = cls(path, newline="\r\n" if "\r\n" in text else "\n")
         pending: list[str] = []
         for number, raw in enumerate(text.removeprefix("\ufeff").splitlines(), 1):
             line = raw.rstrip()
@@ -100,6 +103,9 @@ class Ledger:
                     f"{path}:{number}: unresolved merge conflict; keep both sides' "
                     "entries and delete the markers"
                 )
+            if not line.strip() and not ledger.entries:  # a comment block apart from any entry
+                ledger.preamble += pending
+                pending = []
             if not line.strip() or line in _HEADER_LINES:
                 continue
             if line.lstrip().startswith("#"):
@@ -120,7 +126,9 @@ class Ledger:
 
     def render(self) -> str:
         body = "".join(self.entries[key].render() for key in sorted(self.entries, key=_order))
-        return HEADER + body + "".join(f"{line}\n" for line in self.trailer)
+        preamble = "".join(f"{line}\n" for line in self.preamble)
+        text = HEADER + preamble + body + "".join(f"{line}\n" for line in self.trailer)
+        return text.replace("\n", self.newline)
 
     def add(self, keys: Iterable[Key], since: str) -> list[Entry]:
         """Record the keys not yet recorded, as first used in ``since``; the new entries."""

@@ -371,3 +371,26 @@ def test_a_tree_s_own_nanopb_proto_wins_over_the_bundled_one(tmp_path: Path) -> 
             book, repository.history("main")
         )
     assert Key("message", "A", 1, "extra", "Extra") in book.entries
+
+
+def test_check_wants_the_canonical_form_and_keeps_line_endings(tmp_path: Path) -> None:
+    (tmp_path / "a.proto").write_text(HEADER + "message A { int32 x = 1; int32 y = 2; }\n")
+    ledger = tmp_path / "erc-lint.lock"
+    assert erc_lint_cli("ledger", "update", str(tmp_path)).returncode == 0
+    lines = ledger.read_text().splitlines()
+    header, entries = lines[:3], lines[3:]
+    shuffled = ["# kept at the top", "", *reversed(entries)]
+    ledger.write_bytes("\r\n".join([*header, *shuffled, ""]).encode())
+    stale = erc_lint_cli("ledger", "update", str(tmp_path), "--check")
+    assert stale.returncode == 1
+    assert "not in canonical form" in stale.stdout
+    (tmp_path / "b.proto").write_text(HEADER + "message B { int32 z = 1; }\n")
+    assert erc_lint_cli("ledger", "update", str(tmp_path)).returncode == 0
+    assert ledger.read_bytes().decode().split("\r\n")[3:] == [
+        "# kept at the top",
+        "message A 1 x int32 -",
+        "message A 2 y int32 -",
+        "message B 1 z int32 -",
+        "",
+    ]
+    assert erc_lint_cli("ledger", "update", str(tmp_path), "--check").returncode == 0
