@@ -8,6 +8,7 @@ from typing import Any, TypeVar
 import click
 
 from erc_codec import CodecError
+from erc_codec._cli import OneLineGroup
 
 from ._config import Config, ConfigError, find_config, read_config
 from ._finding import Finding
@@ -27,7 +28,7 @@ class _Failure(click.ClickException):
     exit_code = 2
 
 
-class _LintGroup(click.Group):
+class _LintGroup(OneLineGroup):
     """A group whose default command is ``diff``: ``erc-lint OLD NEW`` means ``erc-lint diff``."""
 
     def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:

@@ -263,12 +263,12 @@ def test_a_tree_that_does_not_load_is_one_line_and_exit_2(tmp_path: Path) -> Non
         ["encode", "gps_info"],
     ],
 )
-def test_usage_errors_exit_2(args: list[str]) -> None:
+def test_usage_errors_exit_2_in_one_line(args: list[str]) -> None:
     done = run(*args)
     assert done.code == 2
     assert done.out == ""
-    assert "Usage:" in done.err
-    assert "Traceback" not in done.err
+    assert done.err.startswith("Error: ")
+    assert done.err.count("\n") == 1
 
 
 # -- captures -------------------------------------------------------------------------------

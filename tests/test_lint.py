@@ -304,3 +304,19 @@ def test_what_cannot_run_exits_2_in_one_line(tmp_path: Path, setup: str, complai
     assert done.stderr.count("\n") == 1
     assert complaint in done.stderr
     assert "Traceback" not in done.stderr
+
+
+@pytest.mark.parametrize(
+    ("args", "complaint"),
+    [
+        (["--bogus"], "No such option '--bogus'"),
+        (["only-one"], "Missing argument 'NEW'"),
+        (["check", ".", "--format", "xml"], "Invalid value for '--format'"),
+        (["ledger", "update", ".", "--ledger", "."], "Invalid value for '--ledger'"),
+    ],
+)
+def test_usage_errors_exit_2_in_one_line(args: list[str], complaint: str) -> None:
+    done = run(*args)
+    assert done.returncode == 2
+    assert done.stderr.startswith(f"Error: {complaint}")
+    assert done.stderr.count("\n") == 1
