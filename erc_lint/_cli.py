@@ -101,7 +101,7 @@ def diff(
 ) -> None:
     """Compare two revisions of a proto tree and report what breaks the wire."""
     with _guard(), _opened(old) as before, _opened(new, "NEW") as after:
-        settings = _settings(config, after)
+        settings = _settings(config, after.folder)
         findings = compare(before, after, settings, includes, ledger)
     _report(findings, output)
 
@@ -117,7 +117,7 @@ def check(
     """Lint one tree on its own: compile errors, name collisions, what embedded roots reach
     (fixed sizes), and reused numbers if there is a ledger."""
     with _guard(), _opened(tree, "TREE") as source:
-        findings = compare(None, source, _settings(config, source), includes, ledger)
+        findings = compare(None, source, _settings(config, source.folder), includes, ledger)
     _report(findings, output)
 
 
@@ -142,10 +142,11 @@ def _opened(text: str, role: str = "") -> Iterator[Source]:
         yield source
 
 
-def _settings(config: Path | None, tree: Source) -> Config:
-    return read_config(
-        config or find_config(tree.folder, Path.cwd()), set(RULES), config is not None
-    )
+def _settings(config: Path | None, folder: Path | None) -> Config:
+    """``--config``, else the configuration in the tree's folder (if it has one), else here."""
+    folders = [folder] if folder is not None and folder.is_dir() else []
+    found = config or find_config(*folders, Path.cwd())
+    return read_config(found, set(RULES), explicit=config is not None)
 
 
 @contextmanager

@@ -7,14 +7,12 @@ from pathlib import Path
 
 import click
 
-from ._cli import _FILE, _common, _Failure, _guard, main
-from ._config import Config, find_config, read_config
+from ._cli import _FILE, _common, _Failure, _guard, _settings, main
 from ._git import Repository
 from ._history import History, keys
 from ._inputs import GitInput, locate, parse
 from ._ledger import FILENAME, Entry, Ledger
 from ._loader import load_tree
-from .rules import RULES
 
 
 @main.group()
@@ -58,7 +56,7 @@ def update(
                     )
                 target = path or (shown or spec.shown) / FILENAME
                 book = _open(target)
-                settings = _config(config, shown)
+                settings = _settings(config, shown)
                 commits = repository.history(spec.ref) if history else [repository.commit(spec.ref)]
                 walker = History(repository, spec, includes, settings.exclude)
                 added = walker.update(book, commits)
@@ -70,7 +68,7 @@ def update(
         else:
             target = path or spec / FILENAME
             book = _open(target)
-            loaded = load_tree(spec, [Path(p) for p in includes], _config(config, spec).exclude)
+            loaded = load_tree(spec, [Path(p) for p in includes], _settings(config, spec).exclude)
             for name in sorted(loaded.failed):
                 click.echo(f"{spec / name}: does not compile; nothing of it recorded", err=True)
             added = book.add(keys(loaded.files.values()), "-")
@@ -88,12 +86,6 @@ def update(
 def _open(target: Path) -> Ledger:
     """The ledger at ``target``; an empty one if there is no file yet."""
     return Ledger.read(target) if target.exists() else Ledger(str(target))
-
-
-def _config(config: Path | None, tree: Path | None) -> Config:
-    """``--config``, else the configuration in the tree's working-tree folder or here."""
-    folders = [tree] if tree is not None and tree.is_dir() else []
-    return read_config(config or find_config(*folders, Path.cwd()), set(RULES), bool(config))
 
 
 def _check(book: Ledger, added: list[Entry], target: Path) -> None:

@@ -15,7 +15,7 @@ Guarantees:
 """
 
 import tempfile
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
 from pathlib import Path
@@ -39,26 +39,32 @@ _Definitions = frozenset[tuple[object, ...]]  # the symbols a file and its impor
 def keys(files: Iterable[_FileProto]) -> set[Key]:
     """What the ledger records of compiled files: every field and enum value number."""
     found: set[Key] = set()
-
-    def message(proto: descriptor_pb2.DescriptorProto, name: str) -> None:
-        for f in proto.field:
-            found.add(Key("message", name, f.number, f.name, type_of(f)[0]))
-        for nested in proto.nested_type:
-            message(nested, f"{name}.{nested.name}")
-        for inner in proto.enum_type:
-            enum(inner, f"{name}.{inner.name}")
-
-    def enum(proto: descriptor_pb2.EnumDescriptorProto, name: str) -> None:
-        for value in proto.value:
-            found.add(Key("enum", name, value.number, value.name, "-"))
-
     for file in files:
-        package = f"{file.package}." if file.package else ""
-        for top in file.message_type:
-            message(top, package + top.name)
-        for top_enum in file.enum_type:
-            enum(top_enum, package + top_enum.name)
+        for name, element in _declared(file):
+            if isinstance(element, descriptor_pb2.DescriptorProto):
+                found.update(
+                    Key("message", name, f.number, f.name, type_of(f)[0]) for f in element.field
+                )
+            else:
+                found.update(Key("enum", name, v.number, v.name, "-") for v in element.value)
     return found
+
+
+def _declared(
+    file: _FileProto,
+) -> Iterator[tuple[str, descriptor_pb2.DescriptorProto | descriptor_pb2.EnumDescriptorProto]]:
+    """Every message and enum a file declares, nested ones included, with its full name."""
+    package = f"{file.package}." if file.package else ""
+    pending: list[
+        tuple[str, descriptor_pb2.DescriptorProto | descriptor_pb2.EnumDescriptorProto]
+    ] = [(package + m.name, m) for m in file.message_type]
+    pending += [(package + e.name, e) for e in file.enum_type]
+    while pending:
+        name, element = pending.pop()
+        yield name, element
+        if isinstance(element, descriptor_pb2.DescriptorProto):
+            pending += [(f"{name}.{m.name}", m) for m in element.nested_type]
+            pending += [(f"{name}.{e.name}", e) for e in element.enum_type]
 
 
 @dataclass(frozen=True)
@@ -193,27 +199,17 @@ def _defines(
         ("file", proto.name, proto.package, proto.syntax, proto.edition),
         ("imports", proto.name, tuple(proto.dependency), tuple(proto.public_dependency)),
     }
-
-    def enum(inner: descriptor_pb2.EnumDescriptorProto, name: str) -> None:
-        names.add((name, "enum", tuple((v.name, v.number) for v in inner.value)))
-
-    def extensions(fields: Iterable[descriptor_pb2.FieldDescriptorProto], scope: str) -> None:
-        for f in fields:
-            names.add((scope + f.name, "extension", f.extendee, f.number, f.type, f.type_name))
-
-    def message(inner: descriptor_pb2.DescriptorProto, name: str) -> None:
-        names.add((name, "message"))
-        extensions(inner.extension, f"{name}.")
-        for nested in inner.nested_type:
-            message(nested, f"{name}.{nested.name}")
-        for inner_enum in inner.enum_type:
-            enum(inner_enum, f"{name}.{inner_enum.name}")
-
-    for top in proto.message_type:
-        message(top, package + top.name)
-    for top_enum in proto.enum_type:
-        enum(top_enum, package + top_enum.name)
-    extensions(proto.extension, package)
+    extensions = [(package, f) for f in proto.extension]
+    for name, element in _declared(proto):
+        if isinstance(element, descriptor_pb2.DescriptorProto):
+            names.add((name, "message"))
+            extensions += [(f"{name}.", f) for f in element.extension]
+        else:
+            names.add((name, "enum", tuple((v.name, v.number) for v in element.value)))
+    names.update(
+        (scope + f.name, "extension", f.extendee, f.number, f.type, f.type_name)
+        for scope, f in extensions
+    )
     names.update((package + service.name, "service") for service in proto.service)
     for _, target in deps:
         found = results.get(target)

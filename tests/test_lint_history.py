@@ -12,7 +12,7 @@ import erc_lint
 from erc_lint._git import Repository
 from erc_lint._history import History, keys
 from erc_lint._inputs import GitInput
-from erc_lint._ledger import Key, Ledger, LedgerError
+from erc_lint._ledger import Entry, Key, Ledger, LedgerError
 from erc_lint._loader import load_tree
 
 HEADER = 'syntax = "proto3";\n'
@@ -51,6 +51,16 @@ class Repo:
 
     def spec(self, ref: str) -> str:
         return f"{self.root}#ref={ref},subdir=proto"
+
+
+def walk(repo: Repo, commits: list[str] | None = None) -> tuple[History, Ledger, list[Entry]]:
+    """``ledger update --history`` in process over ``repo``'s main (or ``commits``): the walker,
+    the ledger it filled and the entries it added."""
+    book = Ledger("mem")
+    with Repository(repo.root) as repository:
+        history = History(repository, GitInput(repo.root, "main", "proto"))
+        added = history.update(book, repository.history("main") if commits is None else commits)
+    return history, book, added
 
 
 def erc_lint_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
@@ -150,10 +160,7 @@ def test_a_revision_without_the_subdir_records_nothing(tmp_path: Path) -> None:
     (repo.root / "README").write_text("x")
     repo.commit("no protos yet")
     last = repo.commit("protos", a="message A { int32 x = 1; }\n")
-    book = Ledger("mem")
-    with Repository(repo.root) as repository:
-        history = History(repository, GitInput(repo.root, "main", "proto"))
-        added = history.update(book, repository.history("main"))
+    _, _, added = walk(repo)
     assert [(e.key.name, e.since) for e in added] == [("x", last[:12])]
 
 
@@ -173,10 +180,7 @@ def test_a_file_is_compiled_again_only_when_it_or_what_it_imports_changed(
     repo.commit("nothing")  # 0
     repo.commit("base renames", base="message Core { int32 x = 1; }\n")  # 2: user fails
     last = repo.commit("user follows", user='import "base.proto";\nmessage User { Core b = 1; }\n')
-    book = Ledger("mem")
-    with Repository(repo.root) as repository:
-        history = History(repository, GitInput(repo.root, "main", "proto"))
-        history.update(book, repository.history("main"))
+    history, book, _ = walk(repo)
     assert history.compiled == 3 + 4 + 1 + 0 + 2 + 1
     assert book.entries[Key("message", "User", 1, "b", "Core")].since == last[:12]
 
@@ -194,10 +198,7 @@ def test_import_cycles_and_broken_imports_record_nothing_of_what_they_touch(
         e='import "d.proto";\nmessage E { D d = 1; int32 broken = ; }\n',
         f='import "e.proto";\nmessage F { int32 f = 1; }\n',
     )
-    book = Ledger("mem")
-    with Repository(repo.root) as repository:
-        history = History(repository, GitInput(repo.root, "main", "proto"))
-        history.update(book, repository.history("main"))
+    _, book, _ = walk(repo)
     assert sorted(key.container for key in book.entries) == ["D"]
 
 
@@ -298,9 +299,7 @@ def test_a_revision_records_what_compiling_its_checkout_records(
         user='import "diag.proto";\nimport "proto/other.proto";\n'
         "message User { Diag d = 1; Other o = 2; }\n",
     )
-    with Repository(repo.root) as repository:
-        history = History(repository, GitInput(repo.root, "main", "proto"))
-        walked = history.update(Ledger("mem"), [repository.commit("main")])
+    _, _, walked = walk(repo, [repo.git("rev-parse", "main")])
     checkout = keys(load_tree(repo.root / "proto").files.values())
     assert {entry.key for entry in walked} == checkout
     assert len(checkout) == 5
@@ -336,11 +335,7 @@ def test_symlinked_protos_are_read_through_their_links(tmp_path: Path) -> None:
     repo.commit("linked", user='import "common.proto";\nmessage User { Common c = 1; }\n')
     assert erc_lint.check(repo.root / "proto") == []
     assert erc_lint.check(repo.spec("main")) == []
-    book = Ledger("mem")
-    with Repository(repo.root) as repository:
-        History(repository, GitInput(repo.root, "main", "proto")).update(
-            book, repository.history("main")
-        )
+    _, book, _ = walk(repo)
     assert sorted(key.container for key in book.entries) == ["Common", "User"]
 
 
@@ -365,11 +360,7 @@ def test_a_tree_s_own_nanopb_proto_wins_over_the_bundled_one(tmp_path: Path) -> 
         nanopb="message Extra { int32 e = 1; }\n",
         a='import "nanopb.proto";\nmessage A { Extra extra = 1; }\n',
     )
-    book = Ledger("mem")
-    with Repository(repo.root) as repository:
-        History(repository, GitInput(repo.root, "main", "proto")).update(
-            book, repository.history("main")
-        )
+    _, book, _ = walk(repo)
     assert Key("message", "A", 1, "extra", "Extra") in book.entries
 
 
