@@ -1,13 +1,14 @@
 """Proton serial framing: the test vectors, and recovery from any chunking, noise and damage."""
 
 import itertools
+from collections import Counter
 
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
 import erc_codec
-from erc_codec import Deframer, frame
+from erc_codec import Deframer, DeframerStats, frame
 from erc_codec._framing import crc16
 
 MAX = 64
@@ -57,15 +58,25 @@ def test_a_real_frame_inside_a_false_one_is_found() -> None:
 
 def reference(stream: bytes, max_length: int) -> list[bytes]:
     """The framing rules applied to the whole stream at once, the slow obvious way."""
+    return reference_stats(stream, max_length)[0]
+
+
+def reference_stats(stream: bytes, max_length: int) -> tuple[list[bytes], DeframerStats, int]:
+    """The payloads, the counters and the bytes left buffered, frame by frame."""
     found, i = [], 0
+    discarded: Counter[str] = Counter()
+    rejected: Counter[str] = Counter()
     while i + 2 <= len(stream):
         if stream[i : i + 2] != b"PR":
+            discarded["garbage"] += 1
             i += 1
             continue
         if i + 4 > len(stream):
             break
         length = int.from_bytes(stream[i + 2 : i + 4], "little")
         if length > max_length:
+            rejected["too_long"] += 1
+            discarded["too_long"] += 1
             i += 1
             continue
         end = i + 6 + length
@@ -76,8 +87,13 @@ def reference(stream: bytes, max_length: int) -> list[bytes]:
             found.append(payload)
             i = end
         else:
+            rejected["bad_crc"] += 1
+            discarded["bad_crc"] += 1
             i += 1
-    return found
+    if i == len(stream) - 1 and stream[i:] != b"P":
+        discarded["garbage"] += 1
+        i += 1
+    return found, DeframerStats(len(found), dict(discarded), dict(rejected)), len(stream) - i
 
 
 def chunked(stream: bytes, cuts: list[int]) -> list[bytes]:
@@ -163,3 +179,39 @@ def test_any_damage_gives_what_the_rules_give(
                 stream[at:at] = b"PR"
     cuts = data.draw(CUTS)
     assert chunked(bytes(stream), cuts) == reference(bytes(stream), MAX)
+
+
+@st.composite
+def runs(draw: st.DrawFn) -> bytes:
+    """Runs of frames of one length back to back (the deframer checks those a batch at a time),
+    the runs of a few lengths, some frames damaged in header, payload or CRC."""
+    stream = bytearray()
+    for _ in range(draw(st.integers(1, 4))):
+        size = draw(st.sampled_from([0, 1, 7, MAX, MAX + 1]))
+        for _ in range(draw(st.integers(1, 40))):
+            stream += frame(draw(st.binary(min_size=size, max_size=size)))
+    for _ in range(draw(st.integers(0, 3))):
+        at = draw(st.integers(0, len(stream) - 1))
+        stream[at] ^= 1 << draw(st.integers(0, 7))
+    return bytes(stream)
+
+
+@given(runs(), CUTS)
+def test_runs_of_equal_frames_give_what_the_rules_give(stream: bytes, cuts: list[int]) -> None:
+    payloads, stats, left = reference_stats(stream, MAX)
+    deframer = Deframer(max_length=MAX)
+    edges = sorted({0, len(stream), *(c % (len(stream) + 1) for c in cuts)})
+    out = [p for a, b in itertools.pairwise(edges) for p in deframer.feed(stream[a:b])]
+    assert out == payloads
+    assert deframer.stats() == stats
+    assert deframer.buffered() == left
+
+
+def test_a_long_run_with_a_bad_frame_late_in_it() -> None:
+    payloads = [n.to_bytes(2, "big") * 5 for n in range(300)]
+    stream = bytearray(b"".join(frame(p) for p in payloads))
+    stream[250 * 16 + 9] ^= 0xFF  # frame 250's payload
+    deframer = Deframer(max_length=MAX)
+    assert deframer.feed(bytes(stream)) == payloads[:250] + payloads[251:]
+    assert deframer.stats().rejected == {"bad_crc": 1}
+    assert deframer.stats().discarded_bytes == {"bad_crc": 1, "garbage": 15}
