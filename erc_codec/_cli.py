@@ -18,36 +18,17 @@ from google.protobuf import json_format
 from google.protobuf.descriptor import Descriptor
 from google.protobuf.message import Message
 
+from ._click import OneLineGroup
 from ._codec import Codec, default_tree
 from ._envelope import Mode
 from ._errors import CodecError, DecodeError, EncodeError
 from ._framing import Deframer, frame
 from ._schema import descriptor_of, message_of
 
-__all__ = ["OneLineGroup", "main"]
+__all__ = ["main"]
 
 _DIRECTION = re.compile(r"direction:\s*(.+)", re.IGNORECASE)
 _Command = TypeVar("_Command", bound=Callable[..., Any])
-
-
-class OneLineGroup(click.Group):
-    """A command group whose every error is one line on stderr: click's usage errors print
-    usage, hint and error on three. Exit statuses stay click's (2 for usage errors)."""
-
-    def main(self, *args: Any, **kwargs: Any) -> Any:
-        kwargs["standalone_mode"] = False
-        try:
-            status = super().main(*args, **kwargs)
-        except click.ClickException as error:
-            if type(error).__name__ == "NoArgsIsHelpError":  # a bare group: its help, as is
-                click.echo(error.format_message(), err=True)
-            else:
-                click.echo(f"Error: {error.format_message()}", err=True)
-            sys.exit(error.exit_code)
-        except click.Abort:
-            click.echo("Aborted!", err=True)
-            sys.exit(1)
-        sys.exit(status if isinstance(status, int) else 0)
 
 
 @click.group(cls=OneLineGroup, context_settings={"help_option_names": ["-h", "--help"]})

@@ -8,7 +8,7 @@ from typing import Any, TypeVar
 import click
 
 from erc_codec import CodecError
-from erc_codec._cli import OneLineGroup
+from erc_codec._click import OneLineGroup
 
 from ._config import Config, ConfigError, find_config, read_config
 from ._finding import Finding
@@ -29,12 +29,25 @@ class _Failure(click.ClickException):
 
 
 class _LintGroup(OneLineGroup):
-    """A group whose default command is ``diff``: ``erc-lint OLD NEW`` means ``erc-lint diff``."""
+    """A group whose default command is ``diff``: ``erc-lint OLD NEW`` means ``erc-lint diff``.
+    ``ledger`` loads on first use, so linting does not pay for the history walker's imports."""
 
     def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
-        if args and args[0] not in self.commands and args[0] not in ("-h", "--help", "--version"):
+        if args and args[0] not in self.list_commands(ctx) and args[0] not in _OPTIONS:
             args = ["diff", *args]
         return super().parse_args(ctx, args)
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted({*super().list_commands(ctx), "ledger"})
+
+    def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
+        if name == "ledger":
+            from . import _cli_ledger  # noqa: F401 - registers the command
+
+        return super().get_command(ctx, name)
+
+
+_OPTIONS = ("-h", "--help", "--version")
 
 
 @click.group(cls=_LintGroup, context_settings={"help_option_names": ["-h", "--help"]})
@@ -166,6 +179,3 @@ def _report(findings: list[Finding], output: str) -> None:
     click.echo(render(findings, output), nl=False)
     if any(finding.severity == "error" for finding in findings):
         raise SystemExit(1)
-
-
-from . import _cli_ledger  # noqa: E402, F401 - registers `erc-lint ledger`

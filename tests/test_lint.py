@@ -1,5 +1,6 @@
 """erc_lint's loader, configuration and command line (the rules have tests/lint_cases/)."""
 
+import ast
 import json
 import subprocess
 import sys
@@ -320,3 +321,20 @@ def test_usage_errors_exit_2_in_one_line(args: list[str], complaint: str) -> Non
     assert done.returncode == 2
     assert done.stderr.startswith(f"Error: {complaint}")
     assert done.stderr.count("\n") == 1
+
+
+def test_linting_leaves_the_ledger_walker_and_the_codec_cli_unloaded(tmp_path: Path) -> None:
+    """Start-up is most of a CI run's time: `erc-lint OLD NEW` imports what it uses."""
+    old = tree(tmp_path / "old", {"a.proto": "message A { int32 x = 1; }\n"})
+    script = (
+        "import sys\nfrom erc_lint._cli import main\n"
+        "try:\n    main([sys.argv[1], sys.argv[1]])\nexcept SystemExit:\n    pass\n"
+        "print(sorted(m for m in sys.modules if m.startswith(('erc_lint._', 'erc_codec._'))))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script, str(old)], capture_output=True, text=True, check=True
+    )
+    loaded = set(ast.literal_eval(done.stdout))
+    assert "erc_lint._run" in loaded  # it did lint
+    unused = {"erc_lint._history", "erc_lint._cli_ledger", "erc_codec._cli", "erc_codec._codec"}
+    assert not loaded & unused
