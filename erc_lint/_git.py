@@ -76,6 +76,18 @@ class Repository:
         except GitError:
             raise GitError(f"{self.folder}: no commit named {ref!r}") from None
 
+    def unborn(self) -> bool:
+        """Whether HEAD names a branch that has no commit yet (a repository's first commit)."""
+        try:
+            self._git("symbolic-ref", "--quiet", "HEAD")
+        except GitError:
+            return False  # a detached HEAD always points at a commit
+        try:
+            self._git("rev-parse", "--verify", "--quiet", "HEAD")
+        except GitError:
+            return True
+        return False
+
     def history(self, ref: str) -> list[str]:
         """Every commit reachable from ``ref``, each after its parents (oldest first)."""
         commit = self.commit(ref)

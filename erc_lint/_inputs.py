@@ -87,7 +87,15 @@ def open_input(text: str) -> Iterator[Source]:
         yield Source(spec, spec)
         return
     with Repository(spec.folder) as repository:
-        commit = repository.commit(spec.ref)
+        try:
+            commit = repository.commit(spec.ref)
+        except GitError:
+            if spec.ref != "HEAD" or not repository.unborn():
+                raise
+            # Before the first commit there was no tree: nothing can have been broken.
+            with tempfile.TemporaryDirectory(prefix="erc-lint-git-") as scratch:
+                yield Source(Path(scratch), spec.shown)
+            return
         inside, shown = locate(spec, repository)
         files = repository.files(commit, inside)
         with tempfile.TemporaryDirectory(prefix="erc-lint-git-") as scratch:

@@ -208,6 +208,24 @@ def test_the_pre_commit_hook_compares_against_head(tmp_path: Path) -> None:
     assert broken.stdout.startswith("proto/a.proto:2:13: FIELD_TYPE_CHANGED")
 
 
+def test_before_the_first_commit_head_is_an_empty_tree(tmp_path: Path) -> None:
+    """The hook runs on a repository's first commit too: nothing came before, nothing broke."""
+    repo = tree(tmp_path, {"proto/a.proto": "message A { float x = 1; }\n"})
+    subprocess.run(["git", "init", "-q"], cwd=repo, check=True)
+    first = run(".#ref=HEAD,subdir=proto", "proto", cwd=repo)
+    assert (first.returncode, first.stdout, first.stderr) == (0, "", "")
+    # Only HEAD: any other name for a missing commit is still a mistake.
+    missing = run(".#branch=main,subdir=proto", "proto", cwd=repo)
+    assert missing.returncode == 2
+    assert "no commit named 'main'" in missing.stderr
+    # The same repository, once it has commits, with HEAD detached from any branch: a real HEAD.
+    git = ["git", "-c", "user.name=t", "-c", "user.email=t@t.invalid"]
+    for command in (["add", "."], ["commit", "-qm", "one"], ["checkout", "-q", "--detach"]):
+        subprocess.run([*git, *command], cwd=repo, check=True)
+    (repo / "proto" / "a.proto").write_text("message A { sint32 x = 1; }\n")
+    assert run(".#ref=HEAD,subdir=proto", "proto", cwd=repo).returncode == 1
+
+
 def test_a_renamed_oneof_moves_nothing(tmp_path: Path) -> None:
     old = tree(
         tmp_path / "old", {"m.proto": "message M { oneof a { int32 x = 1; float y = 2; } }\n"}
