@@ -81,13 +81,13 @@ class Deframer:
 
     def feed(self, chunk: bytes) -> list[bytes]:
         """Take the next bytes of the stream; the payloads of the frames they complete."""
-        if self._buffer:
-            self._buffer += chunk
-            if len(self._buffer) < self._wanted:
-                return []  # still waiting for the rest of a frame: nothing to rescan
-            data = bytes(self._buffer)  # one copy; the payloads are slices of it
+        if not self._buffer:
+            data = bytes(chunk)  # no copy for bytes; the payloads are slices of it
+        elif len(self._buffer) + len(chunk) < self._wanted:
+            self._buffer += chunk  # still waiting for the rest of a frame: nothing to rescan
+            return []
         else:
-            data = bytes(chunk)  # no copy for bytes
+            data = b"".join((self._buffer, chunk))
         payloads: list[bytes] = []
         append, find, crc, limit = payloads.append, data.find, binascii.crc_hqx, self._max
         pos, end, last = 0, len(data), self._last  # last: length of the frame that ended at ``pos``
@@ -158,42 +158,38 @@ class Deframer:
         self._discard(reason, 1)
 
 
-def _run(data: bytes, start: int, length: int, count: int) -> list[bytes]:
+def _run(data: bytes, start: int, length: int, count: int) -> tuple[bytes, ...]:
     """The payloads of the longest valid prefix of ``count`` frames of ``length`` bytes that lie
     back to back from ``start`` (all complete in ``data``, the first one's header checked).
 
     Exactly what the frame-by-frame scan would accept, but each step runs over the whole batch
     in C: header bytes are compared column by column through strided slices, and payloads and
-    CRCs come out of ``struct`` layouts of whole power-of-two groups of frames."""
+    CRCs come out of one ``struct`` layout of the whole batch."""
     step = length + _HEADER + _TRAILER
     end = start + count * step
+    layout, headers = _layout(length, count)
     columns = [data[start + offset : end : step] for offset in range(_HEADER)]
-    header = MAGIC + length.to_bytes(2, "little")
-    expected = [header[offset : offset + 1] * count for offset in range(_HEADER)]
-    if columns != expected:  # the run breaks at the first frame with another header
+    if columns != headers:  # the run breaks at the first frame with another header
         count = min(
-            _first_difference(a, b) for a, b in zip(columns, expected, strict=True) if a != b
+            _first_difference(a, b) for a, b in zip(columns, headers, strict=True) if a != b
         )
-    payloads: list[bytes] = []
-    sent: list[int] = []
-    at = start
-    for bit in reversed(range(count.bit_length())):
-        if count >> bit & 1:
-            fields = _layout(length, 1 << bit).unpack_from(data, at)
-            payloads += fields[0::2]
-            sent += fields[1::2]
-            at += step << bit
-    computed = list(map(binascii.crc_hqx, payloads, repeat(0xFFFF)))
+        layout = _layout(length, count)[0]
+    fields = layout.unpack_from(data, start)
+    payloads, sent = fields[0::2], fields[1::2]
+    computed = tuple(map(binascii.crc_hqx, payloads, repeat(0xFFFF)))
     if computed != sent:  # the run breaks at the first frame with a bad CRC
         pairs = zip(computed, sent, strict=True)
-        del payloads[next(i for i, (ours, theirs) in enumerate(pairs) if ours != theirs) :]
+        return payloads[: next(i for i, (ours, theirs) in enumerate(pairs) if ours != theirs)]
     return payloads
 
 
-@functools.lru_cache(maxsize=64)
-def _layout(length: int, count: int) -> struct.Struct:
-    """``count`` frames of ``length`` bytes, as payload and CRC pairs."""
-    return struct.Struct("<" + f"4x{length}sH" * count)
+@functools.lru_cache(maxsize=64)  # at most 64 layouts of at most 256 frames: under 1 MB
+def _layout(length: int, count: int) -> tuple[struct.Struct, list[bytes]]:
+    """``count`` frames of ``length`` bytes back to back: the layout that reads them as payload
+    and CRC pairs, and what their header bytes must be, column by column."""
+    header = MAGIC + length.to_bytes(2, "little")
+    columns = [header[offset : offset + 1] * count for offset in range(_HEADER)]
+    return struct.Struct("<" + f"4x{length}sH" * count), columns
 
 
 def _first_difference(a: bytes, b: bytes) -> int:
