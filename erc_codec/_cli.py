@@ -300,20 +300,46 @@ def _dpkt() -> ModuleType:
         raise _Fatal("--pcap needs the dpkt package: pip install 'erc-codec[pcap]'") from None
 
 
-def _open_capture(dpkt: ModuleType, path: Path) -> tuple[BinaryIO, Any]:
+class _Capture:
+    """A capture file that notes a read stopping short inside it: dpkt hands a pcap record cut
+    off by the end of the file over as a shorter packet, without a word."""
+
+    def __init__(self, file: BinaryIO) -> None:
+        self._file = file
+        self.cut = False
+
+    def read(self, size: int = -1) -> bytes:
+        data = self._file.read(size)
+        self.cut = self.cut or 0 < len(data) < size
+        return data
+
+    def seek(self, offset: int, whence: int = 0) -> int:
+        return self._file.seek(offset, whence)
+
+    def tell(self) -> int:
+        return self._file.tell()
+
+    def __enter__(self) -> "_Capture":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._file.close()
+
+
+def _open_capture(dpkt: ModuleType, path: Path) -> tuple[_Capture, Any]:
     """The open file and a dpkt reader of a pcap or pcapng capture, or a one-line exit 2."""
     try:
-        file = path.open("rb")
+        file = _Capture(path.open("rb"))
     except OSError as error:
         raise _Fatal(f"cannot read {path}: {error.strerror or error}") from None
     try:
         reader = dpkt.pcap.UniversalReader(file)
         linktype = reader.datalink()
     except Exception:  # dpkt raises ValueError, its own errors or struct.error on a bad header
-        file.close()
+        file.__exit__()
         raise _Fatal(f"{path} is not a pcap or pcapng capture") from None
     if linktype not in (_ETHERNET, _LINUX_SLL, _LINUX_SLL2, *_RAW_IP, *_LOOPBACK):
-        file.close()
+        file.__exit__()
         raise _Fatal(
             f"{path}: link type {linktype} is not supported (Ethernet, Linux cooked (SLL, SLL2), "
             "raw IP and loopback are)"
@@ -360,7 +386,7 @@ def _endpoint(address: bytes, port: int) -> str:
     return f"[{host}]:{port}" if host.version == 6 else f"{host}:{port}"
 
 
-def _capture(decoder: _Decoder, dpkt: ModuleType, path: Path, reader: Any) -> str:
+def _capture(decoder: _Decoder, dpkt: ModuleType, path: Path, file: _Capture, reader: Any) -> str:
     """Decode every UDP payload of a capture; the summary line.
 
     A capture damaged after its header (cut off while it was written) is decoded up to the
@@ -371,13 +397,16 @@ def _capture(decoder: _Decoder, dpkt: ModuleType, path: Path, reader: Any) -> st
     packets = iter(reader)
     damage = ""
     while True:
+        count = decoder.datagrams + sum(skipped.values())
         try:
             timestamp, packet = next(packets)
         except StopIteration:
             break
         except Exception as error:  # dpkt raises its own errors, ValueError or struct.error
-            count = decoder.datagrams + sum(skipped.values())
             damage = f"{path} is damaged after packet {count}: {type(error).__name__} {error}"
+            break
+        if file.cut:
+            damage = f"{path} is cut off inside packet {count + 1}"
             break
         why, ip, udp = _udp(dpkt, linktype, packet)
         if why:
@@ -479,7 +508,7 @@ def decode(
         file, reader = _open_capture(dpkt, capture)
         with file:
             decoder = _Decoder(_load(tree, root))
-            summary = _quietly(lambda: _capture(decoder, dpkt, capture, reader))
+            summary = _quietly(lambda: _capture(decoder, dpkt, capture, file, reader))
     else:
         codec = _load(tree, root)
         decoder = _Decoder(codec)

@@ -388,6 +388,12 @@ def test_pcap_problems_exit_2_in_one_line(codec: erc_codec.Codec, tmp_path: Path
     summary, damage = done.err.splitlines()
     assert summary == "1 datagram, 0 undecodable, 0 packets skipped"
     assert "is damaged after packet 1" in damage
+    # Cut inside the last packet's data: dpkt passes the stump on as a packet; it is damage.
+    cut.write_bytes(whole[:-3])
+    done = run("decode", "--pcap", str(cut))
+    assert done.code == 2
+    assert [r["kind"] for r in records(done.out)] == ["gps_info"]
+    assert done.err.splitlines()[1] == f"Error: {cut} is cut off inside packet 2"
 
 
 def test_pcap_without_dpkt_says_what_to_install(tmp_path: Path) -> None:
