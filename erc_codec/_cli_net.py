@@ -11,7 +11,7 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import cast
+from typing import Any, cast
 
 import click
 from google.protobuf.message import Message
@@ -48,6 +48,22 @@ def _address(text: str, default_host: str | None = None) -> tuple[str, int]:
     return (host.strip("[]") or cast(str, default_host)), number
 
 
+def _resolve(host: str, port: int) -> tuple[socket.AddressFamily, tuple[Any, ...]]:
+    """The family and socket address of ``host`` (a name or an IPv4 or IPv6 address)."""
+    try:
+        family, _, _, _, address = socket.getaddrinfo(host, port, type=socket.SOCK_DGRAM)[0]
+    except (OSError, UnicodeError) as error:
+        reason = error.strerror if isinstance(error, OSError) and error.strerror else error
+        raise _Fatal(f"cannot resolve {host!r}: {reason}") from None
+    return family, address
+
+
+def _shown(address: tuple[Any, ...]) -> str:
+    """``host:port``, with an IPv6 host in brackets so the port stays readable."""
+    host, port = address[0], address[1]
+    return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
+
+
 @main.command()
 @click.argument("target", metavar="HOST:PORT")
 @click.argument("kind")
@@ -81,17 +97,18 @@ def send(
         data = codec.encode(envelope, cast(Mode, mode))
     except EncodeError as error:
         raise click.ClickException(_one_line(str(error))) from None
-    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    family, target_address = _resolve(host, port)
     with socket.socket(family, socket.SOCK_DGRAM) as sock:
         start = time.monotonic()
         for i in range(count):
             if rate is not None:
                 time.sleep(max(0.0, start + i / rate - time.monotonic()))
             try:
-                sock.sendto(data, (host, port))
+                sock.sendto(data, target_address)
             except OSError as error:
-                raise _Fatal(f"cannot send to {host}:{port}: {error}") from None
-    click.echo(f"sent {count} datagram(s) of {len(data)} bytes to {host}:{port}", err=True)
+                raise _Fatal(f"cannot send to {_shown(target_address)}: {error}") from None
+    shown = _shown(target_address)
+    click.echo(f"sent {count} datagram(s) of {len(data)} bytes to {shown}", err=True)
 
 
 @main.command()
@@ -148,15 +165,14 @@ def listen(
 
     for kind in codec.kinds().values():
         dispatcher.register(kind, handler(kind))
-    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    family, local = _resolve(host, port)
     received = 0
     with socket.socket(family, socket.SOCK_DGRAM) as sock:
         try:
-            sock.bind((host, port))
+            sock.bind(local)
         except OSError as error:
-            raise _Fatal(f"cannot listen on {host}:{port}: {error}") from None
-        bound = sock.getsockname()
-        click.echo(f"listening on {bound[0]}:{bound[1]}", err=True)
+            raise _Fatal(f"cannot listen on {_shown(local)}: {error}") from None
+        click.echo(f"listening on {_shown(sock.getsockname())}", err=True)
         deadline = None if seconds is None else time.monotonic() + seconds
         try:
             while count is None or received < count:
@@ -171,7 +187,7 @@ def listen(
                         view.render()
                     continue
                 received += 1
-                source[0], sizes[0] = f"{sender[0]}:{sender[1]}", len(data)
+                source[0], sizes[0] = _shown(sender), len(data)
                 dispatcher.feed(data)
                 if view is not None:
                     view.render()

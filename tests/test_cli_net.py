@@ -82,6 +82,15 @@ def test_bad_addresses_are_usage_errors() -> None:
     )
     assert done.returncode == 2
     assert "expected HOST:PORT" in done.stderr
+    # A name that cannot be a host name fails in the resolver, without asking any server.
+    done = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "send", "a..b:5005", "gps_info", "{}"],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 2
+    assert done.stderr.startswith("Error: cannot resolve 'a..b'")
+    assert done.stderr.count("\n") == 1
 
 
 def test_listen_stops_after_its_time() -> None:
@@ -89,3 +98,14 @@ def test_listen_stops_after_its_time() -> None:
     out, err = listener.communicate(timeout=30)
     assert (listener.returncode, out) == (0, "")
     assert '"received": 0' in err
+
+
+def test_addresses_of_either_family_resolve_and_show_their_port() -> None:
+    from erc_codec._cli_net import _resolve, _shown
+
+    family, address = _resolve("::1", 5005)
+    assert family == socket.AF_INET6
+    assert _shown(address) == "[::1]:5005"
+    family, address = _resolve("127.0.0.1", 5005)
+    assert family == socket.AF_INET
+    assert _shown(address) == "127.0.0.1:5005"
