@@ -61,6 +61,15 @@ class Reserved:
     def covers(self, number: int) -> bool:
         return any(low <= number <= high for low, high, _ in self.ranges)
 
+    def first_free(self, low: int, high: int) -> int | None:
+        """The lowest number from ``low`` to ``high`` that no range covers, if any."""
+        number = low
+        for start, end, _ in sorted(self.ranges, key=lambda r: r[0]):
+            if start > number:
+                break
+            number = max(number, end + 1)
+        return number if number <= high else None
+
 
 @dataclass
 class Message:

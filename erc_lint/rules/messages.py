@@ -45,13 +45,13 @@ def reserved_removed(change: Change) -> Report:
     ]
     for old, new, kind in pairs:
         for low, high, _ in old.reserved.ranges:
-            free = [n for n in _numbers(low, high) if not new.reserved.covers(n)]
-            if free:
+            free = new.reserved.first_free(low, high)
+            if free is not None:
                 span = f'"{low}"' if low == high else f'"{low} to {high}"'
                 yield (
                     new.location,
                     f'Previously reserved range {span} on {kind} "{new.name}" is no longer '
-                    f"reserved (first free number: {free[0]}).",
+                    f"reserved (first free number: {free}).",
                     False,
                 )
         for name in old.reserved.names:
@@ -62,13 +62,6 @@ def reserved_removed(change: Change) -> Report:
                     "reserved.",
                     False,
                 )
-
-
-def _numbers(low: int, high: int) -> Iterator[int]:
-    """The range's numbers, but at most a few thousand of a huge range (ends included)."""
-    yield from range(low, min(high, low + 4096) + 1)
-    if high > low + 4096:
-        yield high
 
 
 @pair_rule(
