@@ -168,7 +168,12 @@ def _run(data: bytes, start: int, length: int, count: int) -> tuple[bytes, ...]:
     step = length + _HEADER + _TRAILER
     end = start + count * step
     layout, headers = _layout(length, count)
-    columns = [data[start + offset : end : step] for offset in range(_HEADER)]
+    columns = [  # the magic's two bytes and the length's two, frame by frame
+        data[start:end:step],
+        data[start + 1 : end : step],
+        data[start + 2 : end : step],
+        data[start + 3 : end : step],
+    ]
     if columns != headers:  # the run breaks at the first frame with another header
         count = min(
             _first_difference(a, b) for a, b in zip(columns, headers, strict=True) if a != b
