@@ -1,5 +1,8 @@
 """Dispatcher: every datagram lands in exactly one counter, and every drop is reported."""
 
+from collections.abc import Callable
+from pathlib import Path
+
 import pytest
 from google.protobuf.message import Message
 from hypothesis import given
@@ -115,3 +118,78 @@ def test_every_datagram_lands_in_exactly_one_counter(
     assert len(drops) == stats.dropped
     expected = sum(1 for kind, _ in fed if kind in registered)
     assert handled >= expected  # random bytes may happen to decode, too
+
+
+@st.composite
+def damaged_datagrams(draw: st.DrawFn) -> bytes:
+    """Datagrams of every form, some cut, lengthened or with a byte changed: the edges of the
+    dispatcher's short cut for exact datagrams (length bytes, sizes, payloads that fail)."""
+    data = bytearray(draw(datagrams())[1])
+    for _ in range(draw(st.integers(0, 2))):
+        action = draw(st.sampled_from(["change", "cut", "grow"]))
+        if action == "change" and data:
+            data[draw(st.integers(0, len(data) - 1))] = draw(st.integers(0, 255))
+        elif action == "cut" and data:
+            del data[draw(st.integers(0, len(data) - 1)) :]
+        else:
+            data += draw(st.binary(min_size=1, max_size=140))
+    return bytes(data)
+
+
+def outcome(data: bytes) -> tuple[str, bytes] | str:
+    """What decode makes of ``data``: kind and payload bytes, or the reason it fails."""
+    try:
+        decoded = CODEC.decode(data)
+    except erc_codec.DecodeError as error:
+        return error.reason
+    return decoded.kind, decoded.message.SerializeToString()
+
+
+@given(st.lists(damaged_datagrams(), max_size=20))
+def test_handlers_get_exactly_what_decode_gives(fed: list[bytes]) -> None:
+    seen: list[tuple[str, bytes] | str] = []
+
+    def recorder(kind: str) -> Callable[[Message], None]:
+        return lambda message: seen.append((kind, message.SerializeToString()))
+
+    dispatcher = erc_codec.Dispatcher(CODEC, on_drop=lambda drop: seen.append(drop.reason))
+    for kind in KINDS:
+        dispatcher.register(kind, recorder(kind))
+    for data in fed:
+        dispatcher.feed(data)
+    assert seen == [outcome(data) for data in fed]
+
+
+def unknown_field(size: int) -> bytes:
+    """``size`` bytes that any message parses: one unknown length-delimited field (number 15)."""
+    body = size - 3  # tag, two-byte length
+    return bytes([15 << 3 | 2, body & 0x7F | 0x80, body >> 7]) + bytes(body)
+
+
+def test_a_length_byte_that_continues_is_not_a_one_byte_length() -> None:
+    # 0x85 equals the bytes after it, but as a varint it continues into the next byte.
+    data = bytes([1 << 3 | 2, 0x85]) + unknown_field(0x85)
+    assert outcome(data) == "corrupt"
+    dispatcher = erc_codec.Dispatcher(CODEC)
+    dispatcher.register(KINDS[0], lambda message: None)
+    assert not dispatcher.feed(data)
+    assert dispatcher.stats().undecodable == {"corrupt": 1}
+
+
+def test_a_datagram_over_the_envelopes_size_is_dropped_however_it_looks(tmp_path: Path) -> None:
+    (tmp_path / "small.proto").write_text(
+        'syntax = "proto3";\nmessage Ping { uint32 n = 1; }\n'
+        "message Env { oneof payload { Ping ping = 1; } }\n"
+    )
+    codec = erc_codec.Codec.from_path(tmp_path, root="Env")
+    dispatcher = erc_codec.Dispatcher(codec)
+    dispatcher.register("ping", lambda message: None)
+    exact = bytes([1 << 3 | 2, 40]) + unknown_field(40)  # exact in form, but Env_size is 8
+    # Stripped in form: a 10-byte payload whose last 8 bytes (zeros) are not sent.
+    stripped = bytes([1 << 3 | 2, 10, 15 << 3 | 2, 8])
+    for data in (exact, stripped):
+        with pytest.raises(erc_codec.DecodeError) as raised:
+            codec.decode(data)
+        assert not dispatcher.feed(data)
+        assert dispatcher.stats().undecodable[raised.value.reason] >= 1
+    assert dispatcher.stats().dropped == 2
