@@ -163,11 +163,11 @@ def _run(data: bytes, start: int, length: int, count: int) -> tuple[bytes, ...]:
     back to back from ``start`` (all complete in ``data``, the first one's header checked).
 
     Exactly what the frame-by-frame scan would accept, but each step runs over the whole batch
-    in C: header bytes are compared column by column through strided slices, and payloads and
-    CRCs come out of one ``struct`` layout of the whole batch."""
+    in C: header and CRC bytes are compared column by column through strided slices, and the
+    payloads come out of one ``struct`` layout of the whole batch."""
     step = length + _HEADER + _TRAILER
     end = start + count * step
-    layout, headers = _layout(length, count)
+    payloads, crcs, headers = _layout(length, count)
     columns = [  # the magic's two bytes and the length's two, frame by frame
         data[start:end:step],
         data[start + 1 : end : step],
@@ -178,23 +178,26 @@ def _run(data: bytes, start: int, length: int, count: int) -> tuple[bytes, ...]:
         count = min(
             _first_difference(a, b) for a, b in zip(columns, headers, strict=True) if a != b
         )
-        layout = _layout(length, count)[0]
-    fields = layout.unpack_from(data, start)
-    payloads, sent = fields[0::2], fields[1::2]
-    computed = tuple(map(binascii.crc_hqx, payloads, repeat(0xFFFF)))
-    if computed != sent:  # the run breaks at the first frame with a bad CRC
-        pairs = zip(computed, sent, strict=True)
-        return payloads[: next(i for i, (ours, theirs) in enumerate(pairs) if ours != theirs)]
-    return payloads
+        end = start + count * step
+        payloads, crcs, _ = _layout(length, count)
+    found = payloads.unpack_from(data, start)
+    computed = crcs.pack(*map(binascii.crc_hqx, found, repeat(0xFFFF)))  # little-endian pairs
+    low = start + _HEADER + length
+    sent = data[low:end:step], data[low + 1 : end : step]
+    if (computed[0::2], computed[1::2]) != sent:  # the run breaks at the first bad CRC
+        pairs = bytearray(computed)
+        pairs[0::2], pairs[1::2] = sent
+        return found[: _first_difference(computed, bytes(pairs)) // _TRAILER]
+    return found
 
 
 @functools.lru_cache(maxsize=64)  # at most 64 layouts of at most 256 frames: under 1 MB
-def _layout(length: int, count: int) -> tuple[struct.Struct, list[bytes]]:
-    """``count`` frames of ``length`` bytes back to back: the layout that reads them as payload
-    and CRC pairs, and what their header bytes must be, column by column."""
+def _layout(length: int, count: int) -> tuple[struct.Struct, struct.Struct, list[bytes]]:
+    """For ``count`` frames of ``length`` bytes back to back: the layout of their payloads, that
+    of their CRCs, and what their header bytes must be, column by column."""
     header = MAGIC + length.to_bytes(2, "little")
     columns = [header[offset : offset + 1] * count for offset in range(_HEADER)]
-    return struct.Struct("<" + f"4x{length}sH" * count), columns
+    return struct.Struct(f"4x{length}s2x" * count), struct.Struct(f"<{count}H"), columns
 
 
 def _first_difference(a: bytes, b: bytes) -> int:
