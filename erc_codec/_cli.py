@@ -301,19 +301,24 @@ def _dpkt() -> ModuleType:
 
 
 class _Capture:
-    """A capture file that notes a read stopping short inside it: dpkt hands a pcap record cut
-    off by the end of the file over as a shorter packet, without a word."""
+    """A capture file that notes reads stopping short inside it: dpkt hands a pcap record cut
+    off by the end of the file over as a shorter (or empty) packet, without a word, and skips a
+    pcapng block cut short if it holds no packet. A short read that is not the last (the end of
+    the file) is a cut, and so is one right before a packet comes out (``short``)."""
 
     def __init__(self, file: BinaryIO) -> None:
         self._file = file
         self.cut = False
+        self.short = False
 
     def read(self, size: int = -1) -> bytes:
+        self.cut = self.cut or self.short
         data = self._file.read(size)
-        self.cut = self.cut or 0 < len(data) < size
+        self.short = 0 <= len(data) < size
         return data
 
     def seek(self, offset: int, whence: int = 0) -> int:
+        self.short = False  # dpkt rereads from the top when a capture is not pcap but pcapng
         return self._file.seek(offset, whence)
 
     def tell(self) -> int:
@@ -401,11 +406,13 @@ def _capture(decoder: _Decoder, dpkt: ModuleType, path: Path, file: _Capture, re
         try:
             timestamp, packet = next(packets)
         except StopIteration:
+            if file.cut:
+                damage = f"{path} is cut off after packet {count}"
             break
         except Exception as error:  # dpkt raises its own errors, ValueError or struct.error
             damage = f"{path} is damaged after packet {count}: {type(error).__name__} {error}"
             break
-        if file.cut:
+        if file.cut or file.short:
             damage = f"{path} is cut off inside packet {count + 1}"
             break
         why, ip, udp = _udp(dpkt, linktype, packet)

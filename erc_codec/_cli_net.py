@@ -37,6 +37,7 @@ _LARGEST_DATAGRAM = 65535
 
 def _address(text: str, default_host: str | None = None) -> tuple[str, int]:
     host, _, port = text.rpartition(":")
+    host = host.removeprefix("[").removesuffix("]") if host.startswith("[") else host
     if not host and default_host is None:
         raise click.BadParameter(f"{text!r}: expected HOST:PORT")
     try:
@@ -45,16 +46,19 @@ def _address(text: str, default_host: str | None = None) -> tuple[str, int]:
         raise click.BadParameter(f"{text!r}: the port is not a number") from None
     if not 0 <= number <= 65535:
         raise click.BadParameter(f"{text!r}: the port must be within 0..65535")
-    return (host.strip("[]") or cast(str, default_host)), number
+    return (host or cast(str, default_host)), number
 
 
 def _resolve(host: str, port: int) -> tuple[socket.AddressFamily, tuple[Any, ...]]:
-    """The family and socket address of ``host`` (a name or an IPv4 or IPv6 address)."""
+    """The family and socket address of ``host`` (a name or an IPv4 or IPv6 address). A name
+    with addresses of both families takes IPv4, as the boards speak it: ``listen localhost:P``
+    must hear a board that sends to 127.0.0.1, wherever the system lists ::1 first."""
     try:
-        family, _, _, _, address = socket.getaddrinfo(host, port, type=socket.SOCK_DGRAM)[0]
+        found = socket.getaddrinfo(host, port, type=socket.SOCK_DGRAM)
     except (OSError, UnicodeError) as error:
         reason = error.strerror if isinstance(error, OSError) and error.strerror else error
         raise _Fatal(f"cannot resolve {host!r}: {reason}") from None
+    family, _, _, _, address = min(found, key=lambda entry: entry[0] != socket.AF_INET)
     return family, address
 
 

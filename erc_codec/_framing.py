@@ -16,9 +16,9 @@ which is what ``binascii.crc_hqx(payload, 0xFFFF)`` computes.
   costs at most one CRC over ``max_length`` bytes (in C, through ``binascii``).
 
 Speed: frames of one length back to back (a board sending padded envelopes, say) are checked a
-batch at a time, with the Python-level work per batch rather than per frame. A batch is 16 frames,
-doubling after each whole one, back to 16 after a broken one; so a CRC failure wastes at most
-the CRCs of twice the frames the batch before delivered, or 16. Other frames go one at a time.
+batch at a time, with the Python-level work per batch rather than per frame. A run's first batch
+is 16 frames, and each whole batch doubles the next (up to 256), so a CRC failure wastes at most
+as many CRCs as the run has delivered before it, plus 16. Other frames go one at a time.
 """
 
 import binascii
@@ -79,10 +79,12 @@ class Deframer:
         self._last = -1  # length of the frame just before the buffer, when nothing came between
         self._stats = DeframerStats()
 
-    def feed(self, chunk: bytes) -> list[bytes]:
+    def feed(self, chunk: bytes | bytearray | memoryview) -> list[bytes]:
         """Take the next bytes of the stream; the payloads of the frames they complete."""
+        if type(chunk) is not bytes:
+            chunk = bytes(chunk)  # a copy of a mutable or typed buffer, counted in bytes
         if not self._buffer:
-            data = bytes(chunk)  # no copy for bytes; the payloads are slices of it
+            data = chunk  # the payloads are slices of it
         elif len(self._buffer) + len(chunk) < self._wanted:
             self._buffer += chunk  # still waiting for the rest of a frame: nothing to rescan
             return []
@@ -91,6 +93,7 @@ class Deframer:
         payloads: list[bytes] = []
         append, find, crc, limit = payloads.append, data.find, binascii.crc_hqx, self._max
         pos, end, last = 0, len(data), self._last  # last: length of the frame that ended at ``pos``
+        batch = self._batch
         while True:
             start = find(MAGIC, pos)
             if start < 0:
@@ -118,14 +121,15 @@ class Deframer:
                 break
             if length == last:  # a run of equal lengths: verify its frames a batch at once
                 step = length + _HEADER + _TRAILER
-                count = min(self._batch, (end - start) // step)
+                count = min(batch, (end - start) // step)
                 run = _run(data, start, length, count)
                 payloads += run
                 pos = start + len(run) * step
                 if len(run) == count:
-                    self._batch = min(2 * self._batch, _LAST_BATCH)
+                    if count == batch:  # a whole batch: the next may be twice as long
+                        batch = min(2 * batch, _LAST_BATCH)
                     continue
-                self._batch, last = _FIRST_BATCH, -1
+                last = -1
                 continue  # the frame that broke the run is looked at on its own
             payload = data[start + _HEADER : stop]
             if crc(payload, 0xFFFF) != data[stop] | data[stop + 1] << 8:
@@ -133,9 +137,9 @@ class Deframer:
                 pos, last = start + 1, -1
                 continue
             append(payload)
-            pos, last = stop + _TRAILER, length
+            pos, last, batch = stop + _TRAILER, length, _FIRST_BATCH  # perhaps a new run starts
         self._buffer = bytearray(data[pos:])
-        self._wanted, self._last = wanted - pos, last
+        self._wanted, self._last, self._batch = wanted - pos, last, batch
         self._stats.frames += len(payloads)
         return payloads
 

@@ -394,6 +394,14 @@ def test_pcap_problems_exit_2_in_one_line(codec: erc_codec.Codec, tmp_path: Path
     assert done.code == 2
     assert [r["kind"] for r in records(done.out)] == ["gps_info"]
     assert done.err.splitlines()[1] == f"Error: {cut} is cut off inside packet 2"
+    cut.write_bytes(whole[: len(whole) - record + 16])  # nothing after the record's header
+    done = run("decode", "--pcap", str(cut))
+    assert (done.code, done.err.splitlines()[1]) == (2, f"Error: {cut} is cut off inside packet 2")
+    # A pcapng capture cut inside a last block that holds no packet (statistics, say).
+    write_capture(cut, "pcapng", ETHERNET, [udp4(fix)])
+    cut.write_bytes(cut.read_bytes() + struct.pack("<II", 5, 32) + bytes(6))
+    done = run("decode", "--pcap", str(cut))
+    assert (done.code, done.err.splitlines()[1]) == (2, f"Error: {cut} is cut off after packet 1")
 
 
 def test_pcap_without_dpkt_says_what_to_install(tmp_path: Path) -> None:

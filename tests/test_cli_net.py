@@ -82,6 +82,15 @@ def test_bad_addresses_are_usage_errors() -> None:
     )
     assert done.returncode == 2
     assert "expected HOST:PORT" in done.stderr
+    done = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "send", "[]:5005", "gps_info", "{}"],
+        capture_output=True,
+        text=True,
+    )
+    assert (done.returncode, done.stderr) == (
+        2,
+        "Error: Invalid value: '[]:5005': expected HOST:PORT\n",
+    )
     # A name that cannot be a host name fails in the resolver, without asking any server.
     done = subprocess.run(
         [sys.executable, "-m", "erc_codec", "send", "a..b:5005", "gps_info", "{}"],
@@ -109,3 +118,5 @@ def test_addresses_of_either_family_resolve_and_show_their_port() -> None:
     family, address = _resolve("127.0.0.1", 5005)
     assert family == socket.AF_INET
     assert _shown(address) == "127.0.0.1:5005"
+    # A name with addresses of both families (from /etc/hosts, no server asked) takes IPv4.
+    assert _resolve("localhost", 5005) == (socket.AF_INET, ("127.0.0.1", 5005))

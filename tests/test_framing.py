@@ -1,6 +1,8 @@
 """Proton serial framing: the test vectors, and recovery from any chunking, noise and damage."""
 
+import binascii
 import itertools
+from array import array
 from collections import Counter
 
 import pytest
@@ -215,3 +217,42 @@ def test_a_long_run_with_a_bad_frame_late_in_it() -> None:
     assert deframer.feed(bytes(stream)) == payloads[:250] + payloads[251:]
     assert deframer.stats().rejected == {"bad_crc": 1}
     assert deframer.stats().discarded_bytes == {"bad_crc": 1, "garbage": 15}
+
+
+def test_a_typed_buffer_counts_in_bytes() -> None:
+    deframer = Deframer(max_length=MAX)
+    framed = frame(b"abc")
+    assert deframer.feed(framed[:5]) == []
+    assert deframer.feed(memoryview(array("H", framed[5:]))) == [b"abc"]  # 4 bytes, 2 items
+    assert deframer.buffered() == 0
+
+
+def test_a_broken_run_wastes_no_more_crcs_than_the_run_delivered(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    crcs: list[int] = []
+    crc_hqx = binascii.crc_hqx
+
+    def counted(data: bytes, value: int) -> int:
+        crcs.append(len(data))
+        return crc_hqx(data, value)
+
+    monkeypatch.setattr(binascii, "crc_hqx", counted)
+    deframer = Deframer(max_length=MAX)
+    for _ in range(6):  # one frame a chunk: batches of one, which must not grow the next batch
+        deframer.feed(frame(bytes(MAX)))
+    broken = bytearray(frame(bytes(MAX)))
+    broken[-1] ^= 1
+    del crcs[:]
+    assert (
+        len(deframer.feed(frame(bytes(MAX)) * 2 + bytes(broken) + frame(bytes(MAX)) * 300)) == 302
+    )
+    assert len(crcs) <= 303 + 1 + 15  # every frame, the bad one again on its own, the waste
+    bad = bytearray(frame(bytes(10)))
+    bad[-1] ^= 1
+    # A long run (batches grow to 256), one frame of another length, two good ones, a bad one.
+    stream = frame(bytes(MAX)) * 600 + frame(bytes(10)) * 3 + bytes(bad) + frame(bytes(10)) * 300
+    del crcs[:]
+    assert len(deframer.feed(stream)) == 903
+    # The second run starts at a batch of 16, so the damage wastes at most 15 CRCs.
+    assert len(crcs) <= 904 + 1 + 15
