@@ -9,6 +9,7 @@ compilations in this process from interleaving.
 import contextlib
 import functools
 import os
+import re
 import tempfile
 import threading
 from collections.abc import Iterator, Sequence
@@ -23,6 +24,12 @@ from ._errors import SchemaError
 __all__ = ["ProtocError", "compile_files"]
 
 _LOCK = threading.Lock()
+# protoc's warnings go through absl logging: a notice that logging is not set up, then lines
+# prefixed with severity, time, thread and source (``W0000 00:00:1795.2   10577 parser.cc:659] ``).
+_LOG_NOTICE = (
+    "WARNING: All log messages before absl::InitializeLog() is called are written to STDERR"
+)
+_LOG_PREFIX = re.compile(r"[IWEF]\d{4} [\d:.]+ +\d+ [\w.]+:\d+\] ")
 # google/protobuf/*.proto, shipped with grpcio-tools.
 _WELL_KNOWN = str(Path(grpc_tools.__file__).parent / "_proto")
 # A nanopb.proto of our own, used only when a tree imports "nanopb.proto" without shipping it.
@@ -76,7 +83,9 @@ def compile_files(
         with _LOCK, _stderr_to(errors):
             status = protoc.main(args)
         if status != 0:
-            lines = [line for line in Path(errors).read_text(errors="replace").splitlines() if line]
+            text = Path(errors).read_text(errors="replace")
+            lines = [_LOG_PREFIX.sub("", line, count=1) for line in text.splitlines()]
+            lines = [line for line in lines if line and line != _LOG_NOTICE]
             raise ProtocError(lines or [f"protoc exited with status {status}"])
         return descriptor_pb2.FileDescriptorSet.FromString(Path(out).read_bytes())
 
