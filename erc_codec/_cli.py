@@ -327,8 +327,11 @@ class _Capture:
     def __enter__(self) -> "_Capture":
         return self
 
-    def __exit__(self, *exc: object) -> None:
+    def close(self) -> None:
         self._file.close()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
 
 def _open_capture(dpkt: ModuleType, path: Path) -> tuple[_Capture, Any]:
@@ -341,10 +344,10 @@ def _open_capture(dpkt: ModuleType, path: Path) -> tuple[_Capture, Any]:
         reader = dpkt.pcap.UniversalReader(file)
         linktype = reader.datalink()
     except Exception:  # dpkt raises ValueError, its own errors or struct.error on a bad header
-        file.__exit__()
+        file.close()
         raise _Fatal(f"{path} is not a pcap or pcapng capture") from None
     if linktype not in (_ETHERNET, _LINUX_SLL, _LINUX_SLL2, *_RAW_IP, *_LOOPBACK):
-        file.__exit__()
+        file.close()
         raise _Fatal(
             f"{path}: link type {linktype} is not supported (Ethernet, Linux cooked (SLL, SLL2), "
             "raw IP and loopback are)"

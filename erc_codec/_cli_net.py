@@ -102,6 +102,7 @@ def send(
     except EncodeError as error:
         raise click.ClickException(_one_line(str(error))) from None
     family, target_address = _resolve(host, port)
+    shown = _shown(target_address)
     with socket.socket(family, socket.SOCK_DGRAM) as sock:
         start = time.monotonic()
         for i in range(count):
@@ -110,8 +111,7 @@ def send(
             try:
                 sock.sendto(data, target_address)
             except OSError as error:
-                raise _Fatal(f"cannot send to {_shown(target_address)}: {error}") from None
-    shown = _shown(target_address)
+                raise _Fatal(f"cannot send to {shown}: {error}") from None
     click.echo(f"sent {count} datagram(s) of {len(data)} bytes to {shown}", err=True)
 
 

@@ -125,12 +125,11 @@ class Deframer:
                 run = _run(data, start, length, count)
                 payloads += run
                 pos = start + len(run) * step
-                if len(run) == count:
-                    if count == batch:  # a whole batch: the next may be twice as long
-                        batch = min(2 * batch, _LAST_BATCH)
-                    continue
-                last = -1
-                continue  # the frame that broke the run is looked at on its own
+                if len(run) < count:
+                    last = -1  # the frame that broke the run is looked at on its own
+                elif count == batch:  # a whole batch: the next may be twice as long
+                    batch = min(2 * batch, _LAST_BATCH)
+                continue
             payload = data[start + _HEADER : stop]
             if crc(payload, 0xFFFF) != data[stop] | data[stop + 1] << 8:
                 self._reject("bad_crc")
@@ -172,12 +171,12 @@ def _run(data: bytes, start: int, length: int, count: int) -> tuple[bytes, ...]:
     step = length + _HEADER + _TRAILER
     end = start + count * step
     payloads, crcs, headers = _layout(length, count)
-    columns = [  # the magic's two bytes and the length's two, frame by frame
+    columns = (  # the magic's two bytes and the length's two, frame by frame
         data[start:end:step],
         data[start + 1 : end : step],
         data[start + 2 : end : step],
         data[start + 3 : end : step],
-    ]
+    )
     if columns != headers:  # the run breaks at the first frame with another header
         count = min(
             _first_difference(a, b) for a, b in zip(columns, headers, strict=True) if a != b
@@ -196,11 +195,11 @@ def _run(data: bytes, start: int, length: int, count: int) -> tuple[bytes, ...]:
 
 
 @functools.lru_cache(maxsize=64)  # at most 64 layouts of at most 256 frames: under 1 MB
-def _layout(length: int, count: int) -> tuple[struct.Struct, struct.Struct, list[bytes]]:
+def _layout(length: int, count: int) -> tuple[struct.Struct, struct.Struct, tuple[bytes, ...]]:
     """For ``count`` frames of ``length`` bytes back to back: the layout of their payloads, that
     of their CRCs, and what their header bytes must be, column by column."""
     header = MAGIC + length.to_bytes(2, "little")
-    columns = [header[offset : offset + 1] * count for offset in range(_HEADER)]
+    columns = tuple(header[offset : offset + 1] * count for offset in range(_HEADER))
     return struct.Struct(f"4x{length}s2x" * count), struct.Struct(f"<{count}H"), columns
 
 
