@@ -2,15 +2,20 @@
 
 ``lint(old, new)`` compares two revisions of a tree (folders or git revisions) and returns the
 findings, sorted by location; ``check(tree)`` lints one tree on its own; ``erc-lint`` is the
-command line around them. Everything not re-exported here is private.
+command line around them. Everything not re-exported here is private. The names load on first
+use, so the command can tune the process before the heavy imports (see ``_entry``).
 """
 
-from ._config import Config, ConfigError
-from ._finding import Finding, Severity
-from ._git import GitError
-from ._ledger import LedgerError
-from ._run import check, lint
-from .rules import RULES, Rule
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from ._config import Config, ConfigError
+    from ._finding import Finding, Severity
+    from ._git import GitError
+    from ._ledger import LedgerError
+    from ._run import check, lint
+    from .rules import RULES, Rule
 
 __all__ = [
     "RULES",
@@ -24,3 +29,24 @@ __all__ = [
     "check",
     "lint",
 ]
+
+_LAZY = {
+    "Config": "._config",
+    "ConfigError": "._config",
+    "Finding": "._finding",
+    "Severity": "._finding",
+    "GitError": "._git",
+    "LedgerError": "._ledger",
+    "check": "._run",
+    "lint": "._run",
+    "RULES": ".rules",
+    "Rule": ".rules",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name], __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

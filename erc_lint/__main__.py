@@ -1,5 +1,5 @@
 """``python -m erc_lint``: the same as the ``erc-lint`` command."""
 
-from ._cli import main
+from ._entry import run
 
-main()
+run()

@@ -367,3 +367,33 @@ def test_protoc_warnings_read_as_protoc_wrote_them(tmp_path: Path) -> None:
     assert [(f.rule, f.line, f.column) for f in findings] == [("COMPILE", 1, 1), ("COMPILE", 1, 13)]
     assert findings[0].message.startswith("No edition or syntax specified for the proto file")
     assert findings[1].message == 'Expected "required", "optional", or "repeated".'
+
+
+def test_the_command_delivers_all_its_output_before_leaving_the_process(tmp_path: Path) -> None:
+    """The command ends with os._exit: a report larger than a pipe's buffer (64 KiB) still
+    arrives whole, through a pipe and through a file, with the status of the run."""
+    fields = "".join(f"  int32 f{k} = {k};\n" for k in range(1, 1201))
+    old = tree(tmp_path / "old", {"a.proto": f"message A {{\n{fields}}}\n"})
+    new = tree(tmp_path / "new", {"a.proto": "message A {}\n"})
+    expected = erc_lint.lint(old, new)
+    assert len(expected) == 1200
+    piped = run(str(old), str(new), "--format", "json")
+    assert piped.returncode == 1
+    assert len(piped.stdout) > 65536
+    assert [json.loads(line)["message"] for line in piped.stdout.splitlines()] == [
+        finding.message for finding in expected
+    ]
+    with (tmp_path / "report.txt").open("w") as sink:
+        done = subprocess.run([sys.executable, "-m", "erc_lint", str(old), str(new)], stdout=sink)
+    assert done.returncode == 1
+    assert (tmp_path / "report.txt").read_text().count("FIELD_DELETED") == 1200
+
+
+@pytest.mark.parametrize(("code", "status", "said"), [(None, 0, ""), (2, 2, ""), ("no", 1, "no\n")])
+def test_the_command_exits_as_python_would_for_system_exit(
+    code: object, status: int, said: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from erc_lint._entry import _status
+
+    assert _status(code) == status
+    assert capsys.readouterr().err == said
