@@ -45,8 +45,16 @@ class Resolved:
 
 @functools.cache
 def options_class() -> Any:
-    """The NanoPBOptions message class, compiled from erc-codec's copy of the vocabulary."""
-    files = compile_files(Path(FALLBACK_INCLUDE), ["nanopb.proto"])
+    """The NanoPBOptions message class, compiled from erc-codec's copy of the vocabulary.
+
+    The descriptor.proto it imports is the one this protobuf runtime holds, given to protoc as a
+    known file: parsing its thousand lines again took most of the compilation's time.
+    """
+    runtime = descriptor_pb2.FileDescriptorProto.FromString(descriptor_pb2.DESCRIPTOR.serialized_pb)
+    known = descriptor_pb2.FileDescriptorSet(file=[runtime])
+    files = compile_files(
+        Path(FALLBACK_INCLUDE), ["nanopb.proto"], known=known, locations=False, defaults=False
+    )
     pool = descriptor_pool.DescriptorPool()
     for proto in files.file:
         pool.AddSerializedFile(proto.SerializeToString())
@@ -85,14 +93,17 @@ def _resolve_message(
 
 
 def _merge(parent: Options, rules: Rules, dotted: str, options: Message | None) -> Options:
+    """``parent`` with the matching rules, then the annotation, merged in. Where nothing applies
+    (nearly every field) the result is ``parent`` itself: resolved options are shared, never
+    modified after resolution."""
+    matching = [values for pattern, values in rules if fnmatchcase(dotted, pattern)]
+    annotations = list(_annotations(options.SerializeToString())) if options is not None else []
+    if not matching and not annotations:
+        return parent
     merged = type(parent)()
     merged.CopyFrom(parent)
-    for pattern, values in rules:
-        if fnmatchcase(dotted, pattern):
-            merged.MergeFrom(values)
-    if options is not None:
-        for annotation in _annotations(options.SerializeToString()):
-            merged.MergeFrom(annotation)
+    for values in (*matching, *annotations):
+        merged.MergeFrom(values)
     return merged
 
 

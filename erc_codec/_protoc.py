@@ -50,6 +50,7 @@ def compile_files(
     includes: Sequence[Path] = (),
     known: descriptor_pb2.FileDescriptorSet | None = None,
     locations: bool = True,
+    defaults: bool = True,
 ) -> descriptor_pb2.FileDescriptorSet:
     """Compile ``files`` (paths relative to ``root``) with their imports and, unless told
     otherwise, source locations.
@@ -58,12 +59,13 @@ def compile_files(
     (compiled before) holds are taken from it and not parsed again. protoc prefers files it can
     parse to known ones, so when ``known`` has its own copy of a well-known file or of
     nanopb.proto, ours come as known files too, after the caller's (which win). The result
-    lists every file once, each after the files it imports.
+    lists every file once, each after the files it imports. ``defaults=False`` leaves our
+    well-known files and nanopb.proto out altogether: ``known`` holds what the files import.
     """
     search = [str(root), *map(str, includes)]
-    if known is not None and {file.name for file in known.file} & _default_names():
+    if defaults and known is not None and {file.name for file in known.file} & _default_names():
         known = descriptor_pb2.FileDescriptorSet(file=[*known.file, *_defaults().file])
-    else:
+    elif defaults:
         search += [_WELL_KNOWN, FALLBACK_INCLUDE]
     with tempfile.TemporaryDirectory(prefix="erc-codec-") as scratch:
         out = os.path.join(scratch, "set.pb")

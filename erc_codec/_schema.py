@@ -76,12 +76,16 @@ class Schema:
         """The message class for a full message name, e.g. ``SensorBoardGPSInfo``."""
         cls = self._classes.get(name)
         if cls is None:
-            try:
-                descriptor = self.pool.FindMessageTypeByName(name)
-            except KeyError:
-                raise SchemaError(f"no message named {name!r} in the schema") from None
-            cls = self._classes[name] = message_factory.GetMessageClass(descriptor)
+            cls = self._classes[name] = message_factory.GetMessageClass(self.descriptor(name))
         return cls
+
+    def descriptor(self, name: str) -> Descriptor:
+        """The descriptor of a full message name, without building classes for it and every
+        message it reaches."""
+        try:
+            return self.pool.FindMessageTypeByName(name)
+        except KeyError:
+            raise SchemaError(f"no message named {name!r} in the schema") from None
 
     def messages(self) -> Iterator[Descriptor]:
         """Every message the tree's loaded files define, nested ones included, in file order.

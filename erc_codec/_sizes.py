@@ -13,7 +13,7 @@ from google.protobuf.descriptor import Descriptor, FieldDescriptor, OneofDescrip
 
 from ._errors import SchemaError
 from ._options import Options, Resolved, resolve
-from ._schema import Schema, descriptor_of, enum_of, message_of
+from ._schema import Schema, enum_of, message_of
 from ._wire import varint_size
 
 __all__ = ["Sizes"]
@@ -107,7 +107,7 @@ class Sizes:
 
     def max_size(self, name: str) -> int:
         """nanopb's ``<name>_size``; ``SchemaError`` when nanopb has none for it."""
-        descriptor = descriptor_of(self._schema.message_class(name))
+        descriptor = self._schema.descriptor(name)
         size = self._size(descriptor, ())
         if size is None:
             self.require_fixed(descriptor)

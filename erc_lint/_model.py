@@ -24,6 +24,7 @@ _SCALARS = {
     for name, number in _FD.Type.items()
     if name not in ("TYPE_MESSAGE", "TYPE_ENUM", "TYPE_GROUP")
 }
+_LABELS = {number: name.removeprefix("LABEL_").lower() for name, number in _FD.Label.items()}
 # A proto2 group is a message type as far as the wire and the rules go.
 _KINDS = {_FD.TYPE_MESSAGE: "message", _FD.TYPE_GROUP: "message", _FD.TYPE_ENUM: "enum"}
 # SourceCodeInfo path components.
@@ -173,7 +174,7 @@ class _File:
                 number=f.number,
                 type=type_,
                 kind=kind,
-                cardinality=_FD.Label.Name(f.label).removeprefix("LABEL_").lower(),
+                cardinality=_LABELS[f.label],
                 oneof=oneofs[f.oneof_index] if real_oneof else None,
                 location=self.where((*path, _MESSAGE_FIELD, j)),
             )

@@ -1,6 +1,5 @@
 """Findings as text (people and editors), JSON lines (machines) or GitHub Actions annotations."""
 
-import json
 from collections.abc import Iterable
 
 from ._finding import Finding
@@ -18,6 +17,8 @@ def render(findings: Iterable[Finding], output: str) -> str:
 def _line(finding: Finding, output: str) -> str:
     note = " (location in OLD: the element is gone from NEW)" if finding.in_old else ""
     if output == "json":
+        import json  # only this format needs it: start-up is most of a CI run
+
         return json.dumps(
             {
                 "rule": finding.rule,
