@@ -104,6 +104,10 @@ class Enum:
     def body(self) -> frozenset[tuple[int, str]]:
         return frozenset((v.number, v.name) for v in self.by_name.values())
 
+    def names(self, number: int) -> list[str]:
+        """Every name of ``number``, in declaration order: more than one with ``allow_alias``."""
+        return [v.name for v in self.by_name.values() if v.number == number]
+
 
 @dataclass
 class Revision:

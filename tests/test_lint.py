@@ -397,3 +397,77 @@ def test_the_command_exits_as_python_would_for_system_exit(
 
     assert _status(code) == status
     assert capsys.readouterr().err == said
+
+
+ALIASED = (
+    "enum Mode {\n  option allow_alias = true;\n  MODE_IDLE = 0;\n  MODE_RUN = 1;\n"
+    "  MODE_RUNNING = 1;\n}\n"
+)
+
+
+@pytest.mark.parametrize(
+    ("new", "expected"),
+    [
+        (  # an alias dropped: the number keeps its meaning, one name is gone
+            "enum Mode {\n  MODE_IDLE = 0;\n  MODE_RUN = 1;\n}\n",
+            [
+                (
+                    "ENUM_VALUE_RENAMED",
+                    'Enum value "1" on enum "Mode" changed name from "MODE_RUN", '
+                    '"MODE_RUNNING" to "MODE_RUN".',
+                )
+            ],
+        ),
+        (  # an alias moved to a number of its own: renumbered, and 1 is not reused
+            "enum Mode {\n  MODE_IDLE = 0;\n  MODE_RUN = 1;\n  MODE_RUNNING = 2;\n}\n",
+            [
+                (
+                    "ENUM_VALUE_RENUMBERED",
+                    'Enum value "MODE_RUNNING" on enum "Mode" changed number from "1" to "2".',
+                )
+            ],
+        ),
+        (  # the number and both its names gone: one deletion
+            "enum Mode {\n  MODE_IDLE = 0;\n}\n",
+            [
+                (
+                    "ENUM_VALUE_DELETED",
+                    'Previously present enum value "1" with names "MODE_RUN", "MODE_RUNNING" '
+                    'on enum "Mode" was deleted without reserving its number.',
+                )
+            ],
+        ),
+        (  # both names renamed at once
+            "enum Mode {\n  MODE_IDLE = 0;\n  MODE_ACTIVE = 1;\n}\n",
+            [
+                (
+                    "ENUM_VALUE_RENAMED",
+                    'Enum value "1" on enum "Mode" changed name from "MODE_RUN", '
+                    '"MODE_RUNNING" to "MODE_ACTIVE".',
+                )
+            ],
+        ),
+        (ALIASED.replace("  MODE_RUNNING = 1;\n", "  MODE_RUNNING = 1;\n  MODE_BUSY = 1;\n"), []),
+        (
+            ALIASED.replace(
+                "  MODE_RUN = 1;\n  MODE_RUNNING = 1;\n", "  MODE_RUNNING = 1;\n  MODE_RUN = 1;\n"
+            ),
+            [],
+        ),
+    ],
+    ids=[
+        "alias-dropped",
+        "alias-moved",
+        "number-deleted",
+        "both-renamed",
+        "alias-added",
+        "reordered",
+    ],
+)
+def test_enum_aliases_are_judged_per_number(
+    tmp_path: Path, new: str, expected: list[tuple[str, str]]
+) -> None:
+    old_tree = tree(tmp_path / "old", {"a.proto": ALIASED})
+    new_tree = tree(tmp_path / "new", {"a.proto": new})
+    findings = erc_lint.lint(old_tree, new_tree)
+    assert [(f.rule, f.message) for f in findings] == expected

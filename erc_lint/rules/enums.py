@@ -27,7 +27,10 @@ def reused(change: Change) -> Report:
     for p in change.values():
         taken = p.by_number
         moved = p.by_name is not None and p.by_name.number != p.old.number
-        if taken is not None and taken.name != p.old.name and moved:
+        if taken is None or not moved:
+            continue
+        # An alias the number had before still names it: the number means what it did.
+        if taken.name not in p.old_owner.names(p.old.number):
             yield (
                 taken.location,
                 f'Enum value "{p.old.number}" on enum "{p.new_owner.name}" changed from '
@@ -40,11 +43,14 @@ def reused(change: Change) -> Report:
 @pair_rule("ENUM_VALUE_DELETED", "An enum number disappeared without being reserved.")
 def deleted(change: Change) -> Report:
     for p in change.values():
-        gone = p.by_number is None and p.by_name is None
-        if gone and not p.new_owner.reserved.covers(p.old.number):
+        if p.old != p.old_owner.values[p.old.number]:
+            continue  # an alias: its number is judged once, with its first name
+        names = p.old_owner.names(p.old.number)
+        moved = any(name in p.new_owner.by_name for name in names)
+        if p.by_number is None and not moved and not p.new_owner.reserved.covers(p.old.number):
             yield (
                 p.old.location,
-                f'Previously present enum value "{p.old.number}" with name "{p.old.name}" on '
+                f'Previously present enum value "{p.old.number}" with {_names(names)} on '
                 f'enum "{p.new_owner.name}" was deleted without reserving its number.',
                 True,
             )
@@ -56,12 +62,25 @@ def deleted(change: Change) -> Report:
     severity="warning",
 )
 def renamed(change: Change) -> Report:
+    seen: set[tuple[str, int]] = set()
     for p in change.values():
         taken = p.by_number
-        if taken is not None and taken.name != p.old.name and p.by_name is None:
-            yield (
-                taken.location,
-                f'Enum value "{p.old.number}" on enum "{p.new_owner.name}" changed name from '
-                f'"{p.old.name}" to "{taken.name}".',
-                False,
-            )
+        if taken is None or p.by_name is not None or (p.new_owner.name, taken.number) in seen:
+            continue
+        seen.add((p.new_owner.name, taken.number))  # aliases: one finding per number
+        before = p.old_owner.names(p.old.number)
+        after = p.new_owner.names(taken.number)
+        yield (
+            taken.location,
+            f'Enum value "{p.old.number}" on enum "{p.new_owner.name}" changed name from '
+            f"{_quoted(before)} to {_quoted(after)}.",
+            False,
+        )
+
+
+def _quoted(names: list[str]) -> str:
+    return ", ".join(f'"{name}"' for name in names)
+
+
+def _names(names: list[str]) -> str:
+    return f"name {_quoted(names)}" if len(names) == 1 else f"names {_quoted(names)}"
