@@ -76,10 +76,11 @@ class Reserved:
 class Message:
     name: str
     file: str
-    location: Location
+    location: Location  # a map entry's is its map field's
     fields: dict[int, Field] = field(default_factory=dict)
     by_name: dict[str, Field] = field(default_factory=dict)
     reserved: Reserved = field(default_factory=Reserved)
+    map_entry: bool = False  # the message protoc writes for a map field: no one declared it
 
     def oneof(self, name: str | None) -> frozenset[int]:
         """The field numbers of oneof ``name`` (none for ``None``)."""
@@ -163,9 +164,16 @@ class _File:
             self.enum(self.package + enum.name, self.package, enum, (_FILE_ENUM, i))
 
     def message(
-        self, name: str, proto: descriptor_pb2.DescriptorProto, path: tuple[int, ...]
+        self,
+        name: str,
+        proto: descriptor_pb2.DescriptorProto,
+        path: tuple[int, ...],
+        declared: Location | None = None,
     ) -> None:
-        model = Message(name, self.proto.name, self.where(path))
+        """Add message ``name``; ``declared`` locates a map entry and its key and value, which
+        have no source of their own, at their map field."""
+        model = Message(name, self.proto.name, declared or self.where(path))
+        model.map_entry = proto.options.map_entry
         self.define(name, "message", model.location)
         self.revision.messages.setdefault(name, model)
         oneofs = [oneof.name for oneof in proto.oneof_decl]
@@ -180,7 +188,7 @@ class _File:
                 kind=kind,
                 cardinality=_LABELS[f.label],
                 oneof=oneofs[f.oneof_index] if real_oneof else None,
-                location=self.where((*path, _MESSAGE_FIELD, j)),
+                location=declared or self.where((*path, _MESSAGE_FIELD, j)),
             )
             model.fields.setdefault(f.number, entry)
             model.by_name.setdefault(f.name, entry)
@@ -190,7 +198,10 @@ class _File:
         for j, reserved_name in enumerate(proto.reserved_name):
             model.reserved.names[reserved_name] = self.where((*path, _MESSAGE_RESERVED_NAME, j))
         for j, nested in enumerate(proto.nested_type):
-            self.message(f"{name}.{nested.name}", nested, (*path, _MESSAGE_NESTED, j))
+            full = f"{name}.{nested.name}"
+            users = [f for f in model.fields.values() if f.type == full]
+            declared = users[0].location if nested.options.map_entry and users else None
+            self.message(full, nested, (*path, _MESSAGE_NESTED, j), declared)
         for j, enum in enumerate(proto.enum_type):
             self.enum(f"{name}.{enum.name}", f"{name}.", enum, (*path, _MESSAGE_ENUM, j))
 

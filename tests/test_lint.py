@@ -471,3 +471,27 @@ def test_enum_aliases_are_judged_per_number(
     new_tree = tree(tmp_path / "new", {"a.proto": new})
     findings = erc_lint.lint(old_tree, new_tree)
     assert [(f.rule, f.message) for f in findings] == expected
+
+
+def test_map_entries_follow_their_map_field(tmp_path: Path) -> None:
+    """protoc writes a message for each map field (``CountsEntry``) with no source of its own:
+    renaming the field is the field's rename alone, and a change inside the entry is located at
+    the map field, as buf locates it."""
+    old = tree(
+        tmp_path / "old", {"a.proto": "message Stats {\n  map<string, int32> counts = 1;\n}\n"}
+    )
+    renamed = tree(
+        tmp_path / "renamed", {"a.proto": "message Stats {\n  map<string, int32> totals = 1;\n}\n"}
+    )
+    assert [(f.rule, f.message) for f in erc_lint.lint(old, renamed)] == [
+        ("FIELD_RENAMED", 'Field "1" on message "Stats" changed name from "counts" to "totals".')
+    ]
+    retyped = tree(
+        tmp_path / "retyped", {"a.proto": "message Stats {\n  map<string, sint32> counts = 1;\n}\n"}
+    )
+    (finding,) = erc_lint.lint(old, retyped)
+    assert (finding.rule, finding.line, finding.column) == ("FIELD_TYPE_CHANGED", 3, 3)
+    assert finding.message == (
+        'Field "2" with name "value" on message "Stats.CountsEntry" changed type from "int32" '
+        'to "sint32".'
+    )

@@ -19,6 +19,8 @@ Report = Iterator[tuple[Location, str, bool]]
 @pair_rule("MESSAGE_DELETED", "A message disappeared.", severity="warning")
 def deleted(change: Change) -> Report:
     for message in change.deleted_messages:
+        if message.map_entry:
+            continue  # it went with its map field, which the field rules report
         yield message.location, f'Previously present message "{message.name}" was deleted.', True
 
 
@@ -29,7 +31,7 @@ def deleted(change: Change) -> Report:
 )
 def renamed(change: Change) -> Report:
     for old, new in change.messages:
-        if old.name != new.name:
+        if old.name != new.name and not old.map_entry:  # a map entry follows its map field
             yield (
                 new.location,
                 f'Message "{old.name}" was renamed to "{new.name}"; its fields are unchanged.',
