@@ -138,6 +138,30 @@ def test_reserving_or_acknowledging_silences_the_reuse(
     assert erc_lint.check(repo.spec("HEAD~1"), ledger=ledger) == []
 
 
+@pytest.mark.parametrize(
+    ("declared", "silent"),
+    [
+        ("uint32 error_count = 2;", True),  # the acknowledged use itself
+        ("uint64 error_count = 2;", True),  # widened: reads the same bytes
+        ("bool error_count = 2;", True),  # same varint group
+        ("sint32 error_count = 2;", False),  # zigzag: not what the acknowledged use wrote
+        ("uint32 error_total = 2;", False),  # another name: a new use, not acknowledged
+    ],
+)
+def test_an_acknowledgement_covers_its_use_and_its_compatible_widenings(
+    tmp_path: Path, declared: str, silent: bool
+) -> None:
+    ledger = tmp_path / "erc-lint.lock"
+    ledger.write_text(
+        "message Diag 2 error_count uint32 - ack  # no board sends temperature any more\n"
+        "message Diag 2 temperature float -\n"
+    )
+    (tmp_path / "proto").mkdir()
+    (tmp_path / "proto" / "diag.proto").write_text(HEADER + f"message Diag {{ {declared} }}\n")
+    findings = erc_lint.check(tmp_path / "proto", ledger=ledger)
+    assert [f.rule for f in findings] == ([] if silent else ["LEDGER_NUMBER_REUSED"])
+
+
 def test_git_inputs_touch_neither_working_tree_nor_index(
     reused: tuple[Repo, dict[str, str]],
 ) -> None:

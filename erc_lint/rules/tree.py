@@ -137,7 +137,7 @@ def ledger_number_reused(revision: Revision, change: Change) -> Report:
                 for past in ledger.at("message", message.name, entry.number)
                 if past.key.name != entry.name or not _same_kind(change, past.key.type, entry.type)
             ]
-            if clashes and not _acknowledged(ledger, key):
+            if clashes and not _acknowledged(change, ledger, key):
                 yield (
                     _id(key),
                     entry.location,
@@ -153,7 +153,7 @@ def ledger_number_reused(revision: Revision, change: Change) -> Report:
                 for past in ledger.at("enum", enum.name, value.number)
                 if past.key.name not in live
             ]
-            if clashes and not any(_acknowledged(ledger, key) for key in keys):
+            if clashes and not any(_acknowledged(change, ledger, key) for key in keys):
                 yield (
                     _id(keys[0]),
                     value.location,
@@ -168,9 +168,14 @@ def _same_kind(change: Change, past: str, now: str) -> bool:
     return wire_compatible(past, now) or change.renamed.get(past) == now
 
 
-def _acknowledged(ledger: Ledger, key: Key) -> bool:
-    entry = ledger.entries.get(key)
-    return entry is not None and entry.ack
+def _acknowledged(change: Change, ledger: Ledger, key: Key) -> bool:
+    """Whether the ledger accepts this use of the number: an ``ack`` on an entry with this name
+    and a type that reads the same bytes (an acknowledged ``sint32`` covers its widening to
+    ``sint64``)."""
+    return any(
+        past.ack and past.key.name == key.name and _same_kind(change, past.key.type, key.type)
+        for past in ledger.at(key.kind, key.container, key.number)
+    )
 
 
 def _history(ledger: Ledger, clashes: list[Entry]) -> str:
