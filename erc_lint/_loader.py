@@ -32,8 +32,14 @@ from ._finding import Finding
 
 __all__ = ["LoadedTree", "by_basename", "imports", "load_tree", "matches", "relative", "utf8_name"]
 
-_NOISE = re.compile(r'//[^\n]*|/\*.*?\*/|"(?:\\.|[^"\\\n])*"', re.DOTALL)
-_IMPORT = re.compile(r'\bimport\s+(?:public\s+|weak\s+)?("(?:\\.|[^"\\\n])*")\s*;')
+# One pass over a file: comments and string literals are skipped whole, so an import inside one
+# is no import; an import statement (comments allowed between its tokens) captures its file name.
+_STRING = r'"(?:\\.|[^"\\\n])*"|\'(?:\\.|[^\'\\\n])*\''
+_GAP = r"(?:\s|//[^\n]*|/\*.*?\*/)"
+_SCAN = re.compile(
+    rf"//[^\n]*|/\*.*?\*/|{_STRING}|\bimport{_GAP}+(?:(?:public|weak){_GAP}+)?({_STRING}){_GAP}*;",
+    re.DOTALL,
+)
 _DIAGNOSTIC = re.compile(r"^(.*?):(\d+):(\d+): (.*)$")
 
 
@@ -95,9 +101,9 @@ def imports(text: str) -> Iterator[tuple[int, int, str]]:
     """``(start, end, spelling)`` of each import's quoted file name (comments skipped)."""
     if "import" not in text:
         return
-    code = _NOISE.sub(lambda m: m[0] if m[0].startswith('"') else " " * len(m[0]), text)
-    for match in _IMPORT.finditer(code):
-        yield match.start(1), match.end(1), match[1][1:-1]
+    for match in _SCAN.finditer(text):
+        if match[1] is not None:
+            yield match.start(1), match.end(1), match[1][1:-1]
 
 
 def matches(spelling: str, known: Collection[str], by_basename: dict[str, list[str]]) -> list[str]:

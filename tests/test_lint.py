@@ -45,6 +45,26 @@ def test_imports_resolve_whatever_their_spelling(tmp_path: Path) -> None:
     assert erc_lint.lint(root, root) == []
 
 
+def test_imports_are_found_as_protoc_reads_them(tmp_path: Path) -> None:
+    """Single quotes, comments between the tokens; none inside a comment or a string."""
+    user = (
+        '// import "commented_out.proto";\n'
+        "import /* the shape */ 'shape.proto' ;\n"
+        'import // the unit\n  public "unit.proto";\n'
+        "message User {\n  Shape shape = 1;\n  Unit unit = 2;\n"
+        '  string note = 3 [json_name = "import \\"x.proto\\";"];\n}\n'
+    )
+    root = tree(
+        tmp_path / "t",
+        {
+            "components/a/shape.proto": "message Shape { float width = 1; }\n",
+            "components/b/unit.proto": "message Unit { int32 id = 1; }\n",
+            "components/c/user.proto": user,
+        },
+    )
+    assert erc_lint.lint(root, root) == []
+
+
 def test_an_import_matching_two_files_is_ambiguous(tmp_path: Path) -> None:
     root = tree(
         tmp_path / "t",
