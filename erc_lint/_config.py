@@ -1,8 +1,7 @@
 """``[tool.erc-lint]`` in a pyproject.toml: embedded roots, rules to ignore, paths to exclude."""
 
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 __all__ = ["Config", "ConfigError", "find_config", "read_config"]
 
@@ -11,10 +10,12 @@ class ConfigError(Exception):
     """The configuration file cannot be read or says something invalid."""
 
 
-@dataclass(frozen=True)
-class Config:
-    roots: tuple[str, ...] = ("PBEnvelope",)  # embedded roots: fixed-size from here down
-    ignore: frozenset[str] = field(default_factory=frozenset)  # rule IDs
+_ROOTS = ("PBEnvelope",)  # embedded roots unless the configuration names others
+
+
+class Config(NamedTuple):
+    roots: tuple[str, ...] = _ROOTS  # embedded roots: fixed-size from here down
+    ignore: frozenset[str] = frozenset()  # rule IDs
     exclude: tuple[str, ...] = ()  # fnmatch patterns on paths relative to a tree's root
     source: str | None = None  # the file it was read from
     roots_line: int = 0  # the line of that file that sets roots (0: the default roots)
@@ -22,7 +23,7 @@ class Config:
     @property
     def roots_chosen(self) -> bool:
         """Whether someone named the roots (a typo there must not pass in silence)."""
-        return self.roots_line > 0 or self.roots != Config.roots
+        return self.roots_line > 0 or self.roots != _ROOTS
 
 
 def find_config(*folders: Path) -> Path | None:
@@ -56,7 +57,7 @@ def read_config(path: Path | None, known_rules: set[str], explicit: bool = False
     if strange:
         raise ConfigError(f"{path}: [tool.erc-lint] ignore names no rule {sorted(strange)[0]!r}")
     return Config(
-        roots=tuple(values["roots"]) if "roots" in table else Config.roots,
+        roots=tuple(values["roots"]) if "roots" in table else _ROOTS,
         ignore=frozenset(values["ignore"]),
         exclude=tuple(values["exclude"]),
         source=str(path),

@@ -1,7 +1,6 @@
 """What the linter reports: one finding per problem, located where a CI or an editor can open it."""
 
-from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, NamedTuple
 
 from erc_codec._schema import Location
 
@@ -10,8 +9,7 @@ __all__ = ["Finding", "Severity"]
 Severity = Literal["error", "warning"]
 
 
-@dataclass(frozen=True, order=True)
-class Finding:
+class Finding(NamedTuple):
     """One problem: where (in NEW, or in OLD for what NEW no longer has), which rule, what."""
 
     path: str

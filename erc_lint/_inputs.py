@@ -11,8 +11,8 @@ import os
 import tempfile
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import NamedTuple
 
 from ._finding import Finding
 from ._git import GitError, Repository
@@ -25,8 +25,7 @@ _SUFFIXES = (".proto", ".options")
 _TOP = ("pyproject.toml", "erc-lint.lock")
 
 
-@dataclass(frozen=True)
-class GitInput:
+class GitInput(NamedTuple):
     folder: Path  # GITDIR
     ref: str
     subdir: str = ""
@@ -70,8 +69,7 @@ def parse(text: str) -> Path | GitInput:
     return GitInput(Path(folder or "."), refs[0], subdir)
 
 
-@dataclass(frozen=True)
-class Source:
+class Source(NamedTuple):
     """A tree ready to load: ``folder`` holds it; findings name it ``shown``."""
 
     folder: Path
@@ -141,5 +139,5 @@ def relocate(findings: Sequence[Finding], sources: Sequence[Source]) -> list[Fin
         for scratch, shown in moves:
             path = shown + path.removeprefix(scratch) if path.startswith(scratch) else path
             message = message.replace(scratch, shown)
-        moved.append(replace(finding, path=path, message=message))
+        moved.append(finding._replace(path=path, message=message))
     return moved

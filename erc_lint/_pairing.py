@@ -9,7 +9,7 @@ that moved from one that was deleted while another took its number.
 import functools
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import Generic, TypeVar
+from typing import Generic, NamedTuple, TypeVar
 
 from ._config import Config
 from ._ledger import Ledger
@@ -29,8 +29,7 @@ _WIRE_GROUPS = [
 ]
 
 
-@dataclass(frozen=True)
-class MemberPair(Generic[Container, Member]):
+class MemberPair(NamedTuple, Generic[Container, Member]):
     """One OLD member and what NEW has at its number and under its name."""
 
     old_owner: Container

@@ -7,8 +7,7 @@ old damage (a warning). The runner adds the rule's ID and severity.
 """
 
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 from erc_codec._schema import Location
 
@@ -24,8 +23,7 @@ PairCheck = Callable[["Change"], Iterator[tuple[Location, str, bool]]]
 TreeCheck = Callable[["Revision", "Change"], Iterator[tuple[str, Location, str]]]
 
 
-@dataclass(frozen=True)
-class Rule:
+class Rule(NamedTuple):
     id: str
     purpose: str
     severity: Severity
