@@ -48,16 +48,24 @@ def options_class() -> Any:
     """The NanoPBOptions message class, compiled from erc-codec's copy of the vocabulary.
 
     The descriptor.proto it imports is the one this protobuf runtime holds, given to protoc as a
-    known file: parsing its thousand lines again took most of the compilation's time.
+    known file and to the pool as it is: parsing and writing out its thousand lines again took
+    most of the compilation's time.
     """
-    runtime = descriptor_pb2.FileDescriptorProto.FromString(descriptor_pb2.DESCRIPTOR.serialized_pb)
-    known = descriptor_pb2.FileDescriptorSet(file=[runtime])
+    runtime = descriptor_pb2.DESCRIPTOR.serialized_pb
+    known = descriptor_pb2.FileDescriptorSet(
+        file=[descriptor_pb2.FileDescriptorProto.FromString(runtime)]
+    )
     files = compile_files(
-        Path(FALLBACK_INCLUDE), ["nanopb.proto"], known=known, locations=False, defaults=False
+        Path(FALLBACK_INCLUDE),
+        ["nanopb.proto"],
+        known=known,
+        locations=False,
+        defaults=False,
+        imports=False,
     )
     pool = descriptor_pool.DescriptorPool()
-    for proto in files.file:
-        pool.AddSerializedFile(proto.SerializeToString())
+    for serialized in (runtime, *(proto.SerializeToString() for proto in files.file)):
+        pool.AddSerializedFile(serialized)
     return message_factory.GetMessageClass(pool.FindMessageTypeByName("NanoPBOptions"))
 
 
@@ -82,8 +90,9 @@ def _resolve_message(
 ) -> None:
     own = resolved.messages[name] = _merge(file, rules, name, message.options)
     for field in message.field:
+        options = field.options if field.HasField("options") else None
         resolved.fields[f"{name}.{field.name}"] = _merge(
-            own, rules, f"{name}.{field.name}", field.options
+            own, rules, f"{name}.{field.name}", options
         )
     for oneof in message.oneof_decl:
         # oneofs carry no (nanopb) annotation: only .options lines reach them
@@ -97,7 +106,8 @@ def _merge(parent: Options, rules: Rules, dotted: str, options: Message | None) 
     (nearly every field) the result is ``parent`` itself: resolved options are shared, never
     modified after resolution."""
     matching = [values for pattern, values in rules if fnmatchcase(dotted, pattern)]
-    annotations = list(_annotations(options.SerializeToString())) if options is not None else []
+    data = options.SerializeToString() if options is not None else b""
+    annotations = list(_annotations(data)) if data else []
     if not matching and not annotations:
         return parent
     merged = type(parent)()

@@ -51,6 +51,7 @@ def compile_files(
     known: descriptor_pb2.FileDescriptorSet | None = None,
     locations: bool = True,
     defaults: bool = True,
+    imports: bool = True,
 ) -> descriptor_pb2.FileDescriptorSet:
     """Compile ``files`` (paths relative to ``root``) with their imports and, unless told
     otherwise, source locations.
@@ -59,8 +60,9 @@ def compile_files(
     (compiled before) holds are taken from it and not parsed again. protoc prefers files it can
     parse to known ones, so when ``known`` has its own copy of a well-known file or of
     nanopb.proto, ours come as known files too, after the caller's (which win). The result
-    lists every file once, each after the files it imports. ``defaults=False`` leaves our
-    well-known files and nanopb.proto out altogether: ``known`` holds what the files import.
+    lists every file once, each after the files it imports (``imports=False``: ``files``
+    alone). ``defaults=False`` leaves our well-known files and nanopb.proto out altogether:
+    ``known`` holds what the files import.
     """
     search = [str(root), *map(str, includes)]
     if defaults and known is not None and {file.name for file in known.file} & _default_names():
@@ -73,7 +75,7 @@ def compile_files(
             "protoc",
             *(f"--proto_path={path}" for path in search),
             f"--descriptor_set_out={out}",
-            "--include_imports",
+            *(["--include_imports"] if imports else []),
             *(["--include_source_info"] if locations else []),
             *files,
         ]
