@@ -7,14 +7,18 @@ Guarantees:
   once, whatever the number of revisions that hold it: walking a history costs what changed in
   it, not its length times its size.
 - Refs are resolved by git itself (``main``, ``origin/main``, ``HEAD~3``, a tag, an object id).
+
+``subprocess`` is imported when a repository is opened: linting folders does not pay for it.
 """
 
 import os
 import posixpath
-import subprocess
 from collections.abc import Iterator
 from pathlib import Path
-from typing import IO
+from typing import IO, TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import subprocess
 
 __all__ = ["GitError", "Repository"]
 
@@ -185,6 +189,8 @@ class Repository:
 
     def _process(self) -> "subprocess.Popen[bytes]":
         if self._batch is None:
+            import subprocess
+
             self._batch = subprocess.Popen(
                 ["git", "--git-dir", str(self.git_dir), "cat-file", "--batch"],
                 stdin=subprocess.PIPE,
@@ -194,6 +200,8 @@ class Repository:
         return self._batch
 
     def _git(self, *args: str) -> str:
+        import subprocess
+
         try:
             done = subprocess.run(
                 ["git", "-C", str(self.folder), *args],
