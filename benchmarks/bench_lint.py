@@ -10,7 +10,9 @@ MEDIAN of its rounds, and the best is printed beside it for information. Before 
 check makes sure both really compare the trees: on OLD against itself both must report nothing, on
 OLD against NEW (which has a changed field type and a deleted field) both must report at least one
 finding and name both fields; anything else stops the script with exit status 2. erc-lint's
-packages are byte-compiled first, as a wheel install leaves them.
+packages are byte-compiled first, as a wheel install leaves them. Each round also times the
+start-up floor, this Python importing erc-lint's dependencies and nothing of its own, which is
+printed for information as a share of buf's time.
 
 Targets (from the linter issue):
 - ratio erc-lint/buf ≤ 1.0 on a 30-file tree;
@@ -361,13 +363,23 @@ class Times:
         return min(self.samples)
 
 
-def interleaved(tools: Tools, old: Path, new: Path, rounds: int) -> tuple[Times, Times]:
-    """erc-lint, buf, erc-lint, buf, … ``rounds`` times each."""
-    ours, theirs = Times(), Times()
+# What every erc-lint run pays before any code of its own: the interpreter's start-up and the
+# imports of its dependencies (then leaving at once, as erc-lint does).
+_FLOOR = [
+    sys.executable,
+    "-c",
+    "import os, click, google.protobuf.descriptor_pb2, grpc_tools.protoc; os._exit(0)",
+]
+
+
+def interleaved(tools: Tools, old: Path, new: Path, rounds: int) -> tuple[Times, Times, Times]:
+    """erc-lint, buf and the start-up floor, in turn, ``rounds`` times each."""
+    ours, theirs, floor = Times(), Times(), Times()
     for _ in range(rounds):
         ours.samples.append(_timed(tools.erc_lint_command(old, new), new.parent, 1))
         theirs.samples.append(_timed(tools.buf_command(old), new, _BUF_FINDINGS))
-    return ours, theirs
+        floor.samples.append(_timed(_FLOOR, new, 0))
+    return ours, theirs, floor
 
 
 def _compile_bytecode() -> None:
@@ -400,7 +412,7 @@ def main() -> int:
     try:
         old, new, changes = write_pair(folder, _RATIO_FILES)
         print(f"sanity ({_RATIO_FILES} files): {sanity_check(tools, old, new, changes)}")
-        ours, theirs = interleaved(tools, old, new, rounds)
+        ours, theirs, floor = interleaved(tools, old, new, rounds)
         factor = ours.median / theirs.median
         ratio_ok = factor <= _TARGET_RATIO
         print()
@@ -412,6 +424,10 @@ def main() -> int:
             f"{_RATIO_FILES:>6}{ours.median:>12.3f}{ours.best:>8.3f}{theirs.median:>8.3f}"
             f"{theirs.best:>8.3f}{factor:>7.2f}x{_TARGET_RATIO:>7.2f}x  "
             f"{'yes' if ratio_ok else 'NO'}"
+        )
+        print(
+            f"start-up floor (Python with click, protobuf and grpcio-tools imported, nothing of "
+            f"erc-lint's): {floor.median:.3f} s, {floor.median / theirs.median:.2f}x buf"
         )
 
         print()
