@@ -72,12 +72,13 @@ def reserved_removed(change: Change) -> Report:
     severity="warning",
 )
 def envelope_size_grown(change: Change) -> Report:
+    old_index, new_index = _definitions(change.old), _definitions(change.new)
     for root in change.config.roots:
         message = change.new.messages.get(root)
         if message is None or root not in change.old.messages:
             continue
-        if _closure(change.old, root) == _closure(change.new, root):
-            continue  # not a byte changed in what the root's size depends on
+        if _size_inputs(change.old, old_index, root) == _size_inputs(change.new, new_index, root):
+            continue  # nothing nanopb sizes the root from has changed
         before, after = max_size(change.old, root), max_size(change.new, root)
         if before is not None and after is not None and after > before:
             yield (
@@ -88,18 +89,52 @@ def envelope_size_grown(change: Change) -> Report:
             )
 
 
-def _closure(revision: Revision, root: str) -> dict[str, tuple[str, str | None]]:
-    """The text, and the .options text, of every tree file message ``root`` depends on."""
-    files, texts, found = revision.tree.imported, revision.tree.texts, {}
-    pending = [revision.messages[root].file]
+_Definition = descriptor_pb2.DescriptorProto | descriptor_pb2.EnumDescriptorProto
+
+
+def _definitions(
+    revision: Revision,
+) -> dict[str, tuple[descriptor_pb2.FileDescriptorProto, _Definition]]:
+    """Every message and enum protoc read for this revision, nested ones too, by full name."""
+    index: dict[str, tuple[descriptor_pb2.FileDescriptorProto, _Definition]] = {}
+    for file in revision.tree.imported.values():
+        prefix = f"{file.package}." if file.package else ""
+        pending: list[tuple[str, _Definition]] = [
+            *((prefix + m.name, m) for m in file.message_type),
+            *((prefix + e.name, e) for e in file.enum_type),
+        ]
+        while pending:
+            name, proto = pending.pop()
+            index.setdefault(name, (file, proto))
+            if isinstance(proto, descriptor_pb2.DescriptorProto):
+                pending.extend((f"{name}.{m.name}", m) for m in proto.nested_type)
+                pending.extend((f"{name}.{e.name}", e) for e in proto.enum_type)
+    return index
+
+
+def _size_inputs(
+    revision: Revision,
+    index: dict[str, tuple[descriptor_pb2.FileDescriptorProto, _Definition]],
+    root: str,
+) -> dict[tuple[str, str], object]:
+    """What nanopb computes ``root``'s size from: the descriptor of every message and enum it
+    reaches (without source locations, so comments and layout don't count) and, for each file
+    holding one, its package, syntax, edition, file options and ``.options`` text."""
+    found: dict[tuple[str, str], object] = {}
+    pending = [root]
     while pending:
         name = pending.pop()
-        if name in found or name not in files:
+        if ("type", name) in found or name not in index:
             continue
-        options = revision.root / Path(name).with_suffix(".options")
-        extra = options.read_bytes().decode("utf-8", "replace") if options.is_file() else None
-        found[name] = (texts.get(name, ""), extra)
-        pending.extend(files[name].dependency)
+        file, proto = index[name]
+        found["type", name] = proto.SerializeToString(deterministic=True)
+        if isinstance(proto, descriptor_pb2.DescriptorProto):
+            pending.extend(f.type_name.lstrip(".") for f in proto.field if f.type_name)
+        if ("file", file.name) not in found:
+            options = revision.root / Path(file.name).with_suffix(".options")
+            text = options.read_bytes() if options.is_file() else None
+            settings = file.options.SerializeToString(deterministic=True)
+            found["file", file.name] = (file.package, file.syntax, file.edition, settings, text)
     return found
 
 
