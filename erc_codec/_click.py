@@ -1,5 +1,6 @@
 """What both command lines share about click: a group whose every error is one line."""
 
+import os
 import sys
 from typing import Any
 
@@ -25,4 +26,18 @@ class OneLineGroup(click.Group):
         except click.Abort:
             click.echo("Aborted!", err=True)
             sys.exit(1)
+        except OSError as error:  # output that could not be written (a full disk, say)
+            _silence_unwritable_stdout()
+            click.echo(f"Error: {error}", err=True)
+            sys.exit(2)
         sys.exit(status if isinstance(status, int) else 0)
+
+
+def _silence_unwritable_stdout() -> None:
+    """Point a standard output that cannot take what it holds at /dev/null, so the flush at exit
+    does not fail a second time (Python's own recipe for a closed pipe)."""
+    try:
+        if sys.stdout is not None:
+            sys.stdout.flush()
+    except OSError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

@@ -28,10 +28,12 @@ def run() -> None:
     else:  # click's standalone mode always exits; a plain return means success
         status = 0
     for stream in (sys.stdout, sys.stderr):
+        if stream is None:  # started with the descriptor closed: nothing was written to it
+            continue
         try:
             stream.flush()
-        except (OSError, ValueError):  # a closed pipe: Python's own exit status for it
-            status = status or 120
+        except (OSError, ValueError):  # Python's own status for a failed final flush, unless
+            status = status or 120  # the run had failed already: its status says more
     os._exit(status)
 
 

@@ -411,6 +411,29 @@ def test_the_command_delivers_all_its_output_before_leaving_the_process(tmp_path
     assert (tmp_path / "report.txt").read_text().count("FIELD_DELETED") == 1200
 
 
+@pytest.mark.parametrize("module", ["erc_lint", "erc_codec"])
+def test_output_that_cannot_be_written_is_one_line_and_a_status(module: str) -> None:
+    """Started with standard output closed, a command writes nothing and succeeds; with an
+    output that refuses the bytes (a full disk), it says so in one line and exits 2."""
+    command = [sys.executable, "-m", module, "--help"]
+    closed = subprocess.run(
+        command, capture_output=False, stderr=subprocess.PIPE, text=True, preexec_fn=_close_stdout
+    )
+    assert (closed.returncode, closed.stderr) == (0, "")
+    if not Path("/dev/full").exists():
+        pytest.skip("no /dev/full here")
+    with open("/dev/full", "w") as full:
+        refused = subprocess.run(command, stdout=full, stderr=subprocess.PIPE, text=True)
+    assert refused.returncode == 2
+    assert refused.stderr == "Error: [Errno 28] No space left on device\n"
+
+
+def _close_stdout() -> None:
+    import os
+
+    os.close(1)
+
+
 @pytest.mark.parametrize(("code", "status", "said"), [(None, 0, ""), (2, 2, ""), ("no", 1, "no\n")])
 def test_the_command_exits_as_python_would_for_system_exit(
     code: object, status: int, said: str, capsys: pytest.CaptureFixture[str]
@@ -517,3 +540,38 @@ def test_map_entries_follow_their_map_field(tmp_path: Path) -> None:
         'Field "2" with name "value" on message "Stats.CountsEntry" changed type from "int32" '
         'to "sint32".'
     )
+
+
+READING = {
+    "envelope.proto": 'import "reading.proto";\n'
+    "message PBEnvelope { oneof payload { Reading reading = 1; } }\n",
+    "reading.proto": 'import "nanopb.proto";\n'
+    "enum Mode { MODE_IDLE = 0; MODE_RUN = 1; }\n"
+    "message Reading {\n  message Raw { uint32 count = 1 [(nanopb).int_size = IS_8]; }\n"
+    "  string label = 1;\n  Mode mode = 2;\n  Raw raw = 3;\n}\n",
+    "reading.options": "Reading.label max_size:16\n",
+}
+
+
+@pytest.mark.parametrize(
+    ("edit", "grown"),
+    [
+        (("reading.options", "16", "32"), "from 26 to 42"),  # only the .options file changed
+        (("reading.proto", "MODE_RUN = 1;", "MODE_RUN = 1; MODE_BACK = -1;"), "from 26 to 35"),
+        (("reading.proto", " [(nanopb).int_size = IS_8]", ""), "from 26 to 29"),  # nested type
+        (("reading.proto", "MODE_IDLE = 0;", "MODE_IDLE = 0; // idle\n"), None),  # comment only
+    ],
+)
+def test_the_envelope_size_follows_every_input_nanopb_sizes_it_from(
+    tmp_path: Path, edit: tuple[str, str, str], grown: str | None
+) -> None:
+    """Whatever nanopb reads to size the root, in another file, an enum, a nested message or a
+    .options file, is compared; comments are not."""
+    old = tree(tmp_path / "old", READING)
+    (old / "reading.options").write_text(READING["reading.options"])
+    name, before, after = edit
+    changed = {**READING, name: READING[name].replace(before, after)}
+    new = tree(tmp_path / "new", changed)
+    (new / "reading.options").write_text(changed["reading.options"])
+    messages = [f.message for f in erc_lint.lint(old, new) if f.rule == "ENVELOPE_SIZE_GROWN"]
+    assert [grown in m for m in messages] == ([] if grown is None else [True]), messages
