@@ -51,6 +51,7 @@ class Change:
     deleted_messages: list[Message] = field(default_factory=list)
 
     def __post_init__(self) -> None:
+        self.renamed.update(_map_entries(self.old.messages, self.new.messages))
         self.messages, gone = _pair(self.old.messages, self.new.messages, self.renamed)
         # A message whose file no longer compiles is unknown in NEW, not gone: COMPILE says so.
         self.deleted_messages = [m for m in gone if m.file not in self.new.tree.failed]
@@ -95,18 +96,39 @@ def wire_compatible(old: str, new: str) -> bool:
     return any(old in group and new in group for group in _WIRE_GROUPS)
 
 
+def _map_entries(old: dict[str, Message], new: dict[str, Message]) -> dict[str, str]:
+    """OLD map entry → NEW map entry of a map field that kept its number in a message that kept
+    its name: renaming a map field renames its entry, however many other maps look alike."""
+    renamed = {}
+    for name, message in old.items():
+        twin = new.get(name)
+        if twin is None:
+            continue
+        for number, entry in message.fields.items():
+            now = twin.fields.get(number)
+            if now is None or now.type == entry.type or entry.type in new or now.type in old:
+                continue
+            before, after = old.get(entry.type), new.get(now.type)
+            if before is not None and after is not None and before.map_entry and after.map_entry:
+                renamed[entry.type] = now.type
+    return renamed
+
+
 def _pair(
     old: dict[str, Container], new: dict[str, Container], renamed: dict[str, str]
 ) -> tuple[list[tuple[Container, Container]], list[Container]]:
-    """Pairs by full name, then renames by identical body; and OLD's unpaired leftovers."""
+    """Pairs by full name, then the renames already known (``renamed``), then renames by
+    identical body; and OLD's unpaired leftovers. Renames found are added to ``renamed``."""
     pairs = [(old[name], new[name]) for name in old if name in new]
+    known = {name: renamed[name] for name in old if name not in new and name in renamed}
+    pairs += [(old[name], new[twin]) for name, twin in known.items()]
     added: dict[object, list[Container]] = {}
     for name, element in new.items():
-        if name not in old:
+        if name not in old and name not in known.values():
             added.setdefault(element.body(), []).append(element)
     gone = []
     for name, element in old.items():
-        if name in new:
+        if name in new or name in known:
             continue
         twins = added.get(element.body(), [])
         if len(twins) == 1 and element.body():

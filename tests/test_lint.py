@@ -575,6 +575,21 @@ def test_map_entries_follow_their_map_field(tmp_path: Path) -> None:
         'Field "2" with name "value" on message "Stats.CountsEntry" changed type from "int32" '
         'to "sint32".'
     )
+    # Renamed beside a new map of the same types: the entry follows its field, not its body.
+    beside = tree(
+        tmp_path / "beside",
+        {
+            "a.proto": "message Stats {\n  map<string, int32> totals = 1;\n  map<string, int32> more = 2;\n}\n"
+        },
+    )
+    assert [(f.rule, f.message) for f in erc_lint.lint(old, beside)] == [
+        ("FIELD_RENAMED", 'Field "1" on message "Stats" changed name from "counts" to "totals".')
+    ]
+    # Renamed and retyped at once: both, the type change named in the new entry.
+    both = tree(
+        tmp_path / "both", {"a.proto": "message Stats {\n  map<string, float> totals = 1;\n}\n"}
+    )
+    assert [f.rule for f in erc_lint.lint(old, both)] == ["FIELD_RENAMED", "FIELD_TYPE_CHANGED"]
 
 
 READING = {
