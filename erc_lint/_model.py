@@ -1,10 +1,11 @@
 """One revision of a proto tree as the rules see it: messages, enums, their members and locations.
 
-Built from the descriptors the loader compiled. Every element carries the ``Location`` of its
-definition; names are full names (``Outer.Inner``; a package, if a file has one, in front).
+Built from the descriptors the loader compiled. Every element has the ``Location`` of its
+definition, read from protoc's source info when first asked for (nearly none ever are: only
+findings need one); names are full names (``Outer.Inner``; a package, if a file has one, in front).
 """
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NamedTuple
@@ -16,7 +17,18 @@ from erc_codec._schema import Location
 from ._finding import Finding
 from ._loader import LoadedTree
 
-__all__ = ["Enum", "EnumValue", "Field", "Message", "Revision", "build", "type_of", "walk"]
+__all__ = [
+    "Definition",
+    "Enum",
+    "EnumValue",
+    "Field",
+    "Message",
+    "Revision",
+    "Source",
+    "build",
+    "type_of",
+    "walk",
+]
 
 _FD = descriptor_pb2.FieldDescriptorProto
 _SCALARS = {
@@ -30,8 +42,29 @@ _KINDS = {_FD.TYPE_MESSAGE: "message", _FD.TYPE_GROUP: "message", _FD.TYPE_ENUM:
 # SourceCodeInfo path components.
 _FILE_MESSAGE, _FILE_ENUM = 4, 5
 _MESSAGE_FIELD, _MESSAGE_NESTED, _MESSAGE_ENUM, _MESSAGE_ONEOF = 2, 3, 4, 8
-_MESSAGE_RESERVED_RANGE, _MESSAGE_RESERVED_NAME = 9, 10
-_ENUM_VALUE, _ENUM_RESERVED_RANGE, _ENUM_RESERVED_NAME = 2, 4, 5
+_ENUM_VALUE = 2
+
+
+class Source:
+    """Where one file's declarations are: protoc's source info, indexed on first use."""
+
+    def __init__(self, path: str, proto: descriptor_pb2.FileDescriptorProto) -> None:
+        self.path = path
+        self._proto: descriptor_pb2.FileDescriptorProto | None = proto
+        self._spans: dict[tuple[int, ...], Sequence[int]] = {}
+
+    def where(self, at: tuple[int, ...]) -> Location:
+        """The location of the declaration at source-info path ``at`` (1:1 if protoc has none)."""
+        if self._proto is not None:
+            # Declarations sit at even-length paths; the odd ones (names, numbers, types) are many.
+            self._spans = {
+                tuple(loc.path): loc.span
+                for loc in self._proto.source_code_info.location
+                if not len(loc.path) % 2
+            }
+            self._proto = None
+        span = self._spans.get(at)
+        return Location(self.path, span[0] + 1, span[1] + 1) if span else Location(self.path, 1, 1)
 
 
 class Field(NamedTuple):
@@ -42,30 +75,40 @@ class Field(NamedTuple):
     kind: str  # "scalar", "message" or "enum"
     cardinality: str  # "optional", "repeated" or "required"
     oneof: str | None  # the real oneof it belongs to (not a proto3 `optional`'s)
-    location: Location
+    source: Source
+    at: tuple[int, ...]  # its source-info path (a map entry's fields: their map field's)
+
+    @property
+    def location(self) -> Location:
+        return self.source.where(self.at)
 
 
 class EnumValue(NamedTuple):
     owner: str
     name: str
     number: int
-    location: Location
+    source: Source
+    at: tuple[int, ...]
+
+    @property
+    def location(self) -> Location:
+        return self.source.where(self.at)
 
 
 @dataclass
 class Reserved:
-    """Reserved numbers (inclusive ranges) and names, each with where it was declared."""
+    """Reserved numbers (inclusive ranges) and names."""
 
-    ranges: list[tuple[int, int, Location]] = field(default_factory=list)
-    names: dict[str, Location] = field(default_factory=dict)
+    ranges: list[tuple[int, int]] = field(default_factory=list)
+    names: set[str] = field(default_factory=set)
 
     def covers(self, number: int) -> bool:
-        return any(low <= number <= high for low, high, _ in self.ranges)
+        return any(low <= number <= high for low, high in self.ranges)
 
     def first_free(self, low: int, high: int) -> int | None:
         """The lowest number from ``low`` to ``high`` that no range covers, if any."""
         number = low
-        for start, end, _ in sorted(self.ranges, key=lambda r: r[0]):
+        for start, end in sorted(self.ranges):
             if start > number:
                 break
             number = max(number, end + 1)
@@ -76,11 +119,16 @@ class Reserved:
 class Message:
     name: str
     file: str
-    location: Location  # a map entry's is its map field's
+    source: Source
+    at: tuple[int, ...]  # a map entry's is its map field's
     fields: dict[int, Field] = field(default_factory=dict)
     by_name: dict[str, Field] = field(default_factory=dict)
     reserved: Reserved = field(default_factory=Reserved)
     map_entry: bool = False  # the message protoc writes for a map field: no one declared it
+
+    @property
+    def location(self) -> Location:
+        return self.source.where(self.at)
 
     def oneof(self, name: str | None) -> frozenset[int]:
         """The field numbers of oneof ``name`` (none for ``None``)."""
@@ -97,10 +145,15 @@ class Message:
 class Enum:
     name: str
     file: str
-    location: Location
+    source: Source
+    at: tuple[int, ...]
     values: dict[int, EnumValue] = field(default_factory=dict)  # the first name of each number
     by_name: dict[str, EnumValue] = field(default_factory=dict)
     reserved: Reserved = field(default_factory=Reserved)
+
+    @property
+    def location(self) -> Location:
+        return self.source.where(self.at)
 
     def body(self) -> frozenset[tuple[int, str]]:
         return frozenset((v.number, v.name) for v in self.by_name.values())
@@ -110,6 +163,9 @@ class Enum:
         return [v.name for v in self.by_name.values() if v.number == number]
 
 
+Definition = Message | Enum | EnumValue
+
+
 @dataclass
 class Revision:
     """One side of a comparison."""
@@ -117,8 +173,9 @@ class Revision:
     tree: LoadedTree
     messages: dict[str, Message] = field(default_factory=dict)
     enums: dict[str, Enum] = field(default_factory=dict)
-    # Every global name a definition takes (C++ scoping: enum values beside their enum).
-    definitions: dict[str, list[tuple[str, Location]]] = field(default_factory=dict)
+    # Every global name a definition takes (C++ scoping: enum values beside their enum), with
+    # the kind of definition ("message", "enum", "enum value") and the definition.
+    definitions: dict[str, list[tuple[str, Definition]]] = field(default_factory=dict)
 
     @property
     def root(self) -> Path:
@@ -141,21 +198,11 @@ class _File:
     def __init__(self, revision: Revision, proto: descriptor_pb2.FileDescriptorProto) -> None:
         self.revision = revision
         self.proto = proto
-        self.path = str(revision.root / proto.name)
-        # Declarations sit at even-length paths; the odd ones (names, numbers, types) are many.
-        self.spans = {
-            tuple(loc.path): loc.span
-            for loc in proto.source_code_info.location
-            if not len(loc.path) % 2
-        }
+        self.source = Source(str(revision.root / proto.name), proto)
         self.package = f"{proto.package}." if proto.package else ""
 
-    def where(self, path: tuple[int, ...]) -> Location:
-        span = self.spans.get(path)
-        return Location(self.path, span[0] + 1, span[1] + 1) if span else Location(self.path, 1, 1)
-
-    def define(self, name: str, kind: str, location: Location) -> None:
-        self.revision.definitions.setdefault(name, []).append((kind, location))
+    def define(self, name: str, kind: str, definition: Definition) -> None:
+        self.revision.definitions.setdefault(name, []).append((kind, definition))
 
     def add(self) -> None:
         for i, message in enumerate(self.proto.message_type):
@@ -168,13 +215,13 @@ class _File:
         name: str,
         proto: descriptor_pb2.DescriptorProto,
         path: tuple[int, ...],
-        declared: Location | None = None,
+        declared: tuple[int, ...] | None = None,
     ) -> None:
-        """Add message ``name``; ``declared`` locates a map entry and its key and value, which
-        have no source of their own, at their map field."""
-        model = Message(name, self.proto.name, declared or self.where(path))
+        """Add message ``name``; ``declared`` is the path of the map field that a map entry and
+        its key and value, which have no source of their own, are located at."""
+        model = Message(name, self.proto.name, self.source, declared or path)
         model.map_entry = proto.options.map_entry
-        self.define(name, "message", model.location)
+        self.define(name, "message", model)
         self.revision.messages.setdefault(name, model)
         oneofs = [oneof.name for oneof in proto.oneof_decl]
         for j, f in enumerate(proto.field):
@@ -188,19 +235,18 @@ class _File:
                 kind=kind,
                 cardinality=_LABELS[f.label],
                 oneof=oneofs[f.oneof_index] if real_oneof else None,
-                location=declared or self.where((*path, _MESSAGE_FIELD, j)),
+                source=self.source,
+                at=declared or (*path, _MESSAGE_FIELD, j),
             )
             model.fields.setdefault(f.number, entry)
             model.by_name.setdefault(f.name, entry)
-        for j, reserved in enumerate(proto.reserved_range):  # end is exclusive
-            where = self.where((*path, _MESSAGE_RESERVED_RANGE, j))
-            model.reserved.ranges.append((reserved.start, reserved.end - 1, where))
-        for j, reserved_name in enumerate(proto.reserved_name):
-            model.reserved.names[reserved_name] = self.where((*path, _MESSAGE_RESERVED_NAME, j))
+        # protoc's message ranges end before ``end``; enum ranges include it
+        model.reserved.ranges.extend((r.start, r.end - 1) for r in proto.reserved_range)
+        model.reserved.names.update(proto.reserved_name)
         for j, nested in enumerate(proto.nested_type):
             full = f"{name}.{nested.name}"
             users = [f for f in model.fields.values() if f.type == full]
-            declared = users[0].location if nested.options.map_entry and users else None
+            declared = users[0].at if nested.options.map_entry and users else None
             self.message(full, nested, (*path, _MESSAGE_NESTED, j), declared)
         for j, enum in enumerate(proto.enum_type):
             self.enum(f"{name}.{enum.name}", f"{name}.", enum, (*path, _MESSAGE_ENUM, j))
@@ -212,19 +258,16 @@ class _File:
         proto: descriptor_pb2.EnumDescriptorProto,
         path: tuple[int, ...],
     ) -> None:
-        model = Enum(name, self.proto.name, self.where(path))
-        self.define(name, "enum", model.location)
+        model = Enum(name, self.proto.name, self.source, path)
+        self.define(name, "enum", model)
         self.revision.enums.setdefault(name, model)
         for j, value in enumerate(proto.value):
-            entry = EnumValue(name, value.name, value.number, self.where((*path, _ENUM_VALUE, j)))
-            self.define(scope + value.name, "enum value", entry.location)
+            entry = EnumValue(name, value.name, value.number, self.source, (*path, _ENUM_VALUE, j))
+            self.define(scope + value.name, "enum value", entry)
             model.values.setdefault(value.number, entry)
             model.by_name.setdefault(value.name, entry)
-        for j, reserved in enumerate(proto.reserved_range):  # end is inclusive for enums
-            where = self.where((*path, _ENUM_RESERVED_RANGE, j))
-            model.reserved.ranges.append((reserved.start, reserved.end, where))
-        for j, reserved_name in enumerate(proto.reserved_name):
-            model.reserved.names[reserved_name] = self.where((*path, _ENUM_RESERVED_NAME, j))
+        model.reserved.ranges.extend((r.start, r.end) for r in proto.reserved_range)
+        model.reserved.names.update(proto.reserved_name)
 
 
 def type_of(f: descriptor_pb2.FieldDescriptorProto) -> tuple[str, str]:

@@ -46,7 +46,7 @@ def reserved_removed(change: Change) -> Report:
         *((old, new, "enum") for old, new in change.enums),
     ]
     for old, new, kind in pairs:
-        for low, high, _ in old.reserved.ranges:
+        for low, high in old.reserved.ranges:
             free = new.reserved.first_free(low, high)
             if free is not None:
                 span = f'"{low}"' if low == high else f'"{low} to {high}"'
@@ -56,7 +56,7 @@ def reserved_removed(change: Change) -> Report:
                     f"reserved (first free number: {free}).",
                     False,
                 )
-        for name in old.reserved.names:
+        for name in sorted(old.reserved.names):
             if name not in new.reserved.names:
                 yield (
                     new.location,

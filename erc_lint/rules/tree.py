@@ -36,16 +36,16 @@ def import_ambiguous(revision: Revision, change: Change) -> Report:
     "Two definitions (message, enum or enum value) share a global name anywhere in the tree.",
 )
 def name_collision(revision: Revision, change: Change) -> Report:
-    for name, places in sorted(revision.definitions.items()):
-        if len(places) < 2:
+    for name, definitions in sorted(revision.definitions.items()):
+        if len(definitions) < 2:
             continue
-        places = sorted(places, key=lambda place: place[1])
+        places = sorted(((kind, d.location) for kind, d in definitions), key=lambda p: p[1])
         listed = " and ".join(f"{kind} at {where}" for kind, where in places)
         # Point at a definition the other revision lacks, if any: that is the one to look at.
         other = change.old if revision is change.new else change.new
         known = {
-            (relative(other.root, where.path), where.line)
-            for _, where in other.definitions.get(name, [])
+            (relative(other.root, d.location.path), d.location.line)
+            for _, d in other.definitions.get(name, [])
         }
         fresh = [
             where
