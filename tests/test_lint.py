@@ -46,7 +46,11 @@ def test_imports_resolve_whatever_their_spelling(tmp_path: Path) -> None:
 
 
 def test_imports_are_found_as_protoc_reads_them(tmp_path: Path) -> None:
-    """Single quotes, comments between the tokens; none inside a comment or a string."""
+    """Single quotes, comments between the tokens, none needed before the name; adjacent
+    literals joined, over lines too; escapes unescaped. None inside a comment or a string, nor
+    in an identifier that starts with ``import``."""
+    from erc_lint._loader import imports
+
     user = (
         '// import "commented_out.proto";\n'
         "import /* the shape */ 'shape.proto' ;\n"
@@ -63,6 +67,43 @@ def test_imports_are_found_as_protoc_reads_them(tmp_path: Path) -> None:
         },
     )
     assert erc_lint.lint(root, root) == []
+
+    # Each reads as the bare name b.proto (the file is sub/b.proto): protoc takes them all, given
+    # sub/ as an include folder, and the linter respells them all to compile without it.
+    spellings = [
+        'import"b.proto";',
+        'import weak"b.proto";',
+        "import public'b.proto';",
+        'import "b." "proto";',
+        'import "b" // joined\n  /* over lines */ ".proto"\n  ;',
+        'import "b\\x2eproto";',
+        "import '\\142\\56pr\\X6fto';",
+        'import "\\u0062.\\U00000070roto";',
+    ]
+    importers = {
+        f"a{i}.proto": f"{s}\nmessage A{i} {{ B b = 1; }}\n" for i, s in enumerate(spellings)
+    }
+    root = tree(tmp_path / "spellings", {"sub/b.proto": "message B {}\n", **importers})
+    protoc = [sys.executable, "-m", "grpc_tools.protoc", f"-I{root}", f"-I{root / 'sub'}"]
+    out = f"--descriptor_set_out={tmp_path / 'out.pb'}"
+    assert subprocess.run([*protoc, out, *importers], cwd=root).returncode == 0
+    for spelling in spellings:
+        assert [name for _, _, name in imports(spelling)] == ["b.proto"], spelling
+    assert erc_lint.lint(root, root) == []
+    assert [name for _, _, name in imports('import "sub/"\n  "b.proto";')] == ["sub/b.proto"]
+    never = 'important "a.proto"; importx "b.proto"; my_import "c.proto"; "import \\"d.proto\\";"'
+    assert list(imports(never)) == []
+    # Respelled over fewer lines, lines would shift: protoc's locations after it stay true.
+    lines = tree(
+        tmp_path / "lines",
+        {
+            "sub/b.proto": "message B {}\n",
+            "a.proto": spellings[4] + "\nmessage A { Nope b = 1; }\n",
+        },
+    )
+    assert [(f.line, f.message) for f in erc_lint.lint(lines, lines)] == [
+        (5, '"Nope" is not defined.')
+    ]
 
 
 def test_an_import_matching_two_files_is_ambiguous(tmp_path: Path) -> None:
