@@ -44,13 +44,12 @@ _SCAN = re.compile(
     re.DOTALL,
 )
 # The literals of a run of them (and the comments between them, to skip), and the escapes
-# protoc's tokenizer reads inside one.
-_LITERALS = re.compile(rf"//[^\n]*|/\*.*?\*/|({_STRING})", re.DOTALL)
-_ESCAPE = re.compile(
-    r"\\(?:([0-7]{1,3})|[xX]([0-9A-Fa-f]{1,2})"
+# protoc's tokenizer reads inside one. Rarely needed: compiled on first use (re caches them).
+_LITERALS = rf"(?s)//[^\n]*|/\*.*?\*/|({_STRING})"
+_ESCAPE = (
+    r"(?s)\\(?:([0-7]{1,3})|[xX]([0-9A-Fa-f]{1,2})"
     r"|u([dD][89abAB][0-9A-Fa-f]{2})\\u([dD][c-fC-F][0-9A-Fa-f]{2})"
-    r"|u([0-9A-Fa-f]{4})|U([0-9A-Fa-f]{8})|(.))",
-    re.DOTALL,
+    r"|u([0-9A-Fa-f]{4})|U([0-9A-Fa-f]{8})|(.))"
 )
 _C_ESCAPES = {"a": "\a", "b": "\b", "f": "\f", "n": "\n", "r": "\r", "t": "\t", "v": "\v"}
 _DIAGNOSTIC = re.compile(r"^(.*?):(\d+):(\d+): (.*)$")
@@ -136,11 +135,11 @@ def _literal(name: str, span: str) -> str:
 def _unquote(literals: str) -> str:
     """The bytes protoc makes of adjacent string literals, read as UTF-8."""
     joined = bytearray()
-    for match in _LITERALS.finditer(literals):
+    for match in re.finditer(_LITERALS, literals):
         if match[1] is not None:
             body = match[1][1:-1]
             at = 0
-            for escape in _ESCAPE.finditer(body):
+            for escape in re.finditer(_ESCAPE, body):
                 joined += body[at : escape.start()].encode("utf-8", "surrogatepass")
                 joined += _unescape(escape)
                 at = escape.end()

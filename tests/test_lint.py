@@ -620,7 +620,8 @@ def test_map_entries_follow_their_map_field(tmp_path: Path) -> None:
     beside = tree(
         tmp_path / "beside",
         {
-            "a.proto": "message Stats {\n  map<string, int32> totals = 1;\n  map<string, int32> more = 2;\n}\n"
+            "a.proto": "message Stats {\n  map<string, int32> totals = 1;\n"
+            "  map<string, int32> more = 2;\n}\n"
         },
     )
     assert [(f.rule, f.message) for f in erc_lint.lint(old, beside)] == [
