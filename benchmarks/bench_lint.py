@@ -368,7 +368,7 @@ class Times:
 _FLOOR = [
     sys.executable,
     "-c",
-    "import os, click, google.protobuf.descriptor_pb2, grpc_tools.protoc; os._exit(0)",
+    "import os, click, google.protobuf.descriptor_pb2, grpc_tools._protoc_compiler; os._exit(0)",
 ]
 
 
