@@ -14,7 +14,6 @@ from ._config import Config, ConfigError, find_config, read_config
 from ._finding import Finding
 from ._git import GitError
 from ._inputs import Source, open_input
-from ._ledger import LedgerError
 from ._report import FORMATS, render
 from ._run import compare
 from .rules import RULES
@@ -169,9 +168,14 @@ def _guard() -> Iterator[None]:
         yield
     except click.ClickException:
         raise
-    except (ConfigError, GitError, LedgerError, OSError, CodecError) as error:
+    except (ConfigError, GitError, OSError, CodecError) as error:
         raise _Failure(" ".join(str(error).split())) from None
-    except Exception as error:  # a bug of ours must not read as "errors found" (exit 1)
+    except Exception as error:
+        from ._ledger import LedgerError  # not loaded unless a ledger was read
+
+        if isinstance(error, LedgerError):
+            raise _Failure(" ".join(str(error).split())) from None
+        # a bug of ours must not read as "errors found" (exit 1)
         raise _Failure(f"internal error ({type(error).__name__}): {error}") from None
 
 

@@ -3,7 +3,9 @@
 from pathlib import Path
 from typing import Any, NamedTuple
 
-__all__ = ["Config", "ConfigError", "find_config", "read_config"]
+__all__ = ["LEDGER", "Config", "ConfigError", "find_config", "read_config"]
+
+LEDGER = "erc-lint.lock"  # the ledger's file name, beside a tree's protos
 
 
 class ConfigError(Exception):

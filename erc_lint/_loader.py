@@ -19,7 +19,6 @@ import os
 import re
 import tempfile
 from collections.abc import Collection, Iterator, Sequence
-from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
 from pathlib import Path
 
@@ -55,16 +54,18 @@ _C_ESCAPES = {"a": "\a", "b": "\b", "f": "\f", "n": "\n", "r": "\r", "t": "\t", 
 _DIAGNOSTIC = re.compile(r"^(.*?):(\d+):(\d+): (.*)$")
 
 
-@dataclass
 class LoadedTree:
     """The compiled files of one tree, with the findings loading produced."""
 
-    root: Path
-    files: dict[str, descriptor_pb2.FileDescriptorProto]  # the tree's own files, by name
-    imported: dict[str, descriptor_pb2.FileDescriptorProto]  # everything protoc read, by name
-    findings: list[tuple[str, Finding]] = field(default_factory=list)  # (key, finding)
-    failed: set[str] = field(default_factory=set)  # files that did not compile
-    texts: dict[str, str] = field(default_factory=dict)  # the tree's files as read
+    __slots__ = ("failed", "files", "findings", "imported", "root", "texts")
+
+    def __init__(self, root: Path) -> None:
+        self.root = root
+        self.files: dict[str, descriptor_pb2.FileDescriptorProto] = {}  # the tree's own, by name
+        self.imported: dict[str, descriptor_pb2.FileDescriptorProto] = {}  # all protoc read
+        self.findings: list[tuple[str, Finding]] = []  # (key, finding)
+        self.failed: set[str] = set()  # files that did not compile
+        self.texts: dict[str, str] = {}  # the tree's files as read
 
 
 def load_tree(
@@ -81,7 +82,7 @@ def load_tree(
         for path in sorted(root.rglob("*.proto"))
         if path.is_file()
     ]
-    tree = LoadedTree(root, {}, {})
+    tree = LoadedTree(root)
     for name in [name for name in every if not utf8_name(name)]:
         every.remove(name)
         tree.failed.add(name)

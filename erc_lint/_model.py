@@ -6,7 +6,6 @@ findings need one); names are full names (``Outer.Inner``; a package, if a file 
 """
 
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NamedTuple
 
@@ -95,12 +94,14 @@ class EnumValue(NamedTuple):
         return self.source.where(self.at)
 
 
-@dataclass
 class Reserved:
     """Reserved numbers (inclusive ranges) and names."""
 
-    ranges: list[tuple[int, int]] = field(default_factory=list)
-    names: set[str] = field(default_factory=set)
+    __slots__ = ("names", "ranges")
+
+    def __init__(self) -> None:
+        self.ranges: list[tuple[int, int]] = []
+        self.names: set[str] = set()
 
     def covers(self, number: int) -> bool:
         return any(low <= number <= high for low, high in self.ranges)
@@ -115,16 +116,20 @@ class Reserved:
         return number if number <= high else None
 
 
-@dataclass
 class Message:
-    name: str
-    file: str
-    source: Source
-    at: tuple[int, ...]  # a map entry's is its map field's
-    fields: dict[int, Field] = field(default_factory=dict)
-    by_name: dict[str, Field] = field(default_factory=dict)
-    reserved: Reserved = field(default_factory=Reserved)
-    map_entry: bool = False  # the message protoc writes for a map field: no one declared it
+    __slots__ = ("at", "by_name", "fields", "file", "map_entry", "name", "reserved", "source")
+
+    def __init__(
+        self, name: str, file: str, source: Source, at: tuple[int, ...], map_entry: bool = False
+    ) -> None:
+        self.name = name
+        self.file = file
+        self.source = source
+        self.at = at  # a map entry's is its map field's
+        self.map_entry = map_entry  # the message protoc writes for a map field: not declared
+        self.fields: dict[int, Field] = {}
+        self.by_name: dict[str, Field] = {}
+        self.reserved = Reserved()
 
     @property
     def location(self) -> Location:
@@ -141,15 +146,17 @@ class Message:
         )
 
 
-@dataclass
 class Enum:
-    name: str
-    file: str
-    source: Source
-    at: tuple[int, ...]
-    values: dict[int, EnumValue] = field(default_factory=dict)  # the first name of each number
-    by_name: dict[str, EnumValue] = field(default_factory=dict)
-    reserved: Reserved = field(default_factory=Reserved)
+    __slots__ = ("at", "by_name", "file", "name", "reserved", "source", "values")
+
+    def __init__(self, name: str, file: str, source: Source, at: tuple[int, ...]) -> None:
+        self.name = name
+        self.file = file
+        self.source = source
+        self.at = at
+        self.values: dict[int, EnumValue] = {}  # the first name of each number
+        self.by_name: dict[str, EnumValue] = {}
+        self.reserved = Reserved()
 
     @property
     def location(self) -> Location:
@@ -166,16 +173,18 @@ class Enum:
 Definition = Message | Enum | EnumValue
 
 
-@dataclass
 class Revision:
     """One side of a comparison."""
 
-    tree: LoadedTree
-    messages: dict[str, Message] = field(default_factory=dict)
-    enums: dict[str, Enum] = field(default_factory=dict)
-    # Every global name a definition takes (C++ scoping: enum values beside their enum), with
-    # the kind of definition ("message", "enum", "enum value") and the definition.
-    definitions: dict[str, list[tuple[str, Definition]]] = field(default_factory=dict)
+    __slots__ = ("definitions", "enums", "messages", "tree")
+
+    def __init__(self, tree: LoadedTree) -> None:
+        self.tree = tree
+        self.messages: dict[str, Message] = {}
+        self.enums: dict[str, Enum] = {}
+        # Every global name a definition takes (C++ scoping: enum values beside their enum),
+        # with the kind of definition ("message", "enum", "enum value") and the definition.
+        self.definitions: dict[str, list[tuple[str, Definition]]] = {}
 
     @property
     def root(self) -> Path:
@@ -219,8 +228,9 @@ class _File:
     ) -> None:
         """Add message ``name``; ``declared`` is the path of the map field that a map entry and
         its key and value, which have no source of their own, are located at."""
-        model = Message(name, self.proto.name, self.source, declared or path)
-        model.map_entry = proto.options.map_entry
+        model = Message(
+            name, self.proto.name, self.source, declared or path, proto.options.map_entry
+        )
         self.define(name, "message", model)
         self.revision.messages.setdefault(name, model)
         oneofs = [oneof.name for oneof in proto.oneof_decl]

@@ -8,12 +8,13 @@ that moved from one that was deleted while another took its number.
 
 import functools
 from collections.abc import Iterator
-from dataclasses import dataclass, field
-from typing import Generic, NamedTuple, TypeVar
+from typing import TYPE_CHECKING, Generic, NamedTuple, TypeVar
 
 from ._config import Config
-from ._ledger import Ledger
 from ._model import Enum, EnumValue, Field, Message, Revision
+
+if TYPE_CHECKING:
+    from ._ledger import Ledger
 
 __all__ = ["Change", "MemberPair", "wire_compatible"]
 
@@ -39,20 +40,19 @@ class MemberPair(NamedTuple, Generic[Container, Member]):
     by_name: Member | None
 
 
-@dataclass
 class Change:
-    old: Revision
-    new: Revision
-    config: Config
-    ledger: Ledger | None = None
-    messages: list[tuple[Message, Message]] = field(default_factory=list)
-    enums: list[tuple[Enum, Enum]] = field(default_factory=list)
-    renamed: dict[str, str] = field(default_factory=dict)  # OLD full name → NEW full name
-    deleted_messages: list[Message] = field(default_factory=list)
+    """OLD and NEW, their messages and enums paired."""
 
-    def __post_init__(self) -> None:
-        self.renamed.update(_map_entries(self.old.messages, self.new.messages))
-        self.messages, gone = _pair(self.old.messages, self.new.messages, self.renamed)
+    def __init__(
+        self, old: Revision, new: Revision, config: Config, ledger: "Ledger | None" = None
+    ) -> None:
+        self.old = old
+        self.new = new
+        self.config = config
+        self.ledger = ledger
+        # OLD full name → NEW full name of each renamed message or enum
+        self.renamed = _map_entries(old.messages, new.messages)
+        self.messages, gone = _pair(old.messages, new.messages, self.renamed)
         # A message whose file no longer compiles is unknown in NEW, not gone: COMPILE says so.
         self.deleted_messages = [m for m in gone if m.file not in self.new.tree.failed]
         self.enums, _ = _pair(self.old.enums, self.new.enums, self.renamed)

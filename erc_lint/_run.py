@@ -2,15 +2,18 @@
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from ._config import Config
+from ._config import LEDGER, Config
 from ._finding import Finding
 from ._inputs import Source, open_input, relocate
-from ._ledger import FILENAME, Ledger
 from ._loader import LoadedTree, load_tree
 from ._model import build
 from ._pairing import Change
 from .rules import run
+
+if TYPE_CHECKING:
+    from ._ledger import Ledger
 
 __all__ = ["check", "compare", "find_ledger", "lint"]
 
@@ -52,16 +55,20 @@ def compare(
     roots = [Path(folder) for folder in includes]
     after = build(load_tree(new.folder, roots, config.exclude))
     if old is None:
-        before = build(LoadedTree(new.folder, {}, {}))
+        before = build(LoadedTree(new.folder))
     else:
         before = build(load_tree(old.folder, roots, config.exclude))
     change = Change(before, after, config, find_ledger(new, ledger))
     return relocate(run(change), [new] if old is None else [old, new])
 
 
-def find_ledger(tree: Source, path: str | Path | None = None) -> Ledger | None:
+def find_ledger(tree: Source, path: str | Path | None = None) -> "Ledger | None":
     """The ledger at ``path``, else the one beside ``tree``'s protos, else none."""
+    beside = tree.folder / LEDGER
+    if path is None and not beside.is_file():
+        return None
+    from ._ledger import Ledger  # only a run with a ledger pays for its import
+
     if path is not None:
         return Ledger.read(Path(path))
-    beside = tree.folder / FILENAME
-    return Ledger.read(beside, str(tree.shown / FILENAME)) if beside.is_file() else None
+    return Ledger.read(beside, str(tree.shown / LEDGER))

@@ -3,16 +3,18 @@ a ledger, what the tree's history held)."""
 
 import re
 from collections.abc import Iterator
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from erc_codec._options import resolve
 from erc_codec._schema import Location
 
-from .._ledger import Entry, Key, Ledger
 from .._loader import relative
 from .._model import Revision, walk
 from .._pairing import Change, wire_compatible
 from ._registry import tree_rule
+
+if TYPE_CHECKING:
+    from .._ledger import Entry, Key, Ledger
 
 Report = Iterator[tuple[str, Location, str]]
 
@@ -129,6 +131,8 @@ def ledger_number_reused(revision: Revision, change: Change) -> Report:
     ledger = change.ledger
     if ledger is None:
         return
+    from .._ledger import Key  # loaded already: the ledger was read
+
     for message in sorted(revision.messages.values(), key=lambda m: m.name):
         for entry in sorted(message.fields.values(), key=lambda f: f.number):
             key = Key("message", message.name, entry.number, entry.name, entry.type)
@@ -168,7 +172,7 @@ def _same_kind(change: Change, past: str, now: str) -> bool:
     return wire_compatible(past, now) or change.renamed.get(past) == now
 
 
-def _acknowledged(change: Change, ledger: Ledger, key: Key) -> bool:
+def _acknowledged(change: Change, ledger: "Ledger", key: "Key") -> bool:
     """Whether the ledger accepts this use of the number: an ``ack`` on an entry with this name
     and a type that reads the same bytes (an acknowledged ``sint32`` covers its widening to
     ``sint64``)."""
@@ -178,8 +182,8 @@ def _acknowledged(change: Change, ledger: Ledger, key: Key) -> bool:
     )
 
 
-def _history(ledger: Ledger, clashes: list[Entry]) -> str:
-    def one(past: Entry) -> str:
+def _history(ledger: "Ledger", clashes: "list[Entry]") -> str:
+    def one(past: "Entry") -> str:
         kind = "" if past.key.type == "-" else f' ("{past.key.type}")'
         since = "" if past.since == "-" else f" since revision {past.since}"
         return f'"{past.key.name}"{kind}{since} ({ledger.where(past)})'
@@ -187,7 +191,7 @@ def _history(ledger: Ledger, clashes: list[Entry]) -> str:
     return " and ".join(one(past) for past in clashes)
 
 
-def _id(key: Key) -> str:
+def _id(key: "Key") -> str:
     return f"{key.kind}:{key.container}:{key.number}:{key.name}:{key.type}"
 
 
