@@ -2,15 +2,16 @@
 
 Guarantees: no generated code is written anywhere; protoc's own diagnostics (``path:line:col:
 message``) come back as the text of a ``SchemaError``. protoc reports on the process's standard
-error descriptor, so compilation briefly points fd 2 at a temporary file; a lock keeps two
-compilations in this process from interleaving.
+error descriptor, so compilation briefly points fd 2 at a scratch file; a lock keeps two
+compilations in this process from interleaving. Scratch files (protoc's output, its diagnostics,
+descriptors it is given) live in memory where Linux offers it (``memfd_create``, opened by protoc
+as ``/proc/self/fd/N``), else in a temporary folder.
 """
 
 import contextlib
 import functools
 import os
 import re
-import tempfile
 import threading
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -44,6 +45,8 @@ _LOG_PREFIX = re.compile(r"[IWEF]\d{4} [\d:.]+ +\d+ [\w.]+:\d+\] ")
 _WELL_KNOWN = str(Path(grpc_tools.__file__).parent / "_proto")
 # A nanopb.proto of our own, used only when a tree imports "nanopb.proto" without shipping it.
 FALLBACK_INCLUDE = str(Path(__file__).parent / "_include")
+# Whether scratch files can be memory files that protoc opens by path.
+_IN_MEMORY = hasattr(os, "memfd_create") and os.path.isdir("/proc/self/fd")
 
 
 class ProtocError(SchemaError):
@@ -79,8 +82,8 @@ def compile_files(
         known = descriptor_pb2.FileDescriptorSet(file=[*known.file, *_defaults().file])
     elif defaults:
         search += [_WELL_KNOWN, FALLBACK_INCLUDE]
-    with tempfile.TemporaryDirectory(prefix="erc-codec-") as scratch:
-        out = os.path.join(scratch, "set.pb")
+    with _Scratch() as scratch:
+        out = scratch.file("set.pb")
         args = [
             "protoc",
             *(f"--proto_path={path}" for path in search),
@@ -90,10 +93,10 @@ def compile_files(
             *files,
         ]
         if known is not None:
-            given = os.path.join(scratch, "known.pb")
+            given = scratch.file("known.pb")
             Path(given).write_bytes(known.SerializeToString())
             args.insert(1, f"--descriptor_set_in={given}")
-        errors = os.path.join(scratch, "stderr.txt")
+        errors = scratch.file("stderr.txt")
         with _LOCK, _stderr_to(errors):
             status = _run_main([arg.encode() for arg in args])
         if status != 0:
@@ -123,6 +126,39 @@ def _defaults() -> descriptor_pb2.FileDescriptorSet:
     seen = {file.name for file in found.file}
     found.file.extend(file for file in fallback.file if file.name not in seen)
     return found
+
+
+class _Scratch:
+    """Empty files that protoc can open by path, gone when the block ends."""
+
+    def __init__(self) -> None:
+        self._descriptors: list[int] = []
+        self._folder: str | None = None
+
+    def __enter__(self) -> "_Scratch":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for descriptor in self._descriptors:
+            os.close(descriptor)
+        if self._folder is not None:
+            import shutil
+
+            shutil.rmtree(self._folder, ignore_errors=True)
+
+    def file(self, name: str) -> str:
+        """The path of a new empty file; ``name`` says what it holds."""
+        if _IN_MEMORY:
+            descriptor = os.memfd_create(name)
+            self._descriptors.append(descriptor)
+            return f"/proc/self/fd/{descriptor}"
+        if self._folder is None:
+            import tempfile  # only where memory files are not to be had
+
+            self._folder = tempfile.mkdtemp(prefix="erc-codec-")
+        path = os.path.join(self._folder, name)
+        open(path, "wb").close()
+        return path
 
 
 @contextlib.contextmanager

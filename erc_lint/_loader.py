@@ -17,7 +17,6 @@ Guarantees:
 
 import os
 import re
-import tempfile
 from collections.abc import Collection, Iterator, Sequence
 from fnmatch import fnmatchcase
 from pathlib import Path
@@ -100,6 +99,8 @@ def load_tree(
     if not rewritten:
         _compile(tree, root, names, includes)
         return tree
+    import tempfile  # only a tree whose imports need respelling is staged
+
     with tempfile.TemporaryDirectory(prefix="erc-lint-") as scratch:
         staged = Path(scratch)
         for name, text in texts.items():

@@ -4,6 +4,7 @@ are not envelopes, shared payload types, subfolder imports)."""
 
 import os
 import re
+import tempfile
 from pathlib import Path
 from typing import Any, cast
 
@@ -370,6 +371,33 @@ def test_loading_never_writes_into_the_tree() -> None:
     assert loaded == 4
     after = {tree: snapshot(tree) for tree in (TREES, PROTO)}
     assert after == before
+
+
+@pytest.mark.parametrize("in_memory", [True, False], ids=["memory-files", "temporary-folder"])
+def test_protoc_scratch_files_leave_nothing_behind(
+    in_memory: bool, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Both homes of protoc's scratch files (memory files where Linux has them, else a
+    temporary folder) give the same descriptors and diagnostics, and leave no descriptor open
+    and no folder behind."""
+    from erc_codec import _protoc
+
+    if in_memory and not _protoc._IN_MEMORY:
+        pytest.skip("no memory files on this system")
+    monkeypatch.setattr(_protoc, "_IN_MEMORY", in_memory)
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+    monkeypatch.setattr("tempfile.tempdir", None)  # read TMPDIR again
+    assert tempfile.gettempdir() == str(tmp_path)
+    opened = set(os.listdir("/proc/self/fd")) if os.path.isdir("/proc/self/fd") else set()
+    compiled = compile_files(PROTO, ["components/common/envelope.proto"])
+    known = compile_files(TREES / "subdir", ["env.proto"], known=compiled)
+    with pytest.raises(SchemaError, match=r"env\.proto:\d+:\d+: "):
+        compile_files(TREES / "broken", ["env.proto"])
+    assert "PBEnvelope" in {m.name for f in compiled.file for m in f.message_type}
+    assert [f.name for f in known.file][-1] == "env.proto"
+    if opened:
+        assert set(os.listdir("/proc/self/fd")) <= opened
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_decode_errors_of_a_small_tree(shared: Codec) -> None:
