@@ -140,7 +140,8 @@ class _Scratch:
 
     def __exit__(self, *exc: object) -> None:
         for descriptor in self._descriptors:
-            os.close(descriptor)
+            with contextlib.suppress(OSError):
+                os.close(descriptor)
         if self._folder is not None:
             import shutil
 
@@ -148,10 +149,20 @@ class _Scratch:
 
     def file(self, name: str) -> str:
         """The path of a new empty file; ``name`` says what it holds."""
+        global _IN_MEMORY
         if _IN_MEMORY:
-            descriptor = os.memfd_create(name)
-            self._descriptors.append(descriptor)
-            return f"/proc/self/fd/{descriptor}"
+            try:
+                descriptor = os.memfd_create(name)
+            except OSError:  # refused (a sandbox's system call filter): a folder from now on
+                _IN_MEMORY = False
+            else:
+                if descriptor <= 2:  # a standard descriptor the process started without:
+                    import fcntl  # keep it free, or redirecting stderr would replace this file
+
+                    low, descriptor = descriptor, fcntl.fcntl(descriptor, fcntl.F_DUPFD_CLOEXEC, 3)
+                    os.close(low)
+                self._descriptors.append(descriptor)
+                return f"/proc/self/fd/{descriptor}"
         if self._folder is None:
             import tempfile  # only where memory files are not to be had
 
@@ -163,14 +174,22 @@ class _Scratch:
 
 @contextlib.contextmanager
 def _stderr_to(path: str) -> Iterator[None]:
-    """Point file descriptor 2 at ``path`` for the duration of the block."""
-    saved = os.dup(2)
+    """Point file descriptor 2 at ``path`` for the duration of the block, then leave it as it
+    was: closed again if the process started without it."""
     try:
-        with open(path, "wb") as sink:
-            os.dup2(sink.fileno(), 2)
-            try:
-                yield
-            finally:
-                os.dup2(saved, 2)
+        saved: int | None = os.dup(2)
+    except OSError:
+        saved = None
+    sink = os.open(path, os.O_WRONLY | os.O_TRUNC)  # descriptor 2 itself if that was closed
+    try:
+        if sink != 2:
+            os.dup2(sink, 2)
+        yield
     finally:
-        os.close(saved)
+        if saved is None:
+            os.close(2)
+        else:
+            os.dup2(saved, 2)
+            os.close(saved)
+        if sink != 2:
+            os.close(sink)

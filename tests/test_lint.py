@@ -474,6 +474,33 @@ def test_output_that_cannot_be_written_is_one_line_and_a_status(module: str) -> 
     assert refused.stderr == "Error: [Errno 28] No space left on device\n"
 
 
+def test_a_run_started_without_standard_error_still_compiles_and_reports(tmp_path: Path) -> None:
+    """protoc's diagnostics are caught through descriptor 2: a process started with it closed
+    still gets every finding, protoc's own errors included, and the right status."""
+    old = tree(tmp_path / "old", {"a.proto": "message A { float x = 1; }\n"})
+    new = tree(
+        tmp_path / "new",
+        {"a.proto": "message A { sint32 x = 1; }\n", "b.proto": "message B { oops }\n"},
+    )
+    done = subprocess.run(
+        [sys.executable, "-m", "erc_lint", str(old), str(new)],
+        stdout=subprocess.PIPE,
+        text=True,
+        preexec_fn=_close_stderr,
+    )
+    assert done.returncode == 1
+    assert [line.split(" ")[1] for line in done.stdout.splitlines()] == [
+        "FIELD_TYPE_CHANGED",
+        "COMPILE",
+    ]
+
+
+def _close_stderr() -> None:
+    import os
+
+    os.close(2)
+
+
 def _close_stdout() -> None:
     import os
 

@@ -373,18 +373,24 @@ def test_loading_never_writes_into_the_tree() -> None:
     assert after == before
 
 
-@pytest.mark.parametrize("in_memory", [True, False], ids=["memory-files", "temporary-folder"])
+@pytest.mark.parametrize("home", ["memory-files", "temporary-folder", "memory-files-refused"])
 def test_protoc_scratch_files_leave_nothing_behind(
-    in_memory: bool, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    home: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Both homes of protoc's scratch files (memory files where Linux has them, else a
-    temporary folder) give the same descriptors and diagnostics, and leave no descriptor open
-    and no folder behind."""
+    temporary folder, also where a sandbox refuses memory files) give the same descriptors and
+    diagnostics, and leave no descriptor open and no folder behind."""
     from erc_codec import _protoc
 
-    if in_memory and not _protoc._IN_MEMORY:
+    if home != "temporary-folder" and not _protoc._IN_MEMORY:
         pytest.skip("no memory files on this system")
-    monkeypatch.setattr(_protoc, "_IN_MEMORY", in_memory)
+    monkeypatch.setattr(_protoc, "_IN_MEMORY", home != "temporary-folder")
+    if home == "memory-files-refused":  # as a seccomp filter answers memfd_create
+
+        def refuse(name: str, flags: int = 0) -> int:
+            raise PermissionError(1, "Operation not permitted")
+
+        monkeypatch.setattr(os, "memfd_create", refuse)
     monkeypatch.setenv("TMPDIR", str(tmp_path))
     monkeypatch.setattr("tempfile.tempdir", None)  # read TMPDIR again
     assert tempfile.gettempdir() == str(tmp_path)
@@ -398,6 +404,7 @@ def test_protoc_scratch_files_leave_nothing_behind(
     if opened:
         assert set(os.listdir("/proc/self/fd")) <= opened
     assert list(tmp_path.iterdir()) == []
+    assert _protoc._IN_MEMORY is (home == "memory-files")
 
 
 def test_decode_errors_of_a_small_tree(shared: Codec) -> None:
