@@ -700,3 +700,21 @@ def test_the_envelope_size_follows_every_input_nanopb_sizes_it_from(
     messages = [f.message for f in erc_lint.lint(old, new) if f.rule == "ENVELOPE_SIZE_GROWN"]
     assert len(messages) == (grown is not None), messages
     assert all(grown in message for message in messages if grown is not None)
+
+
+def test_the_envelope_size_follows_the_types_the_root_imports(tmp_path: Path) -> None:
+    """A name defined twice in the tree (no package, so a collision) is the definition the root's
+    own imports bring: its growth is the root's."""
+    files = {
+        "a.proto": "message Sub { int32 z = 1; }\n",
+        "b.proto": "message Sub { fixed32 x = 1; }\n",
+        "env.proto": 'import "b.proto";\nmessage PBEnvelope { oneof payload { Sub sub = 1; } }\n',
+    }
+    old = tree(tmp_path / "old", files)
+    grown = {**files, "b.proto": "message Sub { fixed32 x = 1; fixed64 y = 2; }\n"}
+    new = tree(tmp_path / "new", grown)
+    messages = [f.message for f in erc_lint.lint(old, new) if f.rule == "ENVELOPE_SIZE_GROWN"]
+    assert messages == [
+        'Maximum size of message "PBEnvelope" grew from 7 to 16 bytes: receivers built with the '
+        "old PBEnvelope_size drop the longer datagrams."
+    ]

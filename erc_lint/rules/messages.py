@@ -72,12 +72,11 @@ def reserved_removed(change: Change) -> Report:
     severity="warning",
 )
 def envelope_size_grown(change: Change) -> Report:
-    old_index, new_index = _definitions(change.old), _definitions(change.new)
     for root in change.config.roots:
         message = change.new.messages.get(root)
         if message is None or root not in change.old.messages:
             continue
-        if _size_inputs(change.old, old_index, root) == _size_inputs(change.new, new_index, root):
+        if _size_inputs(change.old, root) == _size_inputs(change.new, root):
             continue  # nothing nanopb sizes the root from has changed
         before, after = max_size(change.old, root), max_size(change.new, root)
         if before is not None and after is not None and after > before:
@@ -92,12 +91,29 @@ def envelope_size_grown(change: Change) -> Report:
 _Definition = descriptor_pb2.DescriptorProto | descriptor_pb2.EnumDescriptorProto
 
 
+def _files(revision: Revision, root: str) -> dict[str, descriptor_pb2.FileDescriptorProto]:
+    """The file defining message ``root`` and every file it imports, each after its imports:
+    what protoc resolved the root's types in (the tree may define a name twice elsewhere)."""
+    files = revision.tree.imported
+    order: dict[str, descriptor_pb2.FileDescriptorProto] = {}
+
+    def visit(name: str) -> None:
+        if name in files and name not in order:
+            for dependency in files[name].dependency:
+                visit(dependency)
+            order[name] = files[name]
+
+    if root in revision.messages:
+        visit(revision.messages[root].file)
+    return order
+
+
 def _definitions(
-    revision: Revision,
+    files: dict[str, descriptor_pb2.FileDescriptorProto],
 ) -> dict[str, tuple[descriptor_pb2.FileDescriptorProto, _Definition]]:
-    """Every message and enum protoc read for this revision, nested ones too, by full name."""
+    """Every message and enum of ``files``, nested ones too, by full name."""
     index: dict[str, tuple[descriptor_pb2.FileDescriptorProto, _Definition]] = {}
-    for file in revision.tree.imported.values():
+    for file in files.values():
         prefix = f"{file.package}." if file.package else ""
         pending: list[tuple[str, _Definition]] = [
             *((prefix + m.name, m) for m in file.message_type),
@@ -112,14 +128,11 @@ def _definitions(
     return index
 
 
-def _size_inputs(
-    revision: Revision,
-    index: dict[str, tuple[descriptor_pb2.FileDescriptorProto, _Definition]],
-    root: str,
-) -> dict[tuple[str, str], object]:
+def _size_inputs(revision: Revision, root: str) -> dict[tuple[str, str], object]:
     """What nanopb computes ``root``'s size from: the descriptor of every message and enum it
     reaches (without source locations, so comments and layout don't count) and, for each file
     holding one, its package, syntax, edition, file options and ``.options`` text."""
+    index = _definitions(_files(revision, root))
     found: dict[tuple[str, str], object] = {}
     pending = [root]
     while pending:
@@ -140,21 +153,11 @@ def _size_inputs(
 
 def max_size(revision: Revision, root: str) -> int | None:
     """nanopb's ``<root>_size`` in this revision, ``None`` where it has none (or no such root)."""
-    message = revision.messages.get(root)
-    if message is None:
+    files = _files(revision, root)
+    if not files:
         return None
-    files = revision.tree.imported
-    order: dict[str, descriptor_pb2.FileDescriptorProto] = {}
-
-    def visit(name: str) -> None:
-        if name in files and name not in order:
-            for dependency in files[name].dependency:
-                visit(dependency)
-            order[name] = files[name]
-
-    visit(message.file)
     try:
-        schema = Schema(revision.root, root, descriptor_pb2.FileDescriptorSet(file=order.values()))
+        schema = Schema(revision.root, root, descriptor_pb2.FileDescriptorSet(file=files.values()))
         return Sizes(schema).max_size(root)
     except SchemaError:
         return None
