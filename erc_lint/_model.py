@@ -140,9 +140,14 @@ class Message:
         return frozenset(f.number for f in self.fields.values() if name and f.oneof == name)
 
     def body(self) -> frozenset[tuple[int, str, str, str, str | None]]:
-        """What a renamed copy of this message must have to count as the same message."""
+        """What a renamed copy of this message must have to count as the same message (a type
+        declared inside it named from the message: ``.Inner``, whatever the message is called)."""
+        inside = f"{self.name}."
         return frozenset(
-            (f.number, f.name, f.type, f.cardinality, f.oneof) for f in self.fields.values()
+            (f.number, f.name, f.type.removeprefix(self.name), f.cardinality, f.oneof)
+            if f.type.startswith(inside)
+            else (f.number, f.name, f.type, f.cardinality, f.oneof)
+            for f in self.fields.values()
         )
 
 

@@ -8,7 +8,7 @@ that moved from one that was deleted while another took its number.
 
 import functools
 from collections.abc import Iterator
-from typing import TYPE_CHECKING, Generic, NamedTuple, TypeVar
+from typing import TYPE_CHECKING, Any, Generic, NamedTuple, TypeVar
 
 from ._config import Config
 from ._model import Enum, EnumValue, Field, Message, Revision
@@ -53,9 +53,22 @@ class Change:
         # OLD full name → NEW full name of each renamed message or enum
         self.renamed = _map_entries(old.messages, new.messages)
         self.messages, gone = _pair(old.messages, new.messages, self.renamed)
+        for before, after in list(self.renamed.items()):  # enums declared in renamed messages
+            _nest(self.renamed, old.enums, new.enums, before, after)
         # A message whose file no longer compiles is unknown in NEW, not gone: COMPILE says so.
         self.deleted_messages = [m for m in gone if m.file not in self.new.tree.failed]
         self.enums, _ = _pair(self.old.enums, self.new.enums, self.renamed)
+
+    def old_name(self, revision: Revision, name: str) -> str:
+        """What OLD called ``name`` of ``revision`` (NEW's renamed messages and enums): so
+        damage a rename carried over reads as old damage, not new."""
+        if revision is not self.new:
+            return name
+        return self._old_names.get(name, name)
+
+    @functools.cached_property
+    def _old_names(self) -> dict[str, str]:
+        return {after: before for before, after in self.renamed.items()}
 
     @functools.cached_property
     def _fields(self) -> list[MemberPair[Message, Field]]:
@@ -117,24 +130,41 @@ def _map_entries(old: dict[str, Message], new: dict[str, Message]) -> dict[str, 
 def _pair(
     old: dict[str, Container], new: dict[str, Container], renamed: dict[str, str]
 ) -> tuple[list[tuple[Container, Container]], list[Container]]:
-    """Pairs by full name, then the renames already known (``renamed``), then renames by
-    identical body; and OLD's unpaired leftovers. Renames found are added to ``renamed``."""
+    """Pairs by full name, then by the renames already known (``renamed``: map entries, types
+    declared inside a renamed message), then renames by identical body; and OLD's unpaired
+    leftovers. A rename found renames what the element declares inside it too; every rename
+    is added to ``renamed``."""
     pairs = [(old[name], new[name]) for name in old if name in new]
-    known = {name: renamed[name] for name in old if name not in new and name in renamed}
-    pairs += [(old[name], new[twin]) for name, twin in known.items()]
     added: dict[object, list[Container]] = {}
     for name, element in new.items():
-        if name not in old and name not in known.values():
+        if name not in old:
             added.setdefault(element.body(), []).append(element)
+    taken: set[str] = set()  # NEW names already paired by a rename: one OLD element each
     gone = []
     for name, element in old.items():
-        if name in new or name in known:
+        if name in new:
             continue
-        twins = added.get(element.body(), [])
-        if len(twins) == 1 and element.body():
-            renamed[name] = twins[0].name
-            pairs.append((element, twins[0]))
-            twins.clear()  # a new element is the rename of one old element at most
-        else:
+        twin = new.get(renamed.get(name, ""))
+        if twin is None or twin.name in taken:
+            twins = [e for e in added.get(element.body(), []) if e.name not in taken]
+            twin = twins[0] if len(twins) == 1 and element.body() else None
+        if twin is None:
             gone.append(element)
+            continue
+        taken.add(twin.name)
+        renamed[name] = twin.name
+        pairs.append((element, twin))
+        _nest(renamed, old, new, name, twin.name)
     return pairs, gone
+
+
+def _nest(
+    renamed: dict[str, str], old: dict[str, Any], new: dict[str, Any], before: str, after: str
+) -> None:
+    """Rename what OLD's ``before`` declares inside it (``before.Inner``) to the same name
+    inside ``after``, where NEW has it and it is not a name both sides have."""
+    for inner in old:
+        if inner.startswith(f"{before}.") and inner not in new:
+            moved = after + inner[len(before) :]
+            if moved in new and moved not in old:
+                renamed.setdefault(inner, moved)

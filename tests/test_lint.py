@@ -718,3 +718,45 @@ def test_the_envelope_size_follows_the_types_the_root_imports(tmp_path: Path) ->
         'Maximum size of message "PBEnvelope" grew from 7 to 16 bytes: receivers built with the '
         "old PBEnvelope_size drop the longer datagrams."
     ]
+
+
+STATUS = (
+    "message ArmBoardStatus {\n  enum Mode { MODE_IDLE = 0; MODE_RUN = 1; }\n"
+    "  message Joint { float angle = 1; }\n  Mode mode = 1;\n  Joint joint = 2;\n"
+    "  map<string, int32> counts = 3;\n}\n"
+)
+
+
+def test_a_renamed_message_takes_what_it_declares_along(tmp_path: Path) -> None:
+    """Renaming a message renames its nested enum, message and map entry with it: one rename,
+    and what changed inside is reported under the new names, old damage staying old."""
+    old = tree(tmp_path / "old", {"a.proto": STATUS})
+    renamed = tree(tmp_path / "renamed", {"a.proto": STATUS.replace("ArmBoard", "Arm")})
+    assert [(f.rule, f.message) for f in erc_lint.lint(old, renamed)] == [
+        (
+            "MESSAGE_RENAMED",
+            'Message "ArmBoardStatus" was renamed to "ArmStatus"; its fields are unchanged.',
+        )
+    ]
+    changed = STATUS.replace("ArmBoard", "Arm").replace("float angle", "double angle")
+    changed = changed.replace("MODE_RUN = 1;", "MODE_RUN = 2;")
+    retyped = tree(tmp_path / "retyped", {"a.proto": changed})
+    assert [(f.rule, f.message) for f in erc_lint.lint(old, retyped)][1:] == [
+        (
+            "ENUM_VALUE_RENUMBERED",
+            'Enum value "MODE_RUN" on enum "ArmStatus.Mode" changed number from "1" to "2".',
+        ),
+        (
+            "FIELD_TYPE_CHANGED",
+            'Field "1" with name "angle" on message "ArmStatus.Joint" changed type from "float" '
+            'to "double".',
+        ),
+    ]
+    envelope = "message PBEnvelope { oneof payload { ArmBoardStatus status = 1; } }\n"
+    old = tree(tmp_path / "old_sent", {"a.proto": STATUS + envelope})
+    new = tree(tmp_path / "new_sent", {"a.proto": (STATUS + envelope).replace("ArmBoard", "Arm")})
+    assert {(f.rule, f.severity) for f in erc_lint.lint(old, new)} == {
+        ("MESSAGE_RENAMED", "warning"),
+        ("EMBEDDED_REPEATED", "warning"),
+        ("EMBEDDED_UNBOUNDED", "warning"),
+    }

@@ -31,12 +31,16 @@ def deleted(change: Change) -> Report:
 )
 def renamed(change: Change) -> Report:
     for old, new in change.messages:
-        if old.name != new.name and not old.map_entry:  # a map entry follows its map field
-            yield (
-                new.location,
-                f'Message "{old.name}" was renamed to "{new.name}"; its fields are unchanged.',
-                False,
-            )
+        if old.name == new.name or old.map_entry:  # a map entry follows its map field
+            continue
+        outer, _, inner = old.name.rpartition(".")
+        if outer and change.renamed.get(outer) == new.name.removesuffix(f".{inner}"):
+            continue  # declared inside a renamed message: that rename says it
+        yield (
+            new.location,
+            f'Message "{old.name}" was renamed to "{new.name}"; its fields are unchanged.',
+            False,
+        )
 
 
 @pair_rule("RESERVED_REMOVED", "A reserved number or name is no longer reserved.")

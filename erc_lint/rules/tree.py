@@ -92,7 +92,7 @@ def embedded_repeated(revision: Revision, change: Change) -> Report:
         for path, field in walk(revision, root):
             if field.cardinality == "repeated":
                 yield (
-                    f"{root}:{field.owner}.{field.name}",
+                    f"{root}:{change.old_name(revision, field.owner)}.{field.name}",
                     field.location,
                     f'Field "{field.number}" with name "{field.name}" on message "{field.owner}" '
                     f'is repeated, and embedded root "{root}" reaches it as {path}.',
@@ -115,7 +115,7 @@ def embedded_unbounded(revision: Revision, change: Change) -> Report:
             if bound is not None and (bound.HasField("max_size") or bound.HasField("max_length")):
                 continue
             yield (
-                f"{root}:{field.owner}.{field.name}",
+                f"{root}:{change.old_name(revision, field.owner)}.{field.name}",
                 field.location,
                 f'Field "{field.number}" with name "{field.name}" on message "{field.owner}" is '
                 f'{field.type} without nanopb max_size, and embedded root "{root}" reaches it as '
