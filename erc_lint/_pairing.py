@@ -51,13 +51,15 @@ class Change:
         self.config = config
         self.ledger = ledger
         # OLD full name → NEW full name of each renamed message or enum
-        self.renamed = _map_entries(old.messages, new.messages)
-        self.messages, gone = _pair(old.messages, new.messages, self.renamed)
-        for before, after in list(self.renamed.items()):  # enums declared in renamed messages
-            _nest(self.renamed, old.enums, new.enums, before, after)
+        self.renamed: dict[str, str] = {}
+        hints = _map_entries(old.messages, new.messages)
+        self.messages, gone = _pair(old.messages, new.messages, self.renamed, hints)
+        hints = {}  # the enums that renamed messages declare
+        for before, after in self.renamed.items():
+            _nest(hints, old.enums, new.enums, before, after)
+        self.enums, _ = _pair(old.enums, new.enums, self.renamed, hints)
         # A message whose file no longer compiles is unknown in NEW, not gone: COMPILE says so.
         self.deleted_messages = [m for m in gone if m.file not in self.new.tree.failed]
-        self.enums, _ = _pair(self.old.enums, self.new.enums, self.renamed)
 
     def old_name(self, revision: Revision, name: str) -> str:
         """What OLD called ``name`` of ``revision`` (NEW's renamed messages and enums): so
@@ -128,43 +130,68 @@ def _map_entries(old: dict[str, Message], new: dict[str, Message]) -> dict[str, 
 
 
 def _pair(
-    old: dict[str, Container], new: dict[str, Container], renamed: dict[str, str]
+    old: dict[str, Container],
+    new: dict[str, Container],
+    renamed: dict[str, str],
+    hints: dict[str, str],
 ) -> tuple[list[tuple[Container, Container]], list[Container]]:
-    """Pairs by full name, then by the renames already known (``renamed``: map entries, types
-    declared inside a renamed message), then renames by identical body; and OLD's unpaired
-    leftovers. A rename found renames what the element declares inside it too; every rename
-    is added to ``renamed``."""
+    """Pairs by full name, then renames: first those ``hints`` name (map entries; what a
+    renamed message declares), then by identical body, outermost NEW elements first, so that
+    a message's rename brings its nested types before any other body can claim them. A NEW
+    element is the rename of one OLD element at most; renames are added to ``renamed``.
+    Returns the pairs and OLD's unpaired leftovers."""
     pairs = [(old[name], new[name]) for name in old if name in new]
-    added: dict[object, list[Container]] = {}
-    for name, element in new.items():
-        if name not in old:
-            added.setdefault(element.body(), []).append(element)
-    taken: set[str] = set()  # NEW names already paired by a rename: one OLD element each
-    gone = []
-    for name, element in old.items():
-        if name in new:
-            continue
-        twin = new.get(renamed.get(name, ""))
-        if twin is None or twin.name in taken:
-            twins = [e for e in added.get(element.body(), []) if e.name not in taken]
-            twin = twins[0] if len(twins) == 1 and element.body() else None
-        if twin is None:
-            gone.append(element)
-            continue
-        taken.add(twin.name)
-        renamed[name] = twin.name
-        pairs.append((element, twin))
-        _nest(renamed, old, new, name, twin.name)
-    return pairs, gone
+    left = [name for name in old if name not in new]
+    added = [name for name in new if name not in old]
+    hints = dict(hints)
+    done: set[str] = set()
+    taken: set[str] = set()
+
+    def link(before: str, after: str) -> None:
+        pairs.append((old[before], new[after]))
+        renamed[before] = after
+        done.add(before)
+        taken.add(after)
+        _nest(hints, old, new, before, after)
+
+    def follow_hints() -> None:
+        linked = True
+        while linked:
+            linked = False
+            for name in left:
+                after = hints.get(name)
+                if name not in done and after is not None and after not in taken:
+                    link(name, after)
+                    linked = True
+
+    follow_hints()
+    for level in sorted({_level(new, name) for name in added}):
+        bodies: dict[object, list[str]] = {}
+        for name in added:
+            if name not in taken and _level(new, name) == level:
+                bodies.setdefault(new[name].body(), []).append(name)
+        for name in left:
+            body = old[name].body()
+            twins = [twin for twin in bodies.get(body, []) if twin not in taken]
+            if name not in done and body and len(twins) == 1:
+                link(name, twins[0])
+        follow_hints()
+    return pairs, [old[name] for name in left if name not in done]
+
+
+def _level(elements: dict[str, Any], name: str) -> int:
+    """How many of ``elements`` ``name`` is declared inside (0: at the top of its file)."""
+    parts = name.split(".")
+    return sum(".".join(parts[:k]) in elements for k in range(1, len(parts)))
 
 
 def _nest(
-    renamed: dict[str, str], old: dict[str, Any], new: dict[str, Any], before: str, after: str
+    hints: dict[str, str], old: dict[str, Any], new: dict[str, Any], before: str, after: str
 ) -> None:
-    """Rename what OLD's ``before`` declares inside it (``before.Inner``) to the same name
+    """Hint that what OLD's ``before`` declares inside it (``before.Inner``) is now the same name
     inside ``after``, where NEW has it and it is not a name both sides have."""
     for inner in old:
         if inner.startswith(f"{before}.") and inner not in new:
             moved = after + inner[len(before) :]
             if moved in new and moved not in old:
-                renamed.setdefault(inner, moved)
+                hints.setdefault(inner, moved)

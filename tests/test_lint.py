@@ -760,3 +760,29 @@ def test_a_renamed_message_takes_what_it_declares_along(tmp_path: Path) -> None:
         ("EMBEDDED_REPEATED", "warning"),
         ("EMBEDDED_UNBOUNDED", "warning"),
     }
+
+
+def test_a_renamed_messages_nested_types_are_not_claimed_by_lookalikes(tmp_path: Path) -> None:
+    """A deleted message or enum whose body matches a renamed message's nested type does not
+    become its rename: the nested type goes with its message, and what changed in it shows."""
+    old = tree(
+        tmp_path / "old",
+        {
+            "a.proto": "message Foo { string x = 1; }\nenum Color { E0 = 0; E1 = 1; }\n"
+            "message Outer {\n  message Inner { int32 x = 1; }\n"
+            "  enum E { E0 = 0; E1 = 1; E2 = 2; }\n  Inner i = 1;\n  E e = 2;\n}\n"
+        },
+    )
+    new = tree(
+        tmp_path / "new",
+        {
+            "a.proto": "message Outer2 {\n  message Inner { string x = 1; }\n"
+            "  enum E { E0 = 0; E1 = 1; }\n  Inner i = 1;\n  E e = 2;\n}\n"
+        },
+    )
+    assert sorted((f.rule, f.message.split(" on ")[-1]) for f in erc_lint.lint(old, new)) == [
+        ("ENUM_VALUE_DELETED", 'enum "Outer2.E" was deleted without reserving its number.'),
+        ("FIELD_TYPE_CHANGED", 'message "Outer2.Inner" changed type from "int32" to "string".'),
+        ("MESSAGE_DELETED", 'Previously present message "Foo" was deleted.'),
+        ("MESSAGE_RENAMED", 'Message "Outer" was renamed to "Outer2"; its fields are unchanged.'),
+    ]
