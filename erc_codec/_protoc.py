@@ -82,7 +82,8 @@ def compile_files(
         known = descriptor_pb2.FileDescriptorSet(file=[*known.file, *_defaults().file])
     elif defaults:
         search += [_WELL_KNOWN, FALLBACK_INCLUDE]
-    with _Scratch() as scratch:
+    with _LOCK, _Scratch() as scratch:  # one compilation at a time, scratch files and all
+        _standard_descriptors_open()
         out = scratch.file("set.pb")
         args = [
             "protoc",
@@ -97,7 +98,7 @@ def compile_files(
             Path(given).write_bytes(known.SerializeToString())
             args.insert(1, f"--descriptor_set_in={given}")
         errors = scratch.file("stderr.txt")
-        with _LOCK, _stderr_to(errors):
+        with _stderr_to(errors):
             status = _run_main([arg.encode() for arg in args])
         if status != 0:
             text = Path(errors).read_text(errors="replace")
@@ -156,11 +157,6 @@ class _Scratch:
             except OSError:  # refused (a sandbox's system call filter): a folder from now on
                 _IN_MEMORY = False
             else:
-                if descriptor <= 2:  # a standard descriptor the process started without:
-                    import fcntl  # keep it free, or redirecting stderr would replace this file
-
-                    low, descriptor = descriptor, fcntl.fcntl(descriptor, fcntl.F_DUPFD_CLOEXEC, 3)
-                    os.close(low)
                 self._descriptors.append(descriptor)
                 return f"/proc/self/fd/{descriptor}"
         if self._folder is None:
@@ -172,24 +168,29 @@ class _Scratch:
         return path
 
 
+def _standard_descriptors_open() -> None:
+    """Give each of descriptors 0-2 that the process lacks /dev/null, for good: a scratch file
+    must not take one of those numbers, least of all 2, which each run points elsewhere."""
+    for number in (0, 1, 2):
+        try:
+            os.fstat(number)
+        except OSError:
+            spare = os.open(os.devnull, os.O_RDWR)  # the lowest free number: this one
+            if spare != number:
+                os.dup2(spare, number)
+                os.close(spare)
+
+
 @contextlib.contextmanager
 def _stderr_to(path: str) -> Iterator[None]:
-    """Point file descriptor 2 at ``path`` for the duration of the block, then leave it as it
-    was: closed again if the process started without it."""
+    """Point file descriptor 2 at ``path`` for the duration of the block."""
+    saved = os.dup(2)
     try:
-        saved: int | None = os.dup(2)
-    except OSError:
-        saved = None
-    sink = os.open(path, os.O_WRONLY | os.O_TRUNC)  # descriptor 2 itself if that was closed
-    try:
-        if sink != 2:
-            os.dup2(sink, 2)
-        yield
+        with open(path, "wb") as sink:
+            os.dup2(sink.fileno(), 2)
+            try:
+                yield
+            finally:
+                os.dup2(saved, 2)
     finally:
-        if saved is None:
-            os.close(2)
-        else:
-            os.dup2(saved, 2)
-            os.close(saved)
-        if sink != 2:
-            os.close(sink)
+        os.close(saved)
