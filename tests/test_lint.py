@@ -786,3 +786,14 @@ def test_a_renamed_messages_nested_types_are_not_claimed_by_lookalikes(tmp_path:
         ("MESSAGE_DELETED", 'Previously present message "Foo" was deleted.'),
         ("MESSAGE_RENAMED", 'Message "Outer" was renamed to "Outer2"; its fields are unchanged.'),
     ]
+
+
+def test_a_packaged_roots_size_is_named_as_nanopb_names_it(tmp_path: Path) -> None:
+    text = "package acme.io;\nmessage A { fixed32 x = 1; }\nmessage Env { oneof p { A a = 1; } }\n"
+    old = tree(tmp_path / "old", {"env.proto": text})
+    new = tree(tmp_path / "new", {"env.proto": text.replace("x = 1;", "x = 1; fixed32 y = 2;")})
+    (finding,) = erc_lint.lint(old, new, Config(roots=("acme.io.Env",)))
+    assert finding.message == (
+        'Maximum size of message "acme.io.Env" grew from 7 to 12 bytes: receivers built with '
+        "the old acme_io_Env_size drop the longer datagrams."
+    )

@@ -87,7 +87,7 @@ def envelope_size_grown(change: Change) -> Report:
             yield (
                 message.location,
                 f'Maximum size of message "{root}" grew from {before} to {after} bytes: receivers '
-                f"built with the old {root}_size drop the longer datagrams.",
+                f"built with the old {root.replace('.', '_')}_size drop the longer datagrams.",
                 False,
             )
 
