@@ -1,5 +1,6 @@
 """What both command lines share about click: a group whose every error is one line."""
 
+import contextlib
 import os
 import sys
 from typing import Any
@@ -28,7 +29,8 @@ class OneLineGroup(click.Group):
             sys.exit(1)
         except OSError as error:  # output that could not be written (a full disk, say)
             _silence_unwritable_stdout()
-            click.echo(f"Error: {error}", err=True)
+            with contextlib.suppress(OSError):  # stderr may be just as full: nothing to add
+                click.echo(f"Error: {error}", err=True)
             sys.exit(2)
         sys.exit(status if isinstance(status, int) else 0)
 
@@ -40,4 +42,6 @@ def _silence_unwritable_stdout() -> None:
         if sys.stdout is not None:
             sys.stdout.flush()
     except OSError:
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        sink = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(sink, sys.stdout.fileno())
+        os.close(sink)
