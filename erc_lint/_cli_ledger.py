@@ -8,10 +8,11 @@ from pathlib import Path
 import click
 
 from ._cli import _FILE, _common, _Failure, _guard, _settings, main
+from ._config import LEDGER
 from ._git import Repository
 from ._history import History, keys
 from ._inputs import GitInput, locate, parse
-from ._ledger import FILENAME, Entry, Ledger
+from ._ledger import Entry, Ledger
 from ._loader import load_tree
 
 
@@ -54,7 +55,7 @@ def update(
                         f"{tree}: a bare repository has no folder for the ledger; "
                         "give --ledger FILE"
                     )
-                target = path or (shown or spec.shown) / FILENAME
+                target = path or (shown or spec.shown) / LEDGER
                 book = _open(target)
                 settings = _settings(config, shown)
                 commits = repository.history(spec.ref) if history else [repository.commit(spec.ref)]
@@ -66,7 +67,7 @@ def update(
         elif not spec.is_dir():
             raise _Failure(f"{tree}: not a folder holding a proto tree")
         else:
-            target = path or spec / FILENAME
+            target = path or spec / LEDGER
             book = _open(target)
             loaded = load_tree(spec, [Path(p) for p in includes], _settings(config, spec).exclude)
             for name in sorted(loaded.failed):

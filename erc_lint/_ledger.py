@@ -27,11 +27,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NamedTuple
 
-from ._config import LEDGER
+__all__ = ["Entry", "Key", "Ledger", "LedgerError"]
 
-__all__ = ["FILENAME", "Entry", "Key", "Ledger", "LedgerError"]
-
-FILENAME = LEDGER
 HEADER = (
     "# erc-lint ledger: every number each message and enum has carried, with its name and type,\n"
     "# and the revision that first used it. Sorted, one entry a line; `erc-lint ledger update`\n"

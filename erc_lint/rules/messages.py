@@ -80,9 +80,11 @@ def envelope_size_grown(change: Change) -> Report:
         message = change.new.messages.get(root)
         if message is None or root not in change.old.messages:
             continue
-        if _size_inputs(change.old, root) == _size_inputs(change.new, root):
+        old_files, new_files = _files(change.old, root), _files(change.new, root)
+        if _size_inputs(change.old, old_files, root) == _size_inputs(change.new, new_files, root):
             continue  # nothing nanopb sizes the root from has changed
-        before, after = max_size(change.old, root), max_size(change.new, root)
+        before = max_size(change.old, old_files, root)
+        after = max_size(change.new, new_files, root)
         if before is not None and after is not None and after > before:
             yield (
                 message.location,
@@ -132,11 +134,13 @@ def _definitions(
     return index
 
 
-def _size_inputs(revision: Revision, root: str) -> dict[tuple[str, str], object]:
+def _size_inputs(
+    revision: Revision, files: dict[str, descriptor_pb2.FileDescriptorProto], root: str
+) -> dict[tuple[str, str], object]:
     """What nanopb computes ``root``'s size from: the descriptor of every message and enum it
     reaches (without source locations, so comments and layout don't count) and, for each file
     holding one, its package, syntax, edition, file options and ``.options`` text."""
-    index = _definitions(_files(revision, root))
+    index = _definitions(files)
     found: dict[tuple[str, str], object] = {}
     pending = [root]
     while pending:
@@ -155,9 +159,11 @@ def _size_inputs(revision: Revision, root: str) -> dict[tuple[str, str], object]
     return found
 
 
-def max_size(revision: Revision, root: str) -> int | None:
-    """nanopb's ``<root>_size`` in this revision, ``None`` where it has none (or no such root)."""
-    files = _files(revision, root)
+def max_size(
+    revision: Revision, files: dict[str, descriptor_pb2.FileDescriptorProto], root: str
+) -> int | None:
+    """nanopb's ``<root>_size`` in this revision, compiled from ``files`` (``_files``), ``None``
+    where it has none (or no such root)."""
     if not files:
         return None
     try:
