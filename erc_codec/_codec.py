@@ -9,8 +9,7 @@ from google.protobuf.message import Message
 
 from ._contract import contract
 from ._envelope import Envelope
-from ._schema import Schema, load_schema
-from ._sizes import Sizes
+from .schema import Schema, Sizes, load_schema
 
 __all__ = ["Codec", "default_tree"]
 
@@ -42,6 +41,16 @@ class Codec(Envelope):
             self._sizes.max_size(root.full_name),
             functools.partial(contract, self._sizes),
         )
+
+    @property
+    def schema(self) -> Schema:
+        """The loaded schema: its files, descriptor pool, locations and comments."""
+        return self._schema
+
+    @property
+    def nanopb(self) -> Sizes:
+        """nanopb's view of the schema: maximum sizes, field limits and resolved options."""
+        return self._sizes
 
     @classmethod
     def from_path(cls, tree: str | os.PathLike[str], root: str = "PBEnvelope") -> "Codec":

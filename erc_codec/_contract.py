@@ -16,6 +16,11 @@ The exact check is straight-line Python compiled once per message type (as datac
 protobuf's own pure-Python runtime do): each submessage fetched once, all of its enum fields tested
 in one ``if``, and it names the field that is wrong. Strings, bytes, repeated fields and
 ``int_size`` leave no trace the screen could see, so a type that has them has no screen.
+
+Both tricks serve one target, the encode ratio of ``benchmarks/bench_codec.py`` (wrap, check and
+serialize in at most twice the bare serialization); ``tests/test_contract.py`` holds the compiled
+check to a plain recursive reading of the same rules, and the screen to never missing what that
+plain check refuses.
 """
 
 import keyword
@@ -28,9 +33,7 @@ from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from google.protobuf.message import Message
 
 from ._errors import EncodeError
-from ._schema import enum_of, message_of
-from ._sizes import Sizes
-from ._wire import encode_varint
+from .schema import Sizes, encode_varint, enum_of, message_of
 
 __all__ = ["Contract", "contract"]
 

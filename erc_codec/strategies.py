@@ -14,7 +14,7 @@ from google.protobuf.message import Message
 from hypothesis import strategies as st
 
 from ._codec import Codec
-from ._schema import descriptor_of, enum_of, message_of
+from .schema import descriptor_of, enum_of, message_of
 
 __all__ = ["messages"]
 
@@ -59,7 +59,7 @@ class _Builder:
 
     def _build(self, descriptor: Descriptor) -> st.SearchStrategy[Message]:
         cls = self._codec.message_class(descriptor.full_name)
-        sizes = self._codec._sizes
+        sizes = self._codec.nanopb
         required: dict[str, st.SearchStrategy[Any]] = {}
         optional: dict[str, st.SearchStrategy[Any]] = {}
         oneofs: dict[str, list[st.SearchStrategy[dict[str, Any]]]] = {}
@@ -85,13 +85,13 @@ class _Builder:
         value = self._scalar(field)
         if not field.is_repeated:
             return value
-        count = self._codec._sizes.max_count(field)
+        count = self._codec.nanopb.max_count(field)
         return st.lists(value, max_size=_UNBOUNDED_COUNT if count is None else count)
 
     def _map(self, field: FieldDescriptor) -> st.SearchStrategy[Any]:
         entry = message_of(field)
         key, value = entry.fields_by_name["key"], entry.fields_by_name["value"]
-        count = self._codec._sizes.max_count(field)
+        count = self._codec.nanopb.max_count(field)
         return st.dictionaries(
             self._scalar(key),
             self._scalar(value),
@@ -101,7 +101,7 @@ class _Builder:
     def _scalar(self, field: FieldDescriptor) -> st.SearchStrategy[Any]:
         kind = field.type
         if kind in _INTEGERS:
-            low, high = self._codec._sizes.int_range(field) or _INTEGERS[kind]
+            low, high = self._codec.nanopb.int_range(field) or _INTEGERS[kind]
             return st.integers(low, high)
         if kind == _T.TYPE_BOOL:
             return st.booleans()
@@ -113,7 +113,7 @@ class _Builder:
             return st.sampled_from(sorted({value.number for value in enum_of(field).values}))
         if kind == _T.TYPE_MESSAGE:
             return self.message(message_of(field))
-        limit = self._codec._sizes.max_bytes(field)
+        limit = self._codec.nanopb.max_bytes(field)
         if kind == _T.TYPE_BYTES:
             return st.binary(max_size=_UNBOUNDED_TEXT if limit is None else limit)
         if kind == _T.TYPE_STRING:

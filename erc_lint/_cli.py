@@ -8,7 +8,7 @@ from typing import Any, TypeVar
 import click
 
 from erc_codec import CodecError
-from erc_codec._click import OneLineGroup
+from erc_codec.cli import OneLineGroup
 
 from ._config import Config, ConfigError, find_config, read_config
 from ._finding import Finding

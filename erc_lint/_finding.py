@@ -2,7 +2,7 @@
 
 from typing import Literal, NamedTuple
 
-from erc_codec._schema import Location
+from erc_codec.schema import Location
 
 __all__ = ["Finding", "Severity"]
 

@@ -22,7 +22,7 @@ from pathlib import Path
 
 from google.protobuf import descriptor_pb2
 
-from erc_codec._protoc import ProtocError, compile_files
+from erc_codec.schema import ProtocError, compile_files
 
 from ._git import Repository
 from ._inputs import GitInput, locate

@@ -23,8 +23,7 @@ from pathlib import Path
 
 from google.protobuf import descriptor_pb2
 
-from erc_codec._protoc import ProtocError, compile_files
-from erc_codec._schema import Location
+from erc_codec.schema import Location, ProtocError, compile_files
 
 from ._finding import Finding
 

@@ -11,7 +11,7 @@ from typing import NamedTuple
 
 from google.protobuf import descriptor_pb2
 
-from erc_codec._schema import Location
+from erc_codec.schema import Location
 
 from ._finding import Finding
 from ._loader import LoadedTree

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 import erc_codec
 from erc_codec import strategies
-from erc_codec._schema import descriptor_of, enum_of, message_of
+from erc_codec.schema import descriptor_of, enum_of, message_of
 
 CODEC = erc_codec.Codec.default()
 LIMITS = erc_codec.Codec.from_path(Path(__file__).parent / "contract_tree", root="LimitsEnvelope")

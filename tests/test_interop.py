@@ -29,7 +29,7 @@ from hypothesis import strategies as st
 
 import erc_codec
 from erc_codec import strategies
-from erc_codec._schema import descriptor_of, enum_of, message_of
+from erc_codec.schema import descriptor_of, enum_of, message_of
 
 pytestmark = pytest.mark.interop
 
@@ -67,8 +67,10 @@ class Peer:
 
     def close(self) -> None:
         assert self._process.stdin is not None
+        assert self._process.stdout is not None
         self._process.stdin.close()
         assert self._process.wait(timeout=10) == 0
+        self._process.stdout.close()
 
 
 def _answer(line: str) -> Answer:

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 import erc_codec
 from erc_codec import strategies
-from erc_codec._schema import descriptor_of, message_of
+from erc_codec.schema import descriptor_of, message_of
 
 CODEC = erc_codec.Codec.default()
 ENVELOPE = CODEC.message_class("PBEnvelope")

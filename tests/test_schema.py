@@ -14,7 +14,7 @@ from google.protobuf.descriptor import Descriptor
 
 import erc_codec
 from erc_codec import Codec, Decoded, DecodeError, EncodeError, SchemaError
-from erc_codec._protoc import compile_files
+from erc_codec.schema import compile_files
 
 TREES = Path(__file__).resolve().parent / "schema_trees"
 ENVELOPE_PROTO = PROTO / "components" / "common" / "envelope.proto"
@@ -373,24 +373,12 @@ def test_loading_never_writes_into_the_tree() -> None:
     assert after == before
 
 
-@pytest.mark.parametrize("home", ["memory-files", "temporary-folder", "memory-files-refused"])
 def test_protoc_scratch_files_leave_nothing_behind(
-    home: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """Both homes of protoc's scratch files (memory files where Linux has them, else a
-    temporary folder, also where a sandbox refuses memory files) give the same descriptors and
-    diagnostics, and leave no descriptor open and no folder behind."""
-    from erc_codec import _protoc
-
-    if home != "temporary-folder" and not _protoc._IN_MEMORY:
-        pytest.skip("no memory files on this system")
-    monkeypatch.setattr(_protoc, "_IN_MEMORY", home != "temporary-folder")
-    if home == "memory-files-refused":  # as a seccomp filter answers memfd_create
-
-        def refuse(name: str, flags: int = 0) -> int:
-            raise PermissionError(1, "Operation not permitted")
-
-        monkeypatch.setattr(os, "memfd_create", refuse)
+    """protoc's scratch files (its output, its diagnostics, descriptors it is given) go to a
+    temporary folder, which is gone when the compilation ends, failed or not, and no descriptor
+    stays open."""
     monkeypatch.setenv("TMPDIR", str(tmp_path))
     monkeypatch.setattr("tempfile.tempdir", None)  # read TMPDIR again
     assert tempfile.gettempdir() == str(tmp_path)
@@ -404,7 +392,6 @@ def test_protoc_scratch_files_leave_nothing_behind(
     if opened:
         assert set(os.listdir("/proc/self/fd")) <= opened
     assert list(tmp_path.iterdir()) == []
-    assert _protoc._IN_MEMORY is (home == "memory-files")
 
 
 def test_decode_errors_of_a_small_tree(shared: Codec) -> None:

@@ -2,7 +2,7 @@
 
 import pytest
 
-from erc_codec._wire import WireError, encode_varint, read_varint, varint_size
+from erc_codec.schema import WireError, encode_varint, read_varint, varint_size
 
 # value -> its varint encoding, written out by hand from the protobuf encoding rules.
 VARINTS: list[tuple[int, str]] = [

@@ -9,7 +9,7 @@ old damage (a warning). The runner adds the rule's ID and severity.
 from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, NamedTuple
 
-from erc_codec._schema import Location
+from erc_codec.schema import Location
 
 from .._finding import Severity
 

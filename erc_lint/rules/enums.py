@@ -3,7 +3,7 @@
 from collections.abc import Iterator
 from typing import NamedTuple
 
-from erc_codec._schema import Location
+from erc_codec.schema import Location
 
 from .._model import Enum, EnumValue
 from .._pairing import Change, MemberPair

@@ -2,7 +2,7 @@
 
 from collections.abc import Iterator
 
-from erc_codec._schema import Location
+from erc_codec.schema import Location
 
 from .._pairing import Change
 from ._registry import pair_rule

@@ -5,9 +5,8 @@ from pathlib import Path
 
 from google.protobuf import descriptor_pb2
 
-from erc_codec._errors import SchemaError
-from erc_codec._schema import Location, Schema
-from erc_codec._sizes import Sizes
+from erc_codec import SchemaError
+from erc_codec.schema import Location, Schema, Sizes
 
 from .._model import Enum, Message, Revision
 from .._pairing import Change

@@ -5,8 +5,7 @@ import re
 from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
-from erc_codec._options import resolve
-from erc_codec._schema import Location
+from erc_codec.schema import Location, resolve_options
 
 from .._loader import relative
 from .._model import Revision, walk
@@ -110,7 +109,9 @@ def embedded_unbounded(revision: Revision, change: Change) -> Report:
             if field.type not in ("string", "bytes"):
                 continue
             if options is None:
-                options = resolve(revision.root, tuple(revision.tree.imported.values())).fields
+                options = resolve_options(
+                    revision.root, tuple(revision.tree.imported.values())
+                ).fields
             bound = options.get(f"{field.owner}.{field.name}")
             if bound is not None and (bound.HasField("max_size") or bound.HasField("max_length")):
                 continue

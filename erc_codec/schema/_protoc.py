@@ -4,14 +4,14 @@ Guarantees: no generated code is written anywhere; protoc's own diagnostics (``p
 message``) come back as the text of a ``SchemaError``. protoc reports on the process's standard
 error descriptor, so compilation briefly points fd 2 at a scratch file; a lock keeps two
 compilations in this process from interleaving. Scratch files (protoc's output, its diagnostics,
-descriptors it is given) live in memory where Linux offers it (``memfd_create``, opened by protoc
-as ``/proc/self/fd/N``), else in a temporary folder.
+descriptors it is given) live in a temporary folder that is gone when the compilation ends.
 """
 
 import contextlib
 import functools
 import os
 import re
+import tempfile
 import threading
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -19,7 +19,7 @@ from pathlib import Path
 import grpc_tools
 from google.protobuf import descriptor_pb2
 
-from ._errors import SchemaError
+from .._errors import SchemaError
 
 try:
     # protoc's own entry point, which grpc_tools.protoc.main calls with the arguments encoded;
@@ -45,8 +45,6 @@ _LOG_PREFIX = re.compile(r"[IWEF]\d{4} [\d:.]+ +\d+ [\w.]+:\d+\] ")
 _WELL_KNOWN = str(Path(grpc_tools.__file__).parent / "_proto")
 # A nanopb.proto of our own, used only when a tree imports "nanopb.proto" without shipping it.
 FALLBACK_INCLUDE = str(Path(__file__).parent / "_include")
-# Whether scratch files can be memory files that protoc opens by path.
-_IN_MEMORY = hasattr(os, "memfd_create") and os.path.isdir("/proc/self/fd")
 
 
 class ProtocError(SchemaError):
@@ -82,9 +80,10 @@ def compile_files(
         known = descriptor_pb2.FileDescriptorSet(file=[*known.file, *_defaults().file])
     elif defaults:
         search += [_WELL_KNOWN, FALLBACK_INCLUDE]
-    with _LOCK, _Scratch() as scratch:  # one compilation at a time, scratch files and all
+    with _LOCK, tempfile.TemporaryDirectory(prefix="erc-codec-") as scratch:
+        # one compilation at a time, scratch files and all
         _standard_descriptors_open()
-        out = scratch.file("set.pb")
+        out = os.path.join(scratch, "set.pb")
         args = [
             "protoc",
             *(f"--proto_path={path}" for path in search),
@@ -94,10 +93,10 @@ def compile_files(
             *files,
         ]
         if known is not None:
-            given = scratch.file("known.pb")
+            given = os.path.join(scratch, "known.pb")
             Path(given).write_bytes(known.SerializeToString())
             args.insert(1, f"--descriptor_set_in={given}")
-        errors = scratch.file("stderr.txt")
+        errors = os.path.join(scratch, "stderr.txt")
         with _stderr_to(errors):
             status = _run_main([arg.encode() for arg in args])
         if status != 0:
@@ -127,45 +126,6 @@ def _defaults() -> descriptor_pb2.FileDescriptorSet:
     seen = {file.name for file in found.file}
     found.file.extend(file for file in fallback.file if file.name not in seen)
     return found
-
-
-class _Scratch:
-    """Empty files that protoc can open by path, gone when the block ends."""
-
-    def __init__(self) -> None:
-        self._descriptors: list[int] = []
-        self._folder: str | None = None
-
-    def __enter__(self) -> "_Scratch":
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        for descriptor in self._descriptors:
-            with contextlib.suppress(OSError):
-                os.close(descriptor)
-        if self._folder is not None:
-            import shutil
-
-            shutil.rmtree(self._folder, ignore_errors=True)
-
-    def file(self, name: str) -> str:
-        """The path of a new empty file; ``name`` says what it holds."""
-        global _IN_MEMORY
-        if _IN_MEMORY:
-            try:
-                descriptor = os.memfd_create(name)
-            except OSError:  # refused (a sandbox's system call filter): a folder from now on
-                _IN_MEMORY = False
-            else:
-                self._descriptors.append(descriptor)
-                return f"/proc/self/fd/{descriptor}"
-        if self._folder is None:
-            import tempfile  # only where memory files are not to be had
-
-            self._folder = tempfile.mkdtemp(prefix="erc-codec-")
-        path = os.path.join(self._folder, name)
-        open(path, "wb").close()
-        return path
 
 
 def _standard_descriptors_open() -> None:

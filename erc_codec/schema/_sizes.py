@@ -9,10 +9,12 @@ string, bytes or repeated field with no limit, a callback or pointer field, a ty
 itself) has no size, exactly where nanopb writes "depends on runtime parameters".
 """
 
+from google.protobuf import descriptor_pb2
 from google.protobuf.descriptor import Descriptor, FieldDescriptor, OneofDescriptor
 
-from ._errors import SchemaError
-from ._options import Options, Resolved, resolve
+from .._errors import SchemaError
+from ._descriptors import declarations
+from ._options import Options, ResolvedOptions, resolve_options
 from ._schema import Schema, enum_of, message_of
 from ._wire import varint_size
 
@@ -48,11 +50,14 @@ class Sizes:
 
     def __init__(self, schema: Schema) -> None:
         self._schema = schema
-        self._options: Resolved = resolve(schema.tree, schema.files)
+        self._options: ResolvedOptions = resolve_options(schema.tree, schema.files)
         self._optional = {
-            f"{proto.package + '.' if proto.package else ''}{path}"
+            f"{declaration.name}.{field.name}"
             for proto in schema.files
-            for path in _proto3_optional_fields(proto)
+            for declaration in declarations(proto)
+            if isinstance(declaration.proto, descriptor_pb2.DescriptorProto)
+            for field in declaration.proto.field
+            if field.proto3_optional
         }
         self._memo: dict[str, int | None] = {}
 
@@ -234,14 +239,3 @@ class Sizes:
 
     def _oneof_options(self, oneof: OneofDescriptor) -> Options:
         return self._options.oneofs[oneof.full_name]
-
-
-def _proto3_optional_fields(proto: object) -> list[str]:
-    """Dotted names of the proto3 ``optional`` fields a FileDescriptorProto defines."""
-    found: list[str] = []
-    stack = [(message.name, message) for message in proto.message_type]  # type: ignore[attr-defined]
-    while stack:
-        name, message = stack.pop()
-        found.extend(f"{name}.{field.name}" for field in message.field if field.proto3_optional)
-        stack.extend((f"{name}.{nested.name}", nested) for nested in message.nested_type)
-    return found

@@ -20,11 +20,12 @@ from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from google.protobuf.message import DecodeError as ProtobufDecodeError
 from google.protobuf.message import Message
 
-from ._errors import SchemaError
+from .._errors import SchemaError
+from ._descriptors import declarations
 from ._protoc import FALLBACK_INCLUDE, compile_files
-from ._wire import LEN, WireError, read_varint
+from ._wire import LEN, WireError, next_field
 
-__all__ = ["Resolved", "resolve"]
+__all__ = ["Options", "ResolvedOptions", "options_class", "resolve_options"]
 
 _EXTENSION = 1010  # (nanopb), (nanopb_msgopt), (nanopb_fileopt) on the descriptor options
 _COMMENTS = re.compile(r"/\*.*?\*/|//.*$|#.*$")
@@ -34,8 +35,9 @@ Options = Any
 Rules = list[tuple[str, Options]]
 
 
-class Resolved:
-    """Resolved options, keyed by full name: ``messages["Msg"]``, ``fields["Msg.f"]``, ..."""
+class ResolvedOptions:
+    """nanopb options resolved for a schema, by full name: ``messages["Msg"]``,
+    ``fields["Msg.f"]``, ``oneofs["Msg.o"]``."""
 
     def __init__(self) -> None:
         self.messages: dict[str, Options] = {}
@@ -69,36 +71,29 @@ def options_class() -> Any:
     return message_factory.GetMessageClass(pool.FindMessageTypeByName("NanoPBOptions"))
 
 
-def resolve(tree: Path, files: tuple[descriptor_pb2.FileDescriptorProto, ...]) -> Resolved:
-    """Resolve the nanopb options of every field and oneof in ``files``."""
-    resolved = Resolved()
+def resolve_options(
+    tree: Path, files: tuple[descriptor_pb2.FileDescriptorProto, ...]
+) -> ResolvedOptions:
+    """Resolve the nanopb options of every message, field and oneof in ``files``."""
+    resolved = ResolvedOptions()
     for proto in files:
         rules = _read_rules(tree / Path(proto.name).with_suffix(".options"))
         base = _merge(options_class()(), rules, proto.name, proto.options)
-        prefix = f"{proto.package}." if proto.package else ""
-        for message in proto.message_type:
-            _resolve_message(resolved, rules, base, prefix + message.name, message)
+        for declaration in declarations(proto):
+            message = declaration.proto
+            if not isinstance(message, descriptor_pb2.DescriptorProto):
+                continue
+            name = declaration.name
+            own = resolved.messages[name] = _merge(base, rules, name, message.options)
+            for field in message.field:
+                options = field.options if field.HasField("options") else None
+                dotted = f"{name}.{field.name}"
+                resolved.fields[dotted] = _merge(own, rules, dotted, options)
+            for oneof in message.oneof_decl:
+                # oneofs carry no (nanopb) annotation: only .options lines reach them
+                dotted = f"{name}.{oneof.name}"
+                resolved.oneofs[dotted] = _merge(own, rules, dotted, None)
     return resolved
-
-
-def _resolve_message(
-    resolved: Resolved,
-    rules: Rules,
-    file: Options,
-    name: str,
-    message: descriptor_pb2.DescriptorProto,
-) -> None:
-    own = resolved.messages[name] = _merge(file, rules, name, message.options)
-    for field in message.field:
-        options = field.options if field.HasField("options") else None
-        resolved.fields[f"{name}.{field.name}"] = _merge(
-            own, rules, f"{name}.{field.name}", options
-        )
-    for oneof in message.oneof_decl:
-        # oneofs carry no (nanopb) annotation: only .options lines reach them
-        resolved.oneofs[f"{name}.{oneof.name}"] = _merge(own, rules, f"{name}.{oneof.name}", None)
-    for nested in message.nested_type:
-        _resolve_message(resolved, rules, file, f"{name}.{nested.name}", nested)
 
 
 def _merge(parent: Options, rules: Rules, dotted: str, options: Message | None) -> Options:
@@ -119,23 +114,14 @@ def _merge(parent: Options, rules: Rules, dotted: str, options: Message | None) 
 
 def _annotations(data: bytes) -> Iterator[Options]:
     """The NanoPBOptions carried as extension 1010 inside serialized descriptor options."""
-    if not data:
-        return
     pos = 0
     cls = options_class()
     try:
         while pos < len(data):
-            key, pos = read_varint(data, pos)
-            number, wire_type = key >> 3, key & 7
-            if wire_type == LEN:
-                length, pos = read_varint(data, pos)
-                if number == _EXTENSION:
-                    yield cls.FromString(data[pos : pos + length])
-                pos += length
-            elif wire_type == 0:
-                _, pos = read_varint(data, pos)
-            else:
-                pos += 8 if wire_type == 1 else 4
+            field = next_field(data, pos)
+            if field.number == _EXTENSION and field.wire_type == LEN:
+                yield cls.FromString(data[field.value : field.end])
+            pos = field.end
     except (WireError, ProtobufDecodeError) as error:  # protoc wrote these bytes itself
         raise SchemaError(f"unreadable nanopb annotation: {error}") from None
 

@@ -1,0 +1,142 @@
+"""The one walk over a compiled file's declarations, and where protoc says each one stands.
+
+``declarations(file)`` yields every message and enum a ``FileDescriptorProto`` declares, nested
+ones included, each with its full name and its path in the file's ``SourceCodeInfo``; a
+``SourceIndex`` turns such a path into a ``Location`` (and the comment trailing it). The numbers
+those paths are made of (the field numbers of descriptor.proto's own messages) live here and
+nowhere else: a path to a member comes from ``Declaration.member(j)``.
+"""
+
+from collections.abc import Iterator, Sequence
+from typing import NamedTuple
+
+from google.protobuf import descriptor_pb2
+
+__all__ = ["Declaration", "Location", "SourceIndex", "declarations"]
+
+# Field numbers of FileDescriptorProto, DescriptorProto and EnumDescriptorProto, as SourceCodeInfo
+# paths are made of them.
+_FILE_MESSAGE, _FILE_ENUM = 4, 5
+_MESSAGE_FIELD, _MESSAGE_NESTED, _MESSAGE_ENUM, _MESSAGE_ONEOF = 2, 3, 4, 8
+_ENUM_VALUE = 2
+
+Proto = descriptor_pb2.DescriptorProto | descriptor_pb2.EnumDescriptorProto
+
+
+class Location(NamedTuple):
+    """Where a definition stands: a path as the user can open it, 1-based line and column."""
+
+    path: str
+    line: int
+    column: int
+
+    def __str__(self) -> str:
+        return f"{self.path}:{self.line}:{self.column}"
+
+
+class Declaration(NamedTuple):
+    """A message or enum declared in a file."""
+
+    name: str  # full name: the package (if any), the enclosing messages, its own name
+    proto: Proto
+    path: tuple[int, ...]  # its path in the file's SourceCodeInfo
+    parent: str | None  # the full name of the message it is declared in, None at the top
+    scope: str  # the prefix its enum values' global names take (C++ scoping: beside the enum)
+
+    @property
+    def is_message(self) -> bool:
+        return isinstance(self.proto, descriptor_pb2.DescriptorProto)
+
+    def member(self, index: int) -> tuple[int, ...]:
+        """The source path of the ``index``-th field of a message, or value of an enum."""
+        return (*self.path, _MESSAGE_FIELD if self.is_message else _ENUM_VALUE, index)
+
+    def oneof(self, index: int) -> tuple[int, ...]:
+        """The source path of a message's ``index``-th oneof."""
+        return (*self.path, _MESSAGE_ONEOF, index)
+
+
+def declarations(file: descriptor_pb2.FileDescriptorProto) -> Iterator[Declaration]:
+    """Every message and enum of ``file``: its top-level messages in order, each followed by what
+    it declares (its messages, each with theirs, then its enums), then its top-level enums."""
+    package = f"{file.package}." if file.package else ""
+    for i, message in enumerate(file.message_type):
+        yield from _message(package + message.name, message, (_FILE_MESSAGE, i), None, package)
+    for i, enum in enumerate(file.enum_type):
+        yield Declaration(package + enum.name, enum, (_FILE_ENUM, i), None, package)
+
+
+def _message(
+    name: str,
+    proto: descriptor_pb2.DescriptorProto,
+    path: tuple[int, ...],
+    parent: str | None,
+    scope: str,
+) -> Iterator[Declaration]:
+    # Depth first without recursion: messages nest as deeply as a file's author likes.
+    pending: list[Declaration] = [Declaration(name, proto, path, parent, scope)]
+    while pending:
+        declaration = pending.pop()
+        yield declaration
+        outer, message = declaration.name, declaration.proto
+        if not isinstance(message, descriptor_pb2.DescriptorProto):
+            continue
+        inside: list[Declaration] = [
+            Declaration(
+                f"{outer}.{nested.name}",
+                nested,
+                (*declaration.path, _MESSAGE_NESTED, j),
+                outer,
+                f"{outer}.",
+            )
+            for j, nested in enumerate(message.nested_type)
+        ]
+        inside += [
+            Declaration(
+                f"{outer}.{enum.name}",
+                enum,
+                (*declaration.path, _MESSAGE_ENUM, j),
+                outer,
+                f"{outer}.",
+            )
+            for j, enum in enumerate(message.enum_type)
+        ]
+        pending.extend(reversed(inside))
+
+
+class SourceIndex:
+    """Where one file's declarations stand: protoc's source info, indexed on first use."""
+
+    __slots__ = ("_locations", "_proto", "path")
+
+    def __init__(self, path: str, proto: descriptor_pb2.FileDescriptorProto) -> None:
+        self.path = path  # the file as locations name it
+        self._proto: descriptor_pb2.FileDescriptorProto | None = proto
+        self._locations: dict[tuple[int, ...], descriptor_pb2.SourceCodeInfo.Location] = {}
+
+    def _index(self) -> dict[tuple[int, ...], descriptor_pb2.SourceCodeInfo.Location]:
+        if self._proto is not None:
+            # Declarations sit at even-length paths; the odd ones (names, numbers, types) are many.
+            self._locations = {
+                tuple(loc.path): loc
+                for loc in self._proto.source_code_info.location
+                if not len(loc.path) % 2
+            }
+            self._proto = None
+        return self._locations
+
+    def find(self, at: Sequence[int]) -> Location | None:
+        """The location of the declaration at source path ``at``, if protoc recorded one."""
+        found = self._index().get(tuple(at))
+        if found is None:
+            return None
+        return Location(self.path, found.span[0] + 1, found.span[1] + 1)
+
+    def where(self, at: Sequence[int]) -> Location:
+        """The location of the declaration at ``at``; the file's first line if protoc has none."""
+        return self.find(at) or Location(self.path, 1, 1)
+
+    def comment(self, at: Sequence[int]) -> str:
+        """The comment trailing the declaration at ``at`` (``""`` if none)."""
+        found = self._index().get(tuple(at))
+        return found.trailing_comments.strip() if found is not None else ""
