@@ -12,11 +12,11 @@ What this module guarantees:
 
 Both directions run per datagram, so the common case is the protobuf call plus a few byte
 operations. Encoding looks the payload class up in a dict and prepends a precomputed tag-and-length
-header to the payload's own serialization. Decoding reads that header itself (tag → kind, length →
-where the payload ends), so protobuf parses only the payload bytes: a stripped datagram gets its
-missing zeros appended and a padded one is cut, by arithmetic, before the one parse. Datagrams of
-any other shape (several top-level fields, unknown members, corruption) take the general path: the
-repair walk over the whole envelope, then the envelope parse.
+header to the payload's own serialization. Decoding reads that header itself (``peek``: tag → kind,
+length → where the payload ends), so protobuf parses only the payload bytes: a stripped datagram
+gets its missing zeros appended and a padded one is cut, by arithmetic, before the one parse.
+Datagrams of any other shape (several top-level fields, unknown members, corruption) take the
+general path: the repair walk over the whole envelope, then the envelope parse.
 """
 
 from collections.abc import Callable
@@ -28,13 +28,22 @@ from google.protobuf.message import Message
 
 from ._contract import Contract
 from ._errors import DecodeError, EncodeError, SchemaError
-from ._schema import descriptor_of, message_of
-from ._wire import I32, I64, LEN, VARINT, WireError, encode_varint, read_varint, varint_size
+from .schema import (
+    EGROUP,
+    LEN,
+    SGROUP,
+    WireError,
+    descriptor_of,
+    encode_varint,
+    message_of,
+    next_field,
+    read_varint,
+    varint_size,
+)
 
 __all__ = ["Decoded", "Envelope", "Mode"]
 
 Mode = Literal["strip", "exact", "pad"]
-_FIXED_WIDTH = {I64: 8, I32: 4}
 _Member = tuple[
     list[bytes],
     Callable[[bytes], object] | None,
@@ -50,7 +59,10 @@ class Decoded(NamedTuple):
     message: Message
 
 
-_decoded = tuple.__new__  # builds a Decoded without NamedTuple's Python-level __new__
+# Builds a Decoded without NamedTuple's Python-level __new__, for the decode target of
+# benchmarks/bench_codec.py (decode <= 1.25x the bare runtime); tests/test_envelope.py holds it
+# equal to Decoded(kind, message).
+_decoded = tuple.__new__
 
 
 def _member_class(envelope: type[Message], member: str) -> type[Message]:
@@ -86,9 +98,10 @@ class Envelope:
         # wrapped without naming the member. The serializer is the class's own method: looking
         # it up on each instance costs more in upb than serializing a small message does.
         self._members: dict[type[Message], _Member | None] = {}
-        # First tag byte (or first | second << 8 for two-byte tags) → (kind, payload parser,
-        # offset of the length prefix).
+        # First tag byte (or first | second << 8 for two-byte tags) → (kind, the payload class's
+        # parser, offset of the length prefix).
         self._tags: dict[int, tuple[str, Callable[[bytes], Message], int]] = {}
+        self._payloads: dict[str, type[Message]] = {}  # kind → payload class
         for field in descriptor.fields:
             payload = field.message_type
             if payload is None:
@@ -105,14 +118,21 @@ class Envelope:
             self._members[cls] = (
                 None if cls in self._members else (headers, screen, check, cls.SerializeToString)
             )
+            self._payloads[field.name] = cls
             if len(tag) <= 2:
-                parse = cls.FromString
-                self._tags[int.from_bytes(tag, "little")] = (field.name, parse, len(tag))
+                self._tags[int.from_bytes(tag, "little")] = (field.name, cls.FromString, len(tag))
         self._by_name = {cls.DESCRIPTOR.full_name: member for cls, member in self._members.items()}
 
     def kinds(self) -> dict[int, str]:
         """The envelope's payload members: field number → member name (a decoded ``kind``)."""
         return dict(self._kinds)
+
+    def payload_class(self, kind: str) -> type[Message]:
+        """The message class member ``kind`` carries."""
+        try:
+            return self._payloads[kind]
+        except KeyError:
+            raise SchemaError(f"{kind!r} is not a payload kind of {self._name}") from None
 
     # -- encoding ------------------------------------------------------------------------------
 
@@ -183,10 +203,47 @@ class Envelope:
 
     # -- decoding ------------------------------------------------------------------------------
 
+    def peek(self, data: bytes) -> tuple[str, bytes] | None:
+        """The kind and exact payload bytes of a datagram in its usual shape (one member, with
+        a tag of at most two bytes and a length of at most two, sent exact, stripped or
+        zero-padded), found by arithmetic on its header, without parsing the payload; ``None``
+        for any other datagram, which only the general decoder can judge."""
+        size = len(data)
+        if not 0 < size <= self._max_size:
+            return None
+        first = data[0]
+        if first < 0x80:
+            member = self._tags.get(first)
+        else:
+            member = self._tags.get(first | data[1] << 8) if size > 1 else None
+        if member is None:
+            return None
+        kind, _, start = member
+        if start == size:  # stripped: the length was a single zero byte
+            return kind, b""
+        length = data[start]
+        if length < 0x80:
+            start += 1
+        elif start + 1 < size and data[start + 1] < 0x80:  # two-byte length (≤ 16383)
+            length += (data[start + 1] << 7) - 0x80
+            start += 2
+        else:
+            return None
+        end = start + length
+        if end == size:  # exact
+            return kind, data[start:]
+        if end < size:  # zero-padded, unless something other than zeros follows
+            return (kind, data[start:end]) if data.count(0, end) == size - end else None
+        if end <= self._max_size:  # stripped: the payload's last bytes were zeros
+            return kind, data[start:] + bytes(end - size)
+        return None
+
     def decode(self, data: bytes) -> Decoded:
         """The payload of a datagram in exact, stripped or zero-padded form."""
-        # Dispatcher.feed repeats the exact and stripped cases inline (one call less per
-        # datagram); a change here goes there too, and its property test compares the two.
+        # peek's arithmetic, written out here once more: the call to peek would cost a tenth of
+        # a decode, and the decode target of benchmarks/bench_codec.py (exact datagrams in at
+        # most 1.25x the bare runtime's time) has no tenth to spare. tests/test_envelope.py holds
+        # decode equal to peek and a parse, on every form and on hostile bytes.
         size = len(data)
         if not 0 < size <= self._max_size:
             return self._decode_envelope(data)  # raises the right error
@@ -199,7 +256,7 @@ class Envelope:
             return self._decode_envelope(data)
         kind, parse, start = member
         if start == size:  # stripped: the length was a single zero byte
-            length, end = 0, size
+            end = size
         else:
             length = data[start]
             if length < 0x80:
@@ -224,8 +281,8 @@ class Envelope:
             return _decoded(Decoded, (kind, parse(payload)))
         except ProtobufDecodeError as error:
             raise DecodeError(
-                f"datagram of {size} bytes: its {kind} payload ({length} bytes from offset "
-                f"{start}) is not a valid {self._payload_name(kind)}: {error}"
+                f"datagram of {size} bytes: its {kind} payload of {len(payload)} bytes is "
+                f"not a valid {self._payload_name(kind)}: {error}"
             ) from None
 
     def _payload_name(self, kind: str) -> str:
@@ -265,25 +322,13 @@ class Envelope:
             while pos < end:
                 if data[pos] == 0:
                     return self._unpad(data, pos)
-                key, pos = read_varint(data, pos)
-                number, wire_type = key >> 3, key & 7
-                if number == 0:
-                    raise DecodeError(f"field number 0 in the tag ending at offset {pos}")
-                if pos == end and wire_type in (VARINT, LEN):
-                    pos += 1  # a zero value or zero length was stripped
-                elif wire_type == VARINT:
-                    _, pos = read_varint(data, pos)
-                elif wire_type == LEN:
-                    length, pos = read_varint(data, pos)
-                    pos += length
-                elif wire_type in _FIXED_WIDTH:
-                    pos += _FIXED_WIDTH[wire_type]
-                else:
-                    kind = "groups" if wire_type in (3, 4) else "undefined in protobuf"
+                field = next_field(data, pos, zeros_past_end=True)
+                if field.wire_type in (SGROUP, EGROUP):
                     raise DecodeError(
-                        f"field {number} uses wire type {wire_type} ({kind}), "
+                        f"field {field.number} uses wire type {field.wire_type} (a group), "
                         "which a proto3 envelope never contains"
                     )
+                pos = field.end
         except WireError as error:
             raise DecodeError(f"truncated or corrupt datagram: {error}") from None
         if pos > self._max_size:
