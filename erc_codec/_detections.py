@@ -16,50 +16,57 @@ The clock is the caller's ``now``; nothing here reads time.
 
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
-__all__ = ["AssemblerStats", "Frame", "FrameAssembler", "FrameLoss", "Rejected"]
+__all__ = ["AssemblerStats", "DetectionAssembler", "DetectionFrame", "FrameLoss", "Rejected"]
 
 _REMEMBERED = 64  # completed frame ids kept to recognise late duplicates
 
 
-class Frame(NamedTuple):
+class DetectionFrame(NamedTuple):
+    """A whole camera frame: its id and its detected objects."""
+
     frame_id: int
     objects: tuple[Any, ...]  # the frame's BasestationDetectedObject messages, by index
 
 
 class FrameLoss(NamedTuple):
+    """An incomplete frame that was given up."""
+
     frame_id: int
-    received: int
-    expected: int
+    received: int  # objects that had arrived
+    expected: int  # its total_count
     reason: str  # "timeout" or "superseded"
 
 
-@dataclass(frozen=True)
-class Rejected:
+class Rejected(NamedTuple):
+    """A detected object that cannot belong to its frame."""
+
     frame_id: int
-    index: int
+    index: int  # type: ignore[assignment]  # the object's index, as its message names it
     total_count: int
     reason: str  # "index_out_of_range", "total_count_changed" or "too_many_objects"
 
 
-@dataclass
-class AssemblerStats:
-    completed: int = 0
-    duplicates: int = 0
-    lost: dict[str, int] = field(default_factory=dict)  # reason → frames
-    rejected: dict[str, int] = field(default_factory=dict)  # reason → objects
+class AssemblerStats(NamedTuple):
+    """A DetectionAssembler's counters since it was made (copies)."""
+
+    completed: int  # frames returned
+    duplicates: int  # objects that had arrived before (or whose frame was returned already)
+    lost: dict[str, int]  # reason → frames
+    rejected: dict[str, int]  # reason → objects
 
 
-@dataclass
 class _Pending:
-    total: int
-    started: float
-    objects: dict[int, Any] = field(default_factory=dict)
+    __slots__ = ("objects", "started", "total")
+
+    def __init__(self, total: int, started: float) -> None:
+        self.total = total
+        self.started = started
+        self.objects: dict[int, Any] = {}
 
 
-class FrameAssembler:
+class DetectionAssembler:
     """Collects detected objects by frame and returns each frame once it is whole."""
 
     def __init__(
@@ -79,14 +86,17 @@ class FrameAssembler:
         self._on_reject = on_reject
         self._pending: dict[int, _Pending] = {}  # in the order frames started
         self._done: deque[int] = deque(maxlen=_REMEMBERED)
-        self._stats = AssemblerStats()
+        self._completed = 0
+        self._duplicates = 0
+        self._lost: dict[str, int] = {}
+        self._rejected: dict[str, int] = {}
 
-    def add(self, detected: Any, now: float) -> Frame | None:
+    def add(self, detected: Any, now: float) -> DetectionFrame | None:
         """Take one ``BasestationDetectedObject``; the frame it completes, if any."""
         frame_id, total, index = detected.frame_id, detected.total_count, detected.index
         pending = self._pending.get(frame_id)
         if pending is None and frame_id in self._done:
-            self._stats.duplicates += 1  # a late repeat of a frame already returned
+            self._duplicates += 1  # a late repeat of a frame already returned
             return None
         if total > self._max_objects:
             return self._reject(Rejected(frame_id, index, total, "too_many_objects"))
@@ -101,7 +111,7 @@ class FrameAssembler:
                 self._lose(next(iter(self._pending)), "superseded")
             pending = self._pending[frame_id] = _Pending(total, now)
         if index in pending.objects:
-            self._stats.duplicates += 1
+            self._duplicates += 1
             return None
         pending.objects[index] = detected
         if len(pending.objects) < total:
@@ -125,17 +135,18 @@ class FrameAssembler:
 
     def stats(self) -> AssemblerStats:
         """A snapshot of the counters."""
-        s = self._stats
-        return AssemblerStats(s.completed, s.duplicates, dict(s.lost), dict(s.rejected))
+        return AssemblerStats(
+            self._completed, self._duplicates, dict(self._lost), dict(self._rejected)
+        )
 
-    def _complete(self, frame_id: int, objects: list[Any]) -> Frame:
+    def _complete(self, frame_id: int, objects: list[Any]) -> DetectionFrame:
         self._done.append(frame_id)
-        self._stats.completed += 1
-        return Frame(frame_id, tuple(objects))
+        self._completed += 1
+        return DetectionFrame(frame_id, tuple(objects))
 
-    def _reject(self, rejected: Rejected) -> Frame | None:
+    def _reject(self, rejected: Rejected) -> DetectionFrame | None:
         """Count and report ``rejected``; ``add`` returns what this returns (no frame)."""
-        self._stats.rejected[rejected.reason] = self._stats.rejected.get(rejected.reason, 0) + 1
+        self._rejected[rejected.reason] = self._rejected.get(rejected.reason, 0) + 1
         if self._on_reject is not None:
             self._on_reject(rejected)
         return None
@@ -143,7 +154,7 @@ class FrameAssembler:
     def _lose(self, frame_id: int, reason: str) -> FrameLoss:
         pending = self._pending.pop(frame_id)
         loss = FrameLoss(frame_id, len(pending.objects), pending.total, reason)
-        self._stats.lost[reason] = self._stats.lost.get(reason, 0) + 1
+        self._lost[reason] = self._lost.get(reason, 0) + 1
         if self._on_loss is not None:
             self._on_loss(loss)
         return loss

@@ -18,16 +18,23 @@ which is what ``binascii.crc_hqx(payload, 0xFFFF)`` computes.
 Speed: frames of one length back to back (a board sending padded envelopes, say) are checked a
 batch at a time, with the Python-level work per batch rather than per frame. A run's first batch
 is 16 frames, and each whole batch doubles the next (up to 256), so a CRC failure wastes at most
-as many CRCs as the run has delivered before it, plus 16. Other frames go one at a time.
+as many CRCs as the run has delivered before it, plus 16. Other frames go one at a time. The batch
+serves the target of ``benchmarks/bench_framing.py`` (60-byte frames at half the bare CRC's rate or
+better); ``tests/test_framing.py`` holds the Deframer to a plain frame-by-frame reading of the
+stream.
 """
 
 import binascii
 import functools
 import struct
-from dataclasses import dataclass, field
+import warnings
 from itertools import repeat
+from typing import TYPE_CHECKING, NamedTuple
 
 from ._errors import EncodeError
+
+if TYPE_CHECKING:
+    from ._codec import Codec
 
 __all__ = ["Deframer", "DeframerStats", "crc16", "frame"]
 
@@ -54,19 +61,27 @@ def frame(payload: bytes) -> bytes:
     return MAGIC + size + payload + crc16(payload).to_bytes(2, "little")
 
 
-@dataclass
-class DeframerStats:
-    frames: int = 0  # payloads returned
-    discarded_bytes: dict[str, int] = field(default_factory=dict)  # reason → bytes
-    rejected: dict[str, int] = field(default_factory=dict)  # reason → frame candidates
+class DeframerStats(NamedTuple):
+    """A Deframer's counters since it was made (copies: changing them changes nothing)."""
+
+    frames: int  # payloads returned
+    discarded_bytes: dict[str, int]  # reason → bytes
+    rejected: dict[str, int]  # reason → frame candidates
 
 
 class Deframer:
     """Turns a byte stream, fed in any chunks, back into the payloads that were framed."""
 
     def __init__(self, max_length: int | None = None) -> None:
-        """``max_length``: the longest payload accepted; default the packaged envelope's size."""
+        """``max_length``: the longest payload accepted (``Deframer.for_codec(codec)``: the
+        codec's envelope size). Leaving it out is deprecated: it loads the packaged schema."""
         if max_length is None:
+            warnings.warn(
+                "Deframer() without max_length is deprecated: give max_length, or use "
+                "Deframer.for_codec(codec)",
+                DeprecationWarning,
+                stacklevel=2,
+            )
             from ._codec import Codec
 
             max_length = Codec.default().max_size(Codec.default().root)
@@ -77,7 +92,14 @@ class Deframer:
         self._wanted = 2  # bytes the buffer must hold before a scan can decide anything new
         self._batch = _FIRST_BATCH
         self._last = -1  # length of the frame just before the buffer, when nothing came between
-        self._stats = DeframerStats()
+        self._frames = 0
+        self._discarded: dict[str, int] = {}
+        self._rejected: dict[str, int] = {}
+
+    @classmethod
+    def for_codec(cls, codec: "Codec") -> "Deframer":
+        """A deframer accepting payloads up to ``codec``'s envelope size."""
+        return cls(codec.max_size(codec.root))
 
     def feed(self, chunk: bytes | bytearray | memoryview) -> list[bytes]:
         """Take the next bytes of the stream; the payloads of the frames they complete."""
@@ -139,7 +161,7 @@ class Deframer:
             pos, last, batch = stop + _TRAILER, length, _FIRST_BATCH  # perhaps a new run starts
         self._buffer = bytearray(data[pos:])
         self._wanted, self._last, self._batch = wanted - pos, last, batch
-        self._stats.frames += len(payloads)
+        self._frames += len(payloads)
         return payloads
 
     def buffered(self) -> int:
@@ -148,16 +170,15 @@ class Deframer:
 
     def stats(self) -> DeframerStats:
         """A snapshot of the counters."""
-        s = self._stats
-        return DeframerStats(s.frames, dict(s.discarded_bytes), dict(s.rejected))
+        return DeframerStats(self._frames, dict(self._discarded), dict(self._rejected))
 
     def _discard(self, reason: str, count: int) -> None:
         if count:
-            self._stats.discarded_bytes[reason] = self._stats.discarded_bytes.get(reason, 0) + count
+            self._discarded[reason] = self._discarded.get(reason, 0) + count
 
     def _reject(self, reason: str) -> None:
         """A frame candidate fails: its first byte is discarded, the rest rescanned."""
-        self._stats.rejected[reason] = self._stats.rejected.get(reason, 0) + 1
+        self._rejected[reason] = self._rejected.get(reason, 0) + 1
         self._discard(reason, 1)
 
 

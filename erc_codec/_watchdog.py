@@ -5,14 +5,14 @@ sleeps or starts a thread. Each watched kind follows Proton's node states: INACT
 first arrival, ACTIVE while arrivals keep within the timeout, INACTIVE again once ``poll`` sees the
 timeout pass, which calls ``on_timeout(kind)`` once; the next arrival calls ``on_recover(kind)``.
 A clock that steps backwards never fires a timeout early and delays one by at most one timeout
-(the last arrival is re-anchored to the new clock). Memory per kind is bounded (the rate is
-measured over the last arrivals only).
+(the last arrival is re-anchored to the new clock). Every kind reported, watched or not, has its
+arrival rate measured; memory per kind is bounded (the rate is measured over the last arrivals
+only).
 """
 
 import enum
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 __all__ = ["Liveness", "Watchdog"]
 
@@ -27,14 +27,15 @@ class Liveness(enum.Enum):
     ACTIVE = "active"  # arriving
 
 
-@dataclass
 class _Watched:
-    period: float
-    timeout: float
-    state: Liveness = Liveness.INACTIVE
-    last: float | None = None
-    timed_out: bool = False  # INACTIVE because a timeout passed, not because nothing came yet
-    arrivals: deque[float] = field(default_factory=lambda: deque(maxlen=_RATE_WINDOW))
+    __slots__ = ("last", "period", "state", "timed_out", "timeout")
+
+    def __init__(self, period: float, timeout: float) -> None:
+        self.period = period
+        self.timeout = timeout
+        self.state = Liveness.INACTIVE
+        self.last: float | None = None
+        self.timed_out = False  # INACTIVE because a timeout passed, not because nothing came yet
 
 
 class Watchdog:
@@ -50,6 +51,7 @@ class Watchdog:
         self._on_recover = on_recover
         self._timeout_periods = timeout_periods
         self._watched: dict[str, _Watched] = {}
+        self._arrivals: dict[str, deque[float]] = {}  # every kind seen: its last arrivals
 
     def watch(self, kind: str, period: float, timeout: float | None = None) -> None:
         """Expect ``kind`` every ``period`` seconds; time out after ``timeout`` (default: a
@@ -59,12 +61,15 @@ class Watchdog:
         self._watched[kind] = _Watched(period, timeout or period * self._timeout_periods)
 
     def seen(self, kind: str, now: float) -> None:
-        """``kind`` arrived at ``now``. Unwatched kinds are ignored."""
+        """``kind`` arrived at ``now``. An unwatched kind only has its rate measured."""
+        arrivals = self._arrivals.get(kind)
+        if arrivals is None:
+            arrivals = self._arrivals[kind] = deque(maxlen=_RATE_WINDOW)
+        arrivals.append(now)
         watched = self._watched.get(kind)
         if watched is None:
             return
         watched.last = now
-        watched.arrivals.append(now)
         if watched.state is Liveness.INACTIVE:
             watched.state = Liveness.ACTIVE
             if watched.timed_out:
@@ -95,11 +100,11 @@ class Watchdog:
 
     def rate(self, kind: str) -> float | None:
         """The measured arrival rate in Hz over the last arrivals, ``None`` before two."""
-        watched = self._watched.get(kind)
-        if watched is None or len(watched.arrivals) < 2:
+        arrivals = self._arrivals.get(kind)
+        if arrivals is None or len(arrivals) < 2:
             return None
-        span = watched.arrivals[-1] - watched.arrivals[0]
-        return (len(watched.arrivals) - 1) / span if span > 0 else None
+        span = arrivals[-1] - arrivals[0]
+        return (len(arrivals) - 1) / span if span > 0 else None
 
     def expected(self, kind: str) -> float | None:
         """The expected rate in Hz (1 / period), ``None`` for an unwatched kind."""

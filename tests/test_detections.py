@@ -1,4 +1,4 @@
-"""FrameAssembler: whole frames once, in order; every loss and rejection reported; bounded."""
+"""DetectionAssembler: whole frames once, in order; every loss and rejection reported; bounded."""
 
 import random
 
@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import erc_codec
-from erc_codec import FrameAssembler, FrameLoss, Rejected
+from erc_codec import DetectionAssembler, DetectionFrame, FrameLoss, Rejected
 
 CODEC = erc_codec.Codec.default()
 Detected = CODEC.message_class("BasestationDetectedObject")
@@ -19,7 +19,7 @@ def obj(frame: int, total: int, index: int, class_id: int = 0) -> Message:
 
 
 def test_a_frame_comes_out_whole_and_in_order() -> None:
-    assembler = FrameAssembler()
+    assembler = DetectionAssembler()
     parts = [obj(7, 3, i, class_id=10 + i) for i in (2, 0, 1)]
     assert assembler.add(parts[0], 0.0) is None
     assert assembler.add(parts[1], 0.1) is None
@@ -32,7 +32,7 @@ def test_a_frame_comes_out_whole_and_in_order() -> None:
 
 
 def test_duplicates_are_ignored_also_after_completion() -> None:
-    assembler = FrameAssembler()
+    assembler = DetectionAssembler()
     assert assembler.add(obj(1, 2, 0), 0) is None
     assert assembler.add(obj(1, 2, 0), 0) is None
     assert assembler.add(obj(1, 2, 1), 0) is not None
@@ -42,8 +42,8 @@ def test_duplicates_are_ignored_also_after_completion() -> None:
 
 
 def test_an_empty_frame() -> None:
-    frame = FrameAssembler().add(obj(3, 0, 0), 0)
-    assert frame == erc_codec.Frame(3, ())
+    frame = DetectionAssembler().add(obj(3, 0, 0), 0)
+    assert frame == DetectionFrame(3, ())
 
 
 @pytest.mark.parametrize(
@@ -56,7 +56,7 @@ def test_an_empty_frame() -> None:
 )
 def test_impossible_objects_are_rejected(first: Message, second: Message, reason: str) -> None:
     rejected: list[Rejected] = []
-    assembler = FrameAssembler(on_reject=rejected.append)
+    assembler = DetectionAssembler(on_reject=rejected.append)
     assembler.add(first, 0)
     assert assembler.add(second, 0) is None
     assert [r.reason for r in rejected] == [reason]
@@ -65,7 +65,7 @@ def test_impossible_objects_are_rejected(first: Message, second: Message, reason
 
 def test_incomplete_frames_time_out_or_are_superseded() -> None:
     lost: list[FrameLoss] = []
-    assembler = FrameAssembler(timeout=0.5, keep_frames=2, on_loss=lost.append)
+    assembler = DetectionAssembler(timeout=0.5, keep_frames=2, on_loss=lost.append)
     assembler.add(obj(1, 3, 0), 0.0)
     assembler.add(obj(2, 3, 0), 0.1)
     assembler.add(obj(3, 2, 1), 0.2)  # a third incomplete frame: the oldest goes
@@ -99,7 +99,9 @@ def test_nothing_is_lost_or_invented_silently(
 ) -> None:
     totals, sent, steps = case
     lost: list[FrameLoss] = []
-    assembler = FrameAssembler(timeout=0.5, keep_frames=keep, max_objects=6, on_loss=lost.append)
+    assembler = DetectionAssembler(
+        timeout=0.5, keep_frames=keep, max_objects=6, on_loss=lost.append
+    )
     frames = []
     now = 0.0
     for (frame, index), step in zip(sent, steps, strict=True):
@@ -128,8 +130,20 @@ def test_nothing_is_lost_or_invented_silently(
 
 def test_memory_stays_bounded_under_a_flood() -> None:
     rng = random.Random(7)
-    assembler = FrameAssembler(keep_frames=4, max_objects=16)
+    assembler = DetectionAssembler(keep_frames=4, max_objects=16)
     for _ in range(20_000):
         total = rng.randint(1, 16)
         assembler.add(obj(rng.getrandbits(32), total, rng.randrange(total)), 0.0)
         assert assembler.pending() <= 4
+
+
+@pytest.mark.parametrize(
+    ("old", "new"), [("Frame", DetectionFrame), ("FrameAssembler", DetectionAssembler)]
+)
+def test_the_old_names_still_work_for_a_release_and_say_so(old: str, new: type) -> None:
+    with pytest.warns(
+        DeprecationWarning, match=rf"erc_codec\.{old} is deprecated: use erc_codec\.{new.__name__}"
+    ):
+        assert getattr(erc_codec, old) is new
+    with pytest.raises(AttributeError, match="no attribute 'NoSuchName'"):
+        erc_codec.NoSuchName  # noqa: B018
