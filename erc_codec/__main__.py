@@ -1,5 +1,5 @@
 """``python -m erc_codec``: the same as the ``erc-codec`` command."""
 
-from ._cli import main
+from .cli._main import main
 
 main()

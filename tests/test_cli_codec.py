@@ -406,7 +406,7 @@ def test_pcap_problems_exit_2_in_one_line(codec: erc_codec.Codec, tmp_path: Path
 
 def test_pcap_without_dpkt_says_what_to_install(tmp_path: Path) -> None:
     # The same entry point, with dpkt made unimportable (whether or not it is installed).
-    code = "import sys; sys.modules['dpkt'] = None; from erc_codec._cli import main; main()"
+    code = "import sys; sys.modules['dpkt'] = None; from erc_codec.cli._main import main; main()"
     done = subprocess.run(
         [sys.executable, "-c", code, "decode", "--pcap", str(tmp_path / "x.pcap")],
         capture_output=True,

@@ -80,13 +80,15 @@ def test_a_serial_stream_is_deframed_and_dispatched() -> None:
         dispatcher = erc_codec.Dispatcher(CODEC)
         dispatcher.register("gps_info", got.append)
         ours, theirs = socket.socketpair()
-        reader, _ = await asyncio.open_connection(sock=ours)
+        reader, writer = await asyncio.open_connection(sock=ours)
         stream = b"\x00noise" + erc_codec.frame(CODEC.encode(GPS(latitude=1.0)))
         stream += erc_codec.frame(CODEC.encode(GPS(latitude=2.0)))
         for i in range(0, len(stream), 5):  # arrives in pieces
             theirs.sendall(stream[i : i + 5])
         theirs.close()
         deframer = await erc_codec.read_serial(reader, dispatcher)
+        writer.close()
+        await writer.wait_closed()
         return got, deframer.stats()
 
     got, stats = asyncio.run(scenario())

@@ -12,7 +12,9 @@ __all__ = ["OneLineGroup"]
 
 class OneLineGroup(click.Group):
     """A command group whose every error is one line on stderr: click's usage errors print
-    usage, hint and error on three. Exit statuses stay click's (2 for usage errors)."""
+    usage, hint and error on three. Exit statuses stay click's (2 for usage errors); output that
+    cannot be written is one line and 2, except a reader that went away (``| head``), which ends
+    the command quietly with status 1."""
 
     def main(self, *args: Any, **kwargs: Any) -> Any:
         kwargs["standalone_mode"] = False
@@ -26,6 +28,9 @@ class OneLineGroup(click.Group):
             sys.exit(error.exit_code)
         except click.Abort:
             click.echo("Aborted!", err=True)
+            sys.exit(1)
+        except BrokenPipeError:
+            _silence_unwritable_stdout()
             sys.exit(1)
         except OSError as error:  # output that could not be written (a full disk, say)
             _silence_unwritable_stdout()

@@ -1,10 +1,12 @@
 """``erc-codec send`` and ``erc-codec listen``: a message onto UDP, and what arrives, shown live.
 
-``send`` is the fleet's ``udp_client`` made general. ``listen`` prints one JSON line per datagram
-(or, on a terminal, a table per kind with measured rates), counts every datagram that is dropped,
-by reason, and prints the counters when it stops.
+``send`` is the fleet's ``udp_client`` made general. ``listen`` is an ``open_udp`` endpoint with a
+``Watchdog`` measuring each kind's rate: it prints one JSON line per datagram (or, on a terminal,
+a table per kind with measured rates), counts every datagram that is dropped, by reason, and prints
+the counters when it stops.
 """
 
+import contextlib
 import json
 import socket
 import sys
@@ -16,23 +18,18 @@ from typing import Any, cast
 import click
 from google.protobuf.message import Message
 
-from ._cli import (
-    _emit,
-    _Fatal,
-    _load,
-    _one_line,
-    _schema_options,
-    _to_dict,
-    envelope_from_json,
-    main,
-)
-from ._dispatch import Dispatcher, Drop
-from ._envelope import Mode
-from ._errors import EncodeError
+from .._codec import Codec
+from .._dispatch import Dispatcher, DispatchStats, Drop
+from .._envelope import Mode
+from .._errors import EncodeError
+from .._transport import UdpEndpoint, open_udp
+from .._watchdog import Watchdog
+from ._encode import MODE
+from ._shared import Fatal, emit, envelope_from_json, load, one_line, schema_options, to_dict
 
-__all__ = ["listen", "send"]
+__all__ = ["listen", "resolve", "send", "shown"]
 
-_LARGEST_DATAGRAM = 65535
+_REDRAW = 0.5  # seconds between two drawings of the table
 
 
 def _address(text: str, default_host: str | None = None) -> tuple[str, int]:
@@ -49,7 +46,7 @@ def _address(text: str, default_host: str | None = None) -> tuple[str, int]:
     return (host or cast(str, default_host)), number
 
 
-def _resolve(host: str, port: int) -> tuple[socket.AddressFamily, tuple[Any, ...]]:
+def resolve(host: str, port: int) -> tuple[socket.AddressFamily, tuple[Any, ...]]:
     """The family and socket address of ``host`` (a name or an IPv4 or IPv6 address). A name
     with addresses of both families takes IPv4, as the boards speak it: ``listen localhost:P``
     must hear a board that sends to 127.0.0.1, wherever the system lists ::1 first."""
@@ -57,27 +54,25 @@ def _resolve(host: str, port: int) -> tuple[socket.AddressFamily, tuple[Any, ...
         found = socket.getaddrinfo(host, port, type=socket.SOCK_DGRAM)
     except (OSError, UnicodeError) as error:
         reason = error.strerror if isinstance(error, OSError) and error.strerror else error
-        raise _Fatal(f"cannot resolve {host!r}: {reason}") from None
+        raise Fatal(f"cannot resolve {host!r}: {reason}") from None
     family, _, _, _, address = min(found, key=lambda entry: entry[0] != socket.AF_INET)
     return family, address
 
 
-def _shown(address: tuple[Any, ...]) -> str:
+def shown(address: tuple[Any, ...]) -> str:
     """``host:port``, with an IPv6 host in brackets so the port stays readable."""
     host, port = address[0], address[1]
     return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
 
 
-@main.command()
+@click.command()
 @click.argument("target", metavar="HOST:PORT")
 @click.argument("kind")
 @click.argument("payload", metavar="JSON")
 @click.option("--count", type=click.IntRange(min=1), default=1, show_default=True)
 @click.option("--rate", type=click.FloatRange(min=0, min_open=True), help="Sends per second.")
-@click.option(
-    "--mode", type=click.Choice(["strip", "exact", "pad"]), default="strip", show_default=True
-)
-@_schema_options
+@MODE
+@schema_options
 def send(
     target: str,
     kind: str,
@@ -95,14 +90,14 @@ def send(
           '{"distance_to_go": 1.5}' --rate 10 --count 50
     """
     host, port = _address(target)
-    codec = _load(tree, root)
+    codec = load(tree, root)
     envelope = envelope_from_json(codec, kind, payload)
     try:
         data = codec.encode(envelope, cast(Mode, mode))
     except EncodeError as error:
-        raise click.ClickException(_one_line(str(error))) from None
-    family, target_address = _resolve(host, port)
-    shown = _shown(target_address)
+        raise click.ClickException(one_line(str(error))) from None
+    family, target_address = resolve(host, port)
+    where = shown(target_address)
     with socket.socket(family, socket.SOCK_DGRAM) as sock:
         start = time.monotonic()
         for i in range(count):
@@ -111,11 +106,11 @@ def send(
             try:
                 sock.sendto(data, target_address)
             except OSError as error:
-                raise _Fatal(f"cannot send to {shown}: {error}") from None
-    click.echo(f"sent {count} datagram(s) of {len(data)} bytes to {shown}", err=True)
+                raise Fatal(f"cannot send to {where}: {error}") from None
+    click.echo(f"sent {count} datagram(s) of {len(data)} bytes to {where}", err=True)
 
 
-@main.command()
+@click.command()
 @click.argument("address", metavar="[HOST:]PORT")
 @click.option("--count", type=click.IntRange(min=1), help="Stop after this many datagrams.")
 @click.option(
@@ -129,7 +124,7 @@ def send(
     show_default=True,
     help="auto: a live table on a terminal, JSON lines otherwise.",
 )
-@_schema_options
+@schema_options
 def listen(
     address: str,
     count: int | None,
@@ -143,63 +138,18 @@ def listen(
     Port 0 takes any free port; the address actually bound is the first line on stderr. The drop
     counters are printed when it stops: after --count datagrams, --seconds, or Ctrl-C.
     """
+    import asyncio
+
     host, port = _address(address, default_host="127.0.0.1")
-    codec = _load(tree, root)
+    codec = load(tree, root)
+    _, local = resolve(host, port)
     table = output == "table" or (output == "auto" and sys.stdout.isatty())
-    view = _Table() if table else None
-    source: list[str] = [""]  # the sender of the datagram being dispatched
-
-    def show(kind: str, message: Message, size: int) -> None:
-        if view is not None:
-            view.arrived(kind)
-        else:
-            _emit({"from": source[0], "kind": kind, "length": size, "message": _to_dict(message)})
-
-    def dropped(drop: Drop) -> None:
-        if view is None:
-            error = _one_line(str(drop.error)) if drop.error else f"no handler for {drop.kind}"
-            record = {"from": source[0], "error": error, "reason": drop.reason}
-            _emit({**record, "length": len(drop.data)})
-
-    dispatcher = Dispatcher(codec, on_drop=dropped)
-    sizes: list[int] = [0]
-
-    def handler(kind: str) -> Callable[[Message], None]:
-        return lambda message: show(kind, message, sizes[0])
-
-    for kind in codec.kinds().values():
-        dispatcher.register(kind, handler(kind))
-    family, local = _resolve(host, port)
-    received = 0
-    with socket.socket(family, socket.SOCK_DGRAM) as sock:
-        try:
-            sock.bind(local)
-        except OSError as error:
-            raise _Fatal(f"cannot listen on {_shown(local)}: {error}") from None
-        click.echo(f"listening on {_shown(sock.getsockname())}", err=True)
-        deadline = None if seconds is None else time.monotonic() + seconds
-        try:
-            while count is None or received < count:
-                wait = 0.5 if deadline is None else deadline - time.monotonic()
-                if wait <= 0:
-                    break
-                sock.settimeout(min(wait, 0.5))
-                try:
-                    data, sender = sock.recvfrom(_LARGEST_DATAGRAM)
-                except TimeoutError:
-                    if view is not None:
-                        view.render()
-                    continue
-                received += 1
-                source[0], sizes[0] = _shown(sender), len(data)
-                dispatcher.feed(data)
-                if view is not None:
-                    view.render()
-        except KeyboardInterrupt:
-            pass
-    stats = dispatcher.stats()
+    session = _Listening(codec, _Table() if table else None, count)
+    with contextlib.suppress(KeyboardInterrupt):  # Ctrl-C ends it as --count would
+        asyncio.run(session.run(local, seconds))
+    stats = session.dispatcher.stats()
     summary = {
-        "received": received,
+        "received": session.received,
         "handled": stats.handled,
         "undecodable": stats.undecodable,
         "dropped": stats.dropped,
@@ -207,29 +157,89 @@ def listen(
     click.echo(f"counters: {json.dumps(summary)}", err=True)
 
 
+class _Listening:
+    """One ``listen``: an endpoint whose every datagram is shown, a watchdog measuring rates."""
+
+    def __init__(self, codec: Codec, view: "_Table | None", count: int | None) -> None:
+        self.dispatcher = Dispatcher(codec, on_drop=self._dropped)
+        for kind in codec.kinds().values():
+            self.dispatcher.register(kind, self._shower(kind))
+        self.watchdog = Watchdog()
+        self.received = 0
+        self._view = view
+        self._count = count
+        self._source = ""  # the sender of the datagram being dispatched, and its length
+        self._length = 0
+
+    async def run(self, local: tuple[Any, ...], seconds: float | None) -> None:
+        import asyncio
+
+        loop = asyncio.get_running_loop()
+        finished = loop.create_future()
+        endpoint: UdpEndpoint | None = None
+
+        def heard(data: bytes, sender: Any) -> None:
+            self.received += 1
+            self._source, self._length = shown(sender), len(data)
+            if self._count is not None and self.received >= self._count:
+                if endpoint is not None:
+                    endpoint.close()  # this one is still dispatched; none after it is read
+                if not finished.done():
+                    finished.set_result(None)
+
+        try:
+            endpoint = await open_udp(
+                self.dispatcher, local[0], local[1], watchdog=self.watchdog, on_datagram=heard
+            )
+        except OSError as error:
+            raise Fatal(f"cannot listen on {shown(local)}: {error}") from None
+        host, port = endpoint.address
+        click.echo(f"listening on {shown((host, port))}", err=True)
+        drawing = loop.create_task(self._draw()) if self._view is not None else None
+        try:
+            await asyncio.wait([finished], timeout=seconds)
+        finally:
+            if drawing is not None:
+                drawing.cancel()
+            endpoint.close()
+        if self._view is not None:
+            self._view.render(self.dispatcher.stats(), self.watchdog)
+
+    async def _draw(self) -> None:
+        import asyncio
+
+        assert self._view is not None
+        while True:
+            self._view.render(self.dispatcher.stats(), self.watchdog)
+            await asyncio.sleep(_REDRAW)
+
+    def _shower(self, kind: str) -> Callable[[Message], None]:
+        def show(message: Message) -> None:
+            if self._view is None:
+                emit(
+                    {
+                        "from": self._source,
+                        "kind": kind,
+                        "length": self._length,
+                        "message": to_dict(message),
+                    }
+                )
+
+        return show
+
+    def _dropped(self, drop: Drop) -> None:
+        if self._view is None:
+            error = one_line(str(drop.error)) if drop.error else f"no handler for {drop.kind}"
+            record = {"from": self._source, "error": error, "reason": drop.reason}
+            emit({**record, "length": len(drop.data)})
+
+
 class _Table:
-    """A per-kind table of counts and measured rates, redrawn at most twice a second."""
+    """A per-kind table of counts and measured rates."""
 
-    def __init__(self) -> None:
-        self._counts: dict[str, int] = {}
-        self._first: dict[str, float] = {}
-        self._last: dict[str, float] = {}
-        self._drawn = 0.0
-
-    def arrived(self, kind: str) -> None:
-        now = time.monotonic()
-        self._counts[kind] = self._counts.get(kind, 0) + 1
-        self._first.setdefault(kind, now)
-        self._last[kind] = now
-
-    def render(self) -> None:
-        now = time.monotonic()
-        if now - self._drawn < 0.5:
-            return
-        self._drawn = now
+    def render(self, stats: DispatchStats, watchdog: Watchdog) -> None:
         lines = [f"{'kind':<34}{'count':>8}{'rate Hz':>10}"]
-        for kind in sorted(self._counts):
-            span = self._last[kind] - self._first[kind]
-            rate = (self._counts[kind] - 1) / span if span > 0 else 0.0
-            lines.append(f"{kind:<34}{self._counts[kind]:>8}{rate:>10.1f}")
+        for kind in sorted(stats.handled):
+            rate = watchdog.rate(kind) or 0.0
+            lines.append(f"{kind:<34}{stats.handled[kind]:>8}{rate:>10.1f}")
         click.echo("\x1b[H\x1b[2J" + "\n".join(lines))

@@ -1,0 +1,65 @@
+"""``erc-codec encode``: one payload, given as protobuf JSON, to a datagram in hex."""
+
+import sys
+from pathlib import Path
+from typing import cast
+
+import click
+
+from .._envelope import Mode
+from .._errors import EncodeError
+from .._framing import frame
+from ._shared import Fatal, envelope_from_json, load, one_line, schema_options
+
+__all__ = ["MODE", "encode"]
+
+MODE = click.option(
+    "--mode",
+    type=click.Choice(["strip", "exact", "pad"]),
+    default="strip",
+    show_default=True,
+    help="strip trailing zeros (the fleet's UDP form), exact protobuf, or pad to the envelope's "
+    "maximum size.",
+)
+
+
+@click.command()
+@click.argument("kind")
+@click.argument("payload", metavar="JSON")
+@MODE
+@click.option(
+    "--frame",
+    "framed",
+    is_flag=True,
+    help="Wrap the datagram in a Proton serial frame (50 52, length, payload, CRC-16).",
+)
+@schema_options
+def encode(kind: str, payload: str, mode: str, framed: bool, tree: Path | None, root: str) -> None:
+    """Encode one payload, given as protobuf JSON, and print the datagram in hex.
+
+    KIND is the envelope member that carries it (erc-codec sizes lists them,
+    e.g. gps_info). JSON is the payload in protobuf's JSON mapping: field names
+    as in the .proto or in lowerCamelCase, enums by name or number, 64-bit
+    integers as numbers or strings; fields left out are zero. '-' reads the
+    JSON from standard input.
+
+    \b
+      erc-codec encode gps_info '{"latitude": 52.2389, "fix_quality": "DGPS_FIX"}'
+      erc-codec encode gps_info '{"satellites": 9}' --frame | erc-codec decode --framed
+
+    \b
+    Exit status: 0 printed; 1 bad input: not JSON, not a payload of this kind
+    (unknown field, wrong type) or a message a nanopb receiver would drop or
+    misread (an undeclared enum value, a value over a nanopb limit); 2 usage
+    error: unknown KIND or option, or a schema that does not load. An error
+    about KIND, the JSON or the message is one line on stderr.
+    """
+    codec = load(tree, root)
+    if payload == "-" and sys.stdin is None:
+        raise Fatal("standard input is closed: give the JSON as an argument")
+    envelope = envelope_from_json(codec, kind, sys.stdin.read() if payload == "-" else payload)
+    try:
+        datagram = codec.encode(envelope, cast(Mode, mode))
+    except EncodeError as error:
+        raise click.ClickException(one_line(str(error))) from None
+    click.echo((frame(datagram) if framed else datagram).hex())

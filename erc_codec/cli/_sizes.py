@@ -1,0 +1,59 @@
+"""``erc-codec sizes``: every message's nanopb maximum size, and the envelope's members."""
+
+import json
+import re
+from pathlib import Path
+
+import click
+
+from ..schema import descriptor_of, message_of
+from ._shared import load, schema_options
+
+__all__ = ["sizes"]
+
+_DIRECTION = re.compile(r"direction:\s*(.+)", re.IGNORECASE)
+
+
+@click.command()
+@schema_options
+@click.option(
+    "--format",
+    "output",
+    type=click.Choice(["text", "json"]),
+    default="text",
+    show_default=True,
+)
+def sizes(tree: Path | None, root: str, output: str) -> None:
+    """Print every message's nanopb maximum size and the envelope's members."""
+    codec = load(tree, root)
+    members = []
+    for number, kind in sorted(codec.kinds().items()):
+        field = descriptor_of(codec.message_class(root)).fields_by_name[kind]
+        payload = message_of(field).full_name
+        note = _DIRECTION.search(codec.schema.comment(field.full_name))
+        members.append(
+            {
+                "number": number,
+                "kind": kind,
+                "type": payload,
+                "max_size": codec.max_size(payload),
+                "direction": note.group(1).strip() if note else None,
+            }
+        )
+    messages = dict(sorted(codec.sizes().items()))
+    if output == "json":
+        document = {"root": root, "max_size": codec.max_size(root), "members": members}
+        click.echo(json.dumps({**document, "messages": messages}, indent=2))
+        return
+    click.echo(f"{root} members")
+    click.echo(f"  {'#':>3}  {'kind':<34}{'payload':<36}{'max':>5}  direction")
+    for m in members:
+        click.echo(
+            f"  {m['number']:>3}  {m['kind']:<34}{m['type']:<36}{m['max_size']:>5}"
+            f"  {m['direction'] or '-'}"
+        )
+    click.echo(f"{root}_size {codec.max_size(root)}")
+    click.echo("")
+    click.echo("nanopb maximum encoded size of every message")
+    for name, size in messages.items():
+        click.echo(f"  {name:<44}{'runtime' if size is None else size:>8}")
