@@ -190,38 +190,46 @@ def _field_check(sizes: Sizes, field: FieldDescriptor, where: str) -> Callable[[
 
 
 def _element_check(sizes: Sizes, field: FieldDescriptor) -> Callable[[Any, str], None]:
+    """Check one item of a repeated field (a map's value), or the value of a single field."""
     if field.message_type is not None and field.message_type.GetOptions().map_entry:
         field = field.message_type.fields_by_name["value"]
     if field.type == _T.TYPE_ENUM:
-        allowed = frozenset(value.number for value in enum_of(field).values)
-        enum_name = enum_of(field).full_name
-
-        def enum_item(value: Any, path: str) -> None:
-            if value not in allowed:
-                raise EncodeError(f"{path} = {value} is not a declared value of {enum_name}")
-
-        return enum_item
+        return _enum_item(field)
     if field.type in (_T.TYPE_STRING, _T.TYPE_BYTES):
-        limit = sizes.max_bytes(field)
-        text = field.type == _T.TYPE_STRING
-
-        def sized_item(value: Any, path: str) -> None:
-            length = len(value.encode("utf-8")) if text else len(value)
-            if limit is not None and length > limit:
-                raise EncodeError(f"{path} is {length} bytes long, more than the {limit} allowed")
-
-        return sized_item
+        return _sized_item(sizes.max_bytes(field), field.type == _T.TYPE_STRING)
     bounds = sizes.int_range(field)
     if bounds is not None:
-        low, high = bounds
-
-        def ranged_item(value: Any, path: str) -> None:
-            if not low <= value <= high:
-                raise EncodeError(f"{path} = {value} does not fit nanopb int_size ({low}..{high})")
-
-        return ranged_item
+        return _ranged_item(*bounds)
     if field.type == _T.TYPE_MESSAGE:
         nested = checker(sizes, message_of(field))
         if nested is not None:
             return lambda value, path: nested(value)
     return lambda value, path: None
+
+
+def _enum_item(field: FieldDescriptor) -> Callable[[Any, str], None]:
+    allowed = frozenset(value.number for value in enum_of(field).values)
+    enum_name = enum_of(field).full_name
+
+    def enum_item(value: Any, path: str) -> None:
+        if value not in allowed:
+            raise EncodeError(f"{path} = {value} is not a declared value of {enum_name}")
+
+    return enum_item
+
+
+def _sized_item(limit: int | None, text: bool) -> Callable[[Any, str], None]:
+    def sized_item(value: Any, path: str) -> None:
+        length = len(value.encode("utf-8")) if text else len(value)
+        if limit is not None and length > limit:
+            raise EncodeError(f"{path} is {length} bytes long, more than the {limit} allowed")
+
+    return sized_item
+
+
+def _ranged_item(low: int, high: int) -> Callable[[Any, str], None]:
+    def ranged_item(value: Any, path: str) -> None:
+        if not low <= value <= high:
+            raise EncodeError(f"{path} = {value} does not fit nanopb int_size ({low}..{high})")
+
+    return ranged_item
