@@ -1,0 +1,28 @@
+"""Proton in Python: Clearpath's protobuf protocol for MCU <-> PC links."""
+
+from ._config import (
+    BundleConfig,
+    Config,
+    ConnectionConfig,
+    EndpointConfig,
+    NodeConfig,
+    ProtonConfigError,
+    SignalConfig,
+    load_config,
+    parse_config,
+)
+from ._types import Value, Version
+
+__all__ = [
+    "BundleConfig",
+    "Config",
+    "ConnectionConfig",
+    "EndpointConfig",
+    "NodeConfig",
+    "ProtonConfigError",
+    "SignalConfig",
+    "Value",
+    "Version",
+    "load_config",
+    "parse_config",
+]
