@@ -1,5 +1,6 @@
-"""Proton in Python: Clearpath's protobuf protocol for MCU <-> PC links."""
+"""Proton in Python: Clearpath's protobuf protocol for MCU <-> PC links (placeholder)."""
 
+from ._codec import Bundle, BundleCodec
 from ._config import (
     BundleConfig,
     Config,
@@ -14,6 +15,8 @@ from ._config import (
 from ._types import Value, Version
 
 __all__ = [
+    "Bundle",
+    "BundleCodec",
     "BundleConfig",
     "Config",
     "ConnectionConfig",

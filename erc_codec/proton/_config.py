@@ -445,7 +445,7 @@ class _Reader:
             ends[side] = tuple(listed)
         by_id = {signal.id: signal for signal, _ in signals.values()}
         members: list[str] = []
-        for field in self.sequence(keys["signals"]) if "signals" in keys else ():
+        for field in self.sequence(self.required(keys, "signals", item)):
             signal_id = self.integer(field)
             if signal_id not in by_id:
                 raise self.fail(field, f"no signal has id {signal_id:#x}")
