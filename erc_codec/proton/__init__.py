@@ -12,6 +12,7 @@ from ._config import (
     load_config,
     parse_config,
 )
+from ._node import Node, Sent
 from ._types import Value, Version
 
 __all__ = [
@@ -21,8 +22,10 @@ __all__ = [
     "Config",
     "ConnectionConfig",
     "EndpointConfig",
+    "Node",
     "NodeConfig",
     "ProtonConfigError",
+    "Sent",
     "SignalConfig",
     "Value",
     "Version",
