@@ -13,7 +13,9 @@ from ._config import (
     parse_config,
 )
 from ._node import Node, Sent
+from ._transport import LinkStats, ProtonUdp, open_proton_udp, run_proton_serial
 from ._types import Value, Version
+from ._udp_header import UdpHeader, split_udp_header
 
 __all__ = [
     "Bundle",
@@ -22,13 +24,19 @@ __all__ = [
     "Config",
     "ConnectionConfig",
     "EndpointConfig",
+    "LinkStats",
     "Node",
     "NodeConfig",
     "ProtonConfigError",
+    "ProtonUdp",
     "Sent",
     "SignalConfig",
+    "UdpHeader",
     "Value",
     "Version",
     "load_config",
+    "open_proton_udp",
     "parse_config",
+    "run_proton_serial",
+    "split_udp_header",
 ]

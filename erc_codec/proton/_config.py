@@ -73,6 +73,11 @@ class EndpointConfig(NamedTuple):
     device: str | None
     line: int
 
+    @property
+    def address(self) -> tuple[str, int] | None:
+        """``(ip, port)`` of a udp4 endpoint, ``None`` for a serial one."""
+        return None if self.ip is None or self.port is None else (self.ip, self.port)
+
 
 class NodeConfig(NamedTuple):
     """A participant of the network."""
