@@ -183,7 +183,13 @@ class Node:
         """Call ``handler(received)`` (a ``Bundle``) after each ``bundle`` received and applied."""
         config = self.codec.bundle(bundle)
         if config.id not in self._consumed:
-            raise EncodeError(f"bundle {bundle!r} is not consumed by node {self.name!r}")
+            raise ProtonConfigError(
+                self.codec.config.source,
+                config.line,
+                f"bundle {bundle!r}",
+                f"is not consumed by node {self.name!r} (its consumers: "
+                f"{', '.join(config.consumers)})",
+            )
         self._handlers[bundle] = handler
 
     def on(self, bundle: str) -> Callable[[H], H]:
