@@ -19,7 +19,8 @@ types), hypothesis draws values (full integer ranges, ±0, NaN, ±inf, subnormal
 strings and bytes, multi-byte UTF-8 to the last byte of a capacity); the C peer sets them through
 its own accessors and encodes: its bytes must be erc_codec's, exactly, and decode in Python to the
 same values; erc_codec's bytes must decode in C to the same values. Serial frames made by each
-library's helpers must deframe in the other.
+library's helpers must deframe in the other. And ``erc_codec.proton.Node`` must send what 2.0's
+node manager (``proton_node_update``) sends, in its order, polled at the same times.
 
 Without ``../shared``, gcc or jinja2 the tests skip, saying why, except when ERC_REQUIRE_INTEROP=1
 (CI), where they fail.
@@ -40,7 +41,7 @@ from hypothesis import strategies as st
 from proton_values import HERE, TYPES_1_0, TYPES_2_0, same, values
 
 import erc_codec
-from erc_codec.proton import BundleCodec, SignalConfig, Value
+from erc_codec.proton import BundleCodec, Node, SignalConfig, Value
 
 pytestmark = pytest.mark.interop
 
@@ -131,7 +132,7 @@ def programs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     _gcc(
         *("-std=c11", "-I", include, "-I", include / "proton" / "generated", "-I", nanopb),
         *("-I", generated, "-o", build / "driver2", HERE / "driver2.c"),
-        *(generated / "target_registry.c", *core, *runtime),
+        *(generated / "target_registry.c", generated / "target_node.c", *core, *runtime),
     )
     # 1.0: protonc, with nanopb's sources for 1.0's own .proto and .options.
     headers = build / "protonc-generated"
@@ -256,6 +257,41 @@ def test_the_c_registry_starts_where_the_configuration_says(programs: tuple[Path
         defaults = {name: TYPES_2_0.signal(name).default for name in bundle.signals}
         assert _same_values(decoded.signals, defaults), bundle.name
     assert "text_300" in TYPES_2_0.bundle("strings").signals  # whose 300 bytes were mostly NULs
+
+
+def test_node_sends_what_protons_node_manager_sends_when_it_does(
+    programs: tuple[Path, Path],
+) -> None:
+    """Node and Proton's node manager (``proton_node_update``, called until it has nothing left),
+    polled at the same uptimes (every 7 ms: on time, late, early) with the same triggers, send the
+    same bundles in the same order, as the same bytes, but for the heartbeat's counter: the C node
+    leaves counting it to its application."""
+    node = Node(TYPES_2_0, "mcu")
+    peer = Peer(programs[0])
+    triggers = {0: ["bools"], 203: ["doubles", "strings"], 469: ["everything", "blobs"]}
+    triggers |= {728: ["slow", "bools", "heartbeat"], 1001: ["int32s"]}
+    try:
+        # The same registry in both: the C one's strings and bytes start at their whole capacity.
+        setting = [f"S {s.id} {c_value(s, node.get(s.name))}" for s in TYPES_2_0.signals]
+        assert peer.ask(setting) == ["OK"] * len(setting)
+        sent = 0
+        for ms in range(0, 2001, 7):
+            names = triggers.get(ms, [])
+            for name in names:
+                node.trigger(name)
+            *triggered, polled = peer.ask(
+                [f"T {TYPES_2_0.bundle(name).id}" for name in names] + [f"P {ms}"]
+            )
+            assert triggered == ["OK"] * len(names)
+            theirs = [bytes.fromhex(message) for message in polled.split()[1:]]
+            ours = node.poll(ms / 1000)
+            assert [V2.decode(m).name for m in theirs] == [s.bundle for s in ours], ms
+            for mine, message in zip(ours, theirs, strict=True):
+                assert mine.bundle == "heartbeat" or mine.data == message, (ms, mine.bundle)
+            sent += len(ours)
+    finally:
+        peer.close()
+    assert sent > 60  # 40 heartbeats, 20 of everything, 16 slow and the triggered ones
 
 
 @pytest.mark.parametrize("bundle", [bundle.name for bundle in TYPES_1_0.bundles])

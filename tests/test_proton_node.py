@@ -48,9 +48,9 @@ def sends(node: Node, times: list[float]) -> dict[str, list[float]]:
 def test_periodic_bundles_follow_period_ms() -> None:
     node = Node(PERIODIC, "producer")
     seen = sends(node, [ms / 1000 for ms in range(0, 1001)])  # every millisecond for a second
-    assert seen["fast"] == [ms / 1000 for ms in range(0, 1001, 100)]
-    assert seen["slow"] == [ms / 1000 for ms in range(0, 1001, 120)]
-    assert seen["heartbeat"] == [ms / 1000 for ms in range(0, 1001, 50)]
+    assert seen["fast"] == [ms / 1000 for ms in range(100, 1001, 100)]  # the first poll: boot
+    assert seen["slow"] == [ms / 1000 for ms in range(120, 1001, 120)]
+    assert seen["heartbeat"] == [ms / 1000 for ms in range(50, 1001, 50)]
     assert "event" not in seen  # period_ms 0: sent only when triggered
 
 
@@ -60,17 +60,19 @@ def test_a_clock_in_seconds_that_does_not_add_up_exactly() -> None:
     for _ in range(30):
         times.append(now)
         now += 0.01  # 0.1 is never exactly ten of these
-    assert sends(node, times)["fast"] == [0.0, 0.1, 0.2]
+    assert sends(node, times)["fast"] == [0.1, 0.2]
 
 
-def test_the_first_poll_sends_every_periodic_bundle_most_overdue_first() -> None:
+def test_the_first_poll_is_the_nodes_boot_and_the_most_overdue_goes_first() -> None:
     node = Node(PERIODIC, "producer")
-    assert [s.bundle for s in node.poll(5.0)] == ["slow", "fast", "heartbeat"]  # ids descending
-    assert node.poll(5.0) == []
-    late = node.poll(5.25)  # fast 150 ms overdue, slow 130, heartbeat 200
+    assert node.poll(5.0) == []  # uptime 0: everything counts as just sent
+    assert [s.bundle for s in node.poll(5.05)] == ["heartbeat"]
+    assert [s.bundle for s in node.poll(5.1)] == ["fast", "heartbeat"]  # both on time: ids
+    assert [s.bundle for s in node.poll(5.12)] == ["slow"]
+    late = node.poll(5.4)  # heartbeat 250 ms overdue, fast 200, slow 160
     assert [s.bundle for s in late] == ["heartbeat", "fast", "slow"]
-    assert [s.bundle for s in node.poll(5.3)] == ["heartbeat"]  # counted from 5.25, not 5.2
-    assert [s.bundle for s in node.poll(5.35)] == ["fast", "heartbeat"]  # both on time: ids
+    assert [s.bundle for s in node.poll(5.45)] == ["heartbeat"]  # counted from 5.4, not 5.35
+    assert [s.bundle for s in node.poll(5.5)] == ["fast", "heartbeat"]
 
 
 def test_triggered_bundles_go_first_and_restart_the_period() -> None:
@@ -95,7 +97,8 @@ def test_a_clock_that_steps_back_never_sends_early() -> None:
 def test_what_is_sent_is_the_registry_encoded_for_its_consumers() -> None:
     node = Node(PERIODIC, "producer")
     node.set("value", 2.5)
-    by_name = {sent.bundle: sent for sent in node.poll(0.0)}
+    node.poll(0.0)
+    by_name = {sent.bundle: sent for sent in node.poll(0.12)}
     codec = BundleCodec(PERIODIC)
     assert by_name["fast"] == Sent("fast", codec.encode("fast", {"value": 2.5}), ("consumer",))
     assert by_name["slow"].peers == ("consumer",)  # bystander is a consumer, not a connection
@@ -115,7 +118,7 @@ def test_heartbeats_count_and_peers_go_active_and_inactive() -> None:
             if sent.bundle == "heartbeat":
                 beats.append(consumer.receive(sent.data, now).signals["beat"])
         consumer.poll(now)
-    assert beats == [1, 2, 3, 4, 5]
+    assert beats == [1, 2, 3, 4]  # at 50, 100, 150 and 200 ms
     assert consumer.peer_state("producer") is Liveness.ACTIVE
     assert changes == [("producer", Liveness.ACTIVE)]
     consumer.poll(0.25)  # 50 ms since the last: still within the period
@@ -132,8 +135,10 @@ def test_heartbeats_count_and_peers_go_active_and_inactive() -> None:
 def test_a_node_keeps_counting_its_own_heartbeats() -> None:
     node = Node(PERIODIC, "consumer")
     peer = Node(PERIODIC, "producer")
-    (mine,) = [s for s in node.poll(0.0) if s.bundle == "heartbeat"]
-    for now in (0.0, 0.05, 0.1):
+    node.poll(0.0)
+    peer.poll(0.0)
+    (mine,) = [s for s in node.poll(0.05) if s.bundle == "heartbeat"]
+    for now in (0.05, 0.1, 0.15):
         (theirs,) = [s for s in peer.poll(now) if s.bundle == "heartbeat"]
         node.receive(theirs.data, now)
     assert BundleCodec(PERIODIC).decode(mine.data).signals == {"beat": 1}
@@ -144,11 +149,12 @@ def test_heartbeat_timeout_and_peers_without_heartbeats() -> None:
     config = TYPES_2_0
     pc = Node(config, "pc", heartbeat_timeout=0.2)
     mcu = Node(config, "mcu")
-    (beat,) = [s for s in mcu.poll(0.0) if s.bundle == "heartbeat"]
-    pc.receive(beat.data, 0.0)
-    pc.poll(0.15)
+    mcu.poll(0.0)
+    (beat,) = [s for s in mcu.poll(0.05) if s.bundle == "heartbeat"]
+    pc.receive(beat.data, 0.05)
+    pc.poll(0.2)
     assert pc.peer_state("mcu") is Liveness.ACTIVE
-    pc.poll(0.21)
+    pc.poll(0.26)
     assert pc.peer_state("mcu") is Liveness.INACTIVE
     assert mcu.peer_state("pc") is Liveness.UNCONFIGURED  # pc sends no heartbeat
     with pytest.raises(KeyError, match="'robot' is not a peer of node 'mcu'"):
@@ -182,7 +188,8 @@ def test_what_does_not_decode_or_is_not_consumed_changes_nothing() -> None:
     pc = Node(TYPES_2_0, "pc")
     mcu = Node(TYPES_2_0, "mcu")
     mcu.set("a_double", 1.5)
-    (everything,) = [s for s in mcu.poll(0.0) if s.bundle == "everything"]
+    mcu.poll(0.0)
+    (everything,) = [s for s in mcu.poll(0.1) if s.bundle == "everything"]
     with pytest.raises(erc_codec.DecodeError) as caught:
         mcu.receive(everything.data, 0.0)  # mcu produces "everything", it does not consume it
     assert caught.value.reason == "not_consumed"
@@ -221,7 +228,8 @@ def test_misuse_is_a_typed_error_naming_what() -> None:
 def test_protocol_1_0_heartbeat_is_bundle_0_with_one_counter() -> None:
     mcu = Node(TYPES_1_0, "mcu", "1.0")
     pc = Node(TYPES_1_0, "pc", "1.0")
-    beats = [s for now in (0.0, 0.05, 0.1) for s in mcu.poll(now) if s.bundle == "heartbeat"]
+    times = (0.0, 0.05, 0.1, 0.15)
+    beats = [s for now in times for s in mcu.poll(now) if s.bundle == "heartbeat"]
     assert [s.data.hex() for s in beats] == ["12022801", "12022802", "12022803"]
     assert pc.receive(beats[0].data, 0.0) == Bundle("heartbeat", 0, {"beat": 1})
     assert pc.peer_state("mcu") is Liveness.ACTIVE

@@ -3,14 +3,14 @@ bundles and heartbeats it receives.
 
 Guarantees: the clock is the caller's (``now`` in seconds, any origin, kept to the microsecond);
 nothing here reads time, sleeps, starts a thread or touches a socket. ``poll(now)`` returns every
-bundle due at ``now``, encoded, in the order Proton's node manager (``proton_node_update``) would
-send them one by one: triggered bundles first, then periodic ones; within each, the most overdue
-first (the higher id first among equals, as the C node picks the last of its id-sorted table).
-A periodic bundle is due when ``period_ms`` has passed since it was last sent (sent when
-triggered counts), and at the first poll: unlike the C node, whose uptime starts at 0 at boot and
-so sends its first one a period later, this node's schedule starts at its first ``poll``. A late
-poll delays what follows, as in C (the period counts from the actual send); a clock that steps
-back never makes a bundle due early.
+bundle due at ``now``, encoded, in the order Proton's node manager (``proton_node_update``, called
+until it has nothing left) sends them: triggered bundles first, then periodic ones; within each,
+the most overdue first, the higher id first among equals (the C node picks the last of its
+id-sorted table). The first ``poll`` is the node's boot, as uptime 0 is the C node's: every bundle
+counts as sent then, so a periodic bundle first goes out ``period_ms`` after it, and then whenever
+``period_ms`` has passed since it was last sent (when triggered too). A late poll delays what
+follows, as in C (the period counts from the actual send). A clock that steps back never makes a
+bundle due early (the C node's unsigned uptime would make every bundle due at once).
 
 The registry holds the signals of the bundles the node produces or consumes (those Proton's
 generator puts in its registry), starting at their configured defaults; ``set`` refuses, with an
@@ -61,7 +61,7 @@ class _Schedule:
         self.config = config
         self.period = config.period_ms * 1000  # microseconds
         self.peers = peers
-        self.last: int | None = None  # when it was last sent (microseconds)
+        self.last = 0  # when it was last sent (microseconds; the first poll, until it is)
         self.triggered = False
 
 
@@ -98,6 +98,7 @@ class Node:
         }
         self._consumed = {b.id for b in mine if name in b.consumers}
         self._handlers: dict[str, Handler] = {}
+        self._booted = False
         self._watchdog = Watchdog()
         self._heartbeat = next((b for b in mine if b.id == _HEARTBEAT), None)
         if self._heartbeat is not None and self._heartbeat.id in self._consumed:
@@ -141,17 +142,21 @@ class Node:
     def poll(self, now: float) -> list[Sent]:
         """Every bundle due at ``now``, in the order to send them."""
         clock = round(now * _MICROSECONDS)
+        if not self._booted:  # uptime 0: everything counts as sent now
+            self._booted = True
+            for schedule in self._produced.values():
+                schedule.last = clock
         triggered: list[tuple[int, int, _Schedule]] = []
         periodic: list[tuple[int, int, _Schedule]] = []
         for schedule in self._produced.values():
-            if schedule.last is not None and clock < schedule.last:
+            if clock < schedule.last:
                 schedule.last = clock  # the clock stepped back: count the period from here
-            elapsed = None if schedule.last is None else clock - schedule.last
-            overdue = 0 if elapsed is None else max(0, elapsed - schedule.period)
+            elapsed = clock - schedule.last
+            overdue = max(0, elapsed - schedule.period)
             key = (overdue, schedule.config.id, schedule)
             if schedule.triggered:
                 triggered.append(key)
-            elif schedule.period and (elapsed is None or elapsed >= schedule.period):
+            elif schedule.period and elapsed >= schedule.period:
                 periodic.append(key)
         order = sorted(triggered, key=_priority) + sorted(periodic, key=_priority)
         sent = [self._send(schedule, clock) for _, _, schedule in order]

@@ -13,6 +13,9 @@
  *   F HEX      a serial frame around HEX, by proton_serial_fill_frame_header and _fill_crc16
  *   U HEX      one frame checked by proton_serial_get_framed_payload_length and
  *              _check_framed_payload                                 -> OK PAYLOAD | ERR status
+ *   T ID       proton_node_trigger_bundle(ID) on the generated node  -> OK | ERR status
+ *   P MS       proton_node_update at uptime MS until it has nothing more to send: every message
+ *              it encodes, in its order                             -> OK HEX... | ERR status
  */
 #define _POSIX_C_SOURCE 200809L
 
@@ -22,10 +25,12 @@
 #include <string.h>
 
 #include "proton/encode_decode.h"
+#include "proton/node_manager.h"
 #include "proton/registry.h"
 #include "proton/transport/serial.h"
 
 extern proton_registry_t g_proton_registry;
+extern proton_node_t g_target_node;
 
 static uint8_t g_in[1 << 17];
 static uint8_t g_out[1 << 17];
@@ -242,8 +247,30 @@ static void unframe(size_t len)
     put_hex(g_in + 4, payload_len);
 }
 
+static void update(uint64_t uptime_ms)
+{
+    proton_endpoint_t peers[8];
+    fputs("OK", stdout);
+    for (;;) {
+        size_t written = 0;
+        size_t selected = 0;
+        proton_status_e status = proton_node_update(
+            &g_target_node, uptime_ms, g_out, sizeof g_out, &written, peers, 8, &selected);
+        if (status != PROTON_OK) {
+            printf(" ERR%d", (int)status);
+            return;
+        }
+        if (written == 0) {
+            return; /* nothing was due: every Proton message is at least two bytes */
+        }
+        fputs(" ", stdout);
+        put_hex(g_out, written);
+    }
+}
+
 int main(void)
 {
+    g_target_node.registry = &g_proton_registry;
     char *line = NULL;
     size_t room = 0;
     ssize_t got;
@@ -270,6 +297,12 @@ int main(void)
             } else {
                 printf("ERR %d", (int)status);
             }
+        } else if (strcmp(verb, "T") == 0) {
+            proton_status_e status =
+                proton_node_trigger_bundle(&g_target_node, (uint32_t)strtoul(first, NULL, 0));
+            printf(status == PROTON_OK ? "OK" : "ERR %d", (int)status);
+        } else if (strcmp(verb, "P") == 0) {
+            update((uint64_t)strtoull(first, NULL, 0));
         } else if (strchr("DFU", verb[0]) != NULL && verb[1] == '\0' &&
                    from_hex(first, g_in, sizeof g_in, &len)) {
             if (verb[0] == 'D') {
