@@ -134,9 +134,9 @@ class BundleCodec:
         missing = [name for name in config.signals if name not in values]
         if missing:
             raise EncodeError(f"bundle {bundle!r} needs a value for {', '.join(missing)}")
-        return self.encode_checked(config, [self.check(n, values[n]) for n in config.signals])
+        return self._encode(config, [self.check(n, values[n]) for n in config.signals])
 
-    def encode_checked(self, bundle: BundleConfig, values: list[Value]) -> bytes:
+    def _encode(self, bundle: BundleConfig, values: list[Value]) -> bytes:
         """``bundle`` with values already checked (``check``), in its signals' order."""
         body = bytearray(_key(_BUNDLE_ID, VARINT) + encode_varint(bundle.id) if bundle.id else b"")
         for name, value in zip(bundle.signals, values, strict=True):

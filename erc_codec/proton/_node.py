@@ -171,7 +171,7 @@ class Node:
             beats = self._values[counter]
             assert isinstance(beats, int)  # the configuration makes it a uint32
             self._values[counter] = (beats + 1) % (1 << 32)
-        data = self.codec.encode_checked(bundle, [self._values[n] for n in bundle.signals])
+        data = self.codec.encode(bundle.name, {n: self._values[n] for n in bundle.signals})
         schedule.last, schedule.triggered = clock, False
         return Sent(bundle.name, data, schedule.peers)
 
