@@ -21,8 +21,11 @@ bundle this node does not consume, is a ``DecodeError`` and changes nothing.
 Heartbeats, as the seed describes them (bundle id 0, one uint32 signal): a node producing bundle 0
 adds one to its counter (modulo 2**32) each time it sends it. A peer producing bundle 0 that this
 node consumes is watched (an ``erc_codec.Watchdog``): INACTIVE until its first heartbeat, ACTIVE
-while they arrive, INACTIVE once none came within the timeout (by default one heartbeat period:
-"within the period"); a peer without heartbeats (or whose heartbeat has no period) is UNCONFIGURED.
+while they arrive, INACTIVE once none came within the timeout; a peer without heartbeats (or whose
+heartbeat has no period) is UNCONFIGURED. Proton's sources set no timeout. A sender following
+Proton's node manager sends heartbeats a period apart or more (later by however long its polls
+come after they are due), so a timeout of exactly one period would mark a healthy peer INACTIVE
+between its heartbeats: the default is the ``Watchdog``'s, three periods.
 A received heartbeat never overwrites the counter of a node that sends heartbeats itself.
 """
 
@@ -77,7 +80,7 @@ class Node:
         on_peer: PeerHandler | None = None,
     ) -> None:
         """``heartbeat_timeout``: seconds without a heartbeat before a peer is INACTIVE (default:
-        the heartbeat's period). ``on_peer(peer, state)`` hears every change of a peer's state."""
+        three heartbeat periods). ``on_peer(peer, state)`` hears every change of a peer's state."""
         if all(node.name != name for node in config.nodes):
             known = ", ".join(node.name for node in config.nodes)
             raise ProtonConfigError(
@@ -105,7 +108,7 @@ class Node:
             period = self._heartbeat.period_ms / 1000
             for peer in self._beating_peers():
                 if period > 0:
-                    self._watchdog.watch(peer, period, heartbeat_timeout or period)
+                    self._watchdog.watch(peer, period, heartbeat_timeout)
 
     @property
     def peers(self) -> tuple[str, ...]:
