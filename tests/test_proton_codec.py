@@ -201,6 +201,16 @@ def test_what_proton_would_refuse_or_misread_is_a_decode_error(
     assert problem in str(caught.value), str(caught.value)
 
 
+def test_floats_keep_their_bits_but_a_signalling_nan() -> None:
+    """CPython holds a float32 signalling NaN as a quiet one (documented in _codec.py)."""
+    for bits in ("7fc00001", "ffc00123", "80000000", "00000001", "7f7fffff"):
+        message = bundle2(0x101, signal2(field(2, 5, bytes.fromhex(bits)[::-1]), 0x11))
+        assert V2.encode("floats", V2.decode(message).signals) == message
+    signalling = bundle2(0x101, signal2(field(2, 5, bytes.fromhex("7f800001")[::-1]), 0x11))
+    quieted = bundle2(0x101, signal2(field(2, 5, bytes.fromhex("7fc00001")[::-1]), 0x11))
+    assert V2.encode("floats", V2.decode(signalling).signals) == quieted
+
+
 def test_a_string_padded_with_nuls_reads_as_the_c_registry_reads_it() -> None:
     """The generated registry sends a string at its whole capacity until it is first set."""
     padded = signal2(field(8, 2, b"foo" + bytes(5)), 0x18)

@@ -11,6 +11,11 @@ id, a signal the bundle lacks or carries twice, a value of another type, an inte
 type's range, a string or bytes value over its capacity, a string without its terminating NUL (2.0)
 or with bytes after it, a list of another length, a field Proton does not define.
 
+One value does not survive the trip through Python: a ``float`` signal holding a signalling NaN
+(exponent all ones, quiet bit clear) decodes to a Python float, which CPython 3.11 holds as a quiet
+NaN, so it re-encodes with the quiet bit set. Every other float, NaN payloads and -0.0 included,
+and every double, comes back bit for bit.
+
 The two versions (facts from ``2.0-d269668/proto`` and ``1.0-8c898cf/proto``):
 - 2.0: ``Proton { oneof operation { Bundle bundle = 1 } }``, ``Bundle { uint32 id = 1;
   repeated Signal signals = 2 }``, ``Signal { oneof signal { 1..9 }; uint32 id = 19 }`` (10 to 18
