@@ -123,6 +123,20 @@ def test_failures_are_one_line_with_their_status(args: list[str], code: int, tex
     assert text in one_line_error(run("proton", "decode", *args), code)
 
 
+def test_without_pyyaml_it_says_which_extra_to_install() -> None:
+    code = "import sys; sys.modules['yaml'] = None; from erc_codec.cli._main import main; main()"
+    done = subprocess.run(
+        [sys.executable, "-c", code, "proton", "decode", *CONFIG, "00"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 2
+    assert done.stderr == (
+        "Error: reading a Proton configuration needs pyyaml: pip install 'erc-codec[proton]'\n"
+    )
+
+
 def test_a_bad_configuration_names_its_line(tmp_path: Path) -> None:
     broken = tmp_path / "broken.yaml"
     broken.write_text((HERE / "types.yaml").read_text().replace("type: double}", "type: real}", 1))

@@ -60,8 +60,9 @@ def _codec(path: Path, protocol: str) -> BundleCodec:
     try:
         return BundleCodec(load_config(path), "1.0" if protocol == "1.0" else "2.0")
     except ModuleNotFoundError as error:
+        package = "pyyaml" if error.name == "yaml" else error.name
         raise Fatal(
-            f"reading a Proton configuration needs {error.name}: pip install 'erc-codec[proton]'"
+            f"reading a Proton configuration needs {package}: pip install 'erc-codec[proton]'"
         ) from None
     except CodecError as error:
         raise Fatal(one_line(str(error))) from None
