@@ -1,8 +1,9 @@
 """erc_codec: the ERC rover's PBEnvelope codec with nanopb-identical sizes.
 
 The public face is this module and ``erc_codec.schema`` (the schema layer: protoc, descriptors,
-nanopb options and sizes, wire primitives), with ``erc_codec.strategies`` for hypothesis users and
-``erc_codec.cli`` for what both command lines share. Everything else is private and free to change.
+nanopb options and sizes, wire primitives), with ``erc_codec.strategies`` for hypothesis users,
+``erc_codec.proton`` for Clearpath's Proton protocol and ``erc_codec.cli`` for what both command
+lines share. Everything else is private and free to change.
 """
 
 import warnings

@@ -1,25 +1,19 @@
 """``erc-codec decode``: datagrams (hex, standard input, a serial stream, a capture) to JSON."""
 
-import io
-import itertools
 import sys
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable
 from pathlib import Path
-from typing import cast
 
 import click
 
 from .._codec import Codec
 from .._errors import DecodeError
 from .._framing import Deframer
+from ._input import hex_lines, read_stdin
 from ._pcap import Capture
 from ._shared import Fatal, emit, load, one_line, plural, schema_options, to_dict, unhex
 
 __all__ = ["decode"]
-
-_HEX_TEXT = b"0123456789abcdefABCDEF \t\n\r\v\f:"  # what a line of hex text holds
-_TEXT = bytes(range(0x20, 0x7F)) + b"\t\n\r\v\f"  # printable ASCII and whitespace
-_CHUNK = 1 << 16
 
 
 class _Decoder:
@@ -64,57 +58,6 @@ class _Decoder:
                 "line": line,
             }
         )
-
-
-def _stdin() -> tuple[bool, Iterator[bytes]]:
-    """Whether standard input is hex text, and its chunks (whatever has arrived: ``read1``).
-
-    Hex text is text (printable ASCII and whitespace) whose first non-empty line spells at least
-    one whole byte in hex digits, spaces and colons, judged on the first chunk: a raw datagram is
-    almost never all that (a one-byte stripped datagram such as ``2`` or a newline is raw), and a
-    stray line of text later on is one ``not_hex`` error instead of turning the whole input into
-    one bogus datagram. Reading chunk by chunk decodes a pipe from a serial port or a
-    log that is still being written as it comes.
-    """
-    if sys.stdin is None:
-        raise Fatal("standard input is closed: give the datagrams as arguments or a file")
-    stream = cast(io.BufferedReader, sys.stdin.buffer)
-    first = stream.read1(_CHUNK)
-    rest = iter(lambda: stream.read1(_CHUNK), b"")
-    lines = first.split(b"\n")
-    line = next((line for line in lines if line.strip()), b"")
-    digits = len(line.translate(None, _HEX_TEXT.removeprefix(b"0123456789abcdefABCDEF")))
-    hex_text = (
-        not first.translate(None, _TEXT)
-        and not line.translate(None, _HEX_TEXT)
-        and digits >= 2
-        and digits % 2 == 0
-    )
-    return hex_text, itertools.chain([first], rest)
-
-
-def _lines(chunks: Iterable[bytes]) -> Iterator[tuple[int, str]]:
-    """Number and text (Latin-1, so every byte is one character) of each line of ``chunks``."""
-    pending = b""
-    number = 0
-    for chunk in chunks:
-        *lines, pending = (pending + chunk).split(b"\n")
-        for line in lines:
-            number += 1
-            yield number, line.decode("latin-1")
-    if pending:
-        yield number + 1, pending.decode("latin-1")
-
-
-def _hex_lines(decoder: _Decoder, chunks: Iterable[bytes]) -> Iterator[bytes]:
-    """The bytes of each non-empty line of hex text; a line that is not hex is reported."""
-    for number, line in _lines(chunks):
-        if not line.strip():
-            continue
-        try:
-            yield unhex(line)
-        except ValueError as error:
-            decoder.not_hex(number, str(error))
 
 
 def _deframe(decoder: _Decoder, chunks: Iterable[bytes], deframer: Deframer) -> str:
@@ -211,9 +154,9 @@ def decode(
         if given is not None:
             hex_text, chunks = False, iter([given])
         else:
-            hex_text, chunks = _stdin()
+            hex_text, chunks = read_stdin()
         if hex_text:
-            chunks = _hex_lines(decoder, chunks)
+            chunks = hex_lines(chunks, decoder.not_hex)
         if framed:
             summary = _deframe(decoder, chunks, Deframer.for_codec(codec))
         elif hex_text:

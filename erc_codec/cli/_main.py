@@ -6,6 +6,7 @@ from ._decode import decode
 from ._encode import encode
 from ._group import OneLineGroup
 from ._net import listen, send
+from ._proton import proton
 from ._sizes import sizes
 
 __all__ = ["main"]
@@ -17,5 +18,5 @@ def main() -> None:
     """Encode, decode and size the ERC rover's PBEnvelope datagrams."""
 
 
-for _command in (sizes, decode, encode, send, listen):
+for _command in (sizes, decode, encode, send, listen, proton):
     main.add_command(_command)

@@ -27,12 +27,13 @@ from .._watchdog import Watchdog
 from ._encode import MODE
 from ._shared import Fatal, emit, envelope_from_json, load, one_line, schema_options, to_dict
 
-__all__ = ["listen", "resolve", "send", "shown"]
+__all__ = ["listen", "parse_address", "resolve", "send", "shown"]
 
 _REDRAW = 0.5  # seconds between two drawings of the table
 
 
-def _address(text: str, default_host: str | None = None) -> tuple[str, int]:
+def parse_address(text: str, default_host: str | None = None) -> tuple[str, int]:
+    """``HOST:PORT`` (``[v6]:PORT`` too) as (host, port); ``PORT`` alone with a default host."""
     host, _, port = text.rpartition(":")
     host = host.removeprefix("[").removesuffix("]") if host.startswith("[") else host
     if not host and default_host is None:
@@ -89,7 +90,7 @@ def send(
       erc-codec send 127.0.0.1:5000 driving_motor_message \\
           '{"distance_to_go": 1.5}' --rate 10 --count 50
     """
-    host, port = _address(target)
+    host, port = parse_address(target)
     codec = load(tree, root)
     envelope = envelope_from_json(codec, kind, payload)
     try:
@@ -140,7 +141,7 @@ def listen(
     """
     import asyncio
 
-    host, port = _address(address, default_host="127.0.0.1")
+    host, port = parse_address(address, default_host="127.0.0.1")
     codec = load(tree, root)
     _, local = resolve(host, port)
     table = output == "table" or (output == "auto" and sys.stdout.isatty())

@@ -1,0 +1,310 @@
+"""``erc-codec proton decode`` and ``erc-codec proton listen``: Proton bundles, named by their
+configuration, as JSON lines.
+
+Both read Proton messages as ``erc_codec.proton.BundleCodec`` does (``--protocol`` 2.0 or 1.0) and
+print one JSON object per message: the bundle's name and id and its signals by name, valued as
+protobuf's JSON mapping values them (64-bit integers as strings, bytes as base64, NaN and the
+infinities as "NaN", "Infinity", "-Infinity"; a 1.0 list type as a list of those). A message that
+does not decode is an ``error`` object with its reason, and the rest go on.
+"""
+
+import base64
+import contextlib
+import json
+import math
+import sys
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import click
+
+from .._errors import CodecError, DecodeError
+from .._framing import Deframer
+from ..proton import BundleCodec, Value, load_config, split_udp_header
+from ..proton._transport import ProtonUdp, open_datagrams
+from ._input import hex_lines, read_stdin
+from ._net import parse_address, resolve, shown
+from ._pcap import Capture
+from ._shared import Fatal, emit, one_line, plural, unhex
+
+__all__ = ["proton"]
+
+_MAX_FRAME = 0xFFFF
+
+
+@click.group()
+def proton() -> None:
+    """Proton bundles (Clearpath's MCU <-> PC protocol), by a configuration's names."""
+
+
+_CONFIG = click.option(
+    "--config",
+    "config_path",
+    required=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    metavar="FILE",
+    help="The Proton configuration (YAML, as Proton's generator reads it).",
+)
+_PROTOCOL = click.option(
+    "--protocol",
+    type=click.Choice(["2.0", "1.0"]),
+    default="2.0",
+    show_default=True,
+    help="Proton's protocol version: 2.0 (signal ids) or 1.0 (the seed's, with list types).",
+)
+
+
+def _codec(path: Path, protocol: str) -> BundleCodec:
+    """The codec ``--config`` and ``--protocol`` name (one that does not load: exit 2)."""
+    try:
+        return BundleCodec(load_config(path), "1.0" if protocol == "1.0" else "2.0")
+    except ModuleNotFoundError as error:
+        package = "pyyaml" if error.name == "yaml" else error.name
+        raise Fatal(
+            f"reading a Proton configuration needs {package}: pip install 'erc-codec[proton]'"
+        ) from None
+    except CodecError as error:
+        raise Fatal(one_line(str(error))) from None
+
+
+def json_value(type_name: str, value: Value) -> Any:
+    """A signal's value as protobuf's JSON mapping writes a field of its type."""
+    if isinstance(value, list):
+        element = type_name.removeprefix("list_")
+        return [json_value(element, item) for item in value]
+    if isinstance(value, bytes):
+        return base64.b64encode(value).decode("ascii")
+    if isinstance(value, float) and not math.isfinite(value):
+        return "NaN" if math.isnan(value) else "Infinity" if value > 0 else "-Infinity"
+    if type_name in ("int64", "uint64"):
+        return str(value)
+    return value
+
+
+class _Printer:
+    """Decodes messages and prints one JSON line for each, counting the failures."""
+
+    def __init__(self, codec: BundleCodec) -> None:
+        self.codec = codec
+        self.messages = 0
+        self.failed = 0
+        self.bad_lines = 0
+        self.bundles: dict[str, int] = {}
+        self.errors: dict[str, int] = {}
+
+    def message(
+        self, data: bytes, where: dict[str, object] | None = None, udp: bool = True
+    ) -> None:
+        """Print one message (a datagram's, with its optional UDP header when ``udp``)."""
+        self.messages += 1
+        header, message = split_udp_header(data) if udp else (None, data)
+        record: dict[str, object] = dict(where or {})
+        if header is not None:
+            record["node_id"] = header.node_id
+        try:
+            bundle = self.codec.decode(message)
+        except DecodeError as error:
+            self.failed += 1
+            self.errors[error.reason] = self.errors.get(error.reason, 0) + 1
+            error_line = {"error": one_line(str(error)), "reason": error.reason}
+            emit({**record, **error_line, "length": len(data)})
+            return
+        self.bundles[bundle.name] = self.bundles.get(bundle.name, 0) + 1
+        signals = {
+            name: json_value(self.codec.config.signal(name).type, value)
+            for name, value in bundle.signals.items()
+        }
+        emit(
+            {
+                **record,
+                "bundle": bundle.name,
+                "id": bundle.id,
+                "length": len(data),
+                "signals": signals,
+            }
+        )
+
+    def not_hex(self, line: int, problem: str) -> None:
+        self.bad_lines += 1
+        emit(
+            {
+                "error": f"line {line} is not hex: {problem}",
+                "reason": "not_hex",
+                "length": None,
+                "line": line,
+            }
+        )
+
+
+@proton.command()
+@click.argument("data", nargs=-1, metavar="[HEX... | -]")
+@_CONFIG
+@_PROTOCOL
+@click.option(
+    "--pcap",
+    "capture",
+    type=click.Path(path_type=Path),
+    metavar="FILE",
+    help="Decode every UDP payload of a pcap or pcapng capture (needs the pcap extra: dpkt).",
+)
+@click.option(
+    "--framed",
+    is_flag=True,
+    help="The input is a serial byte stream of Proton frames: decode each frame's payload.",
+)
+def decode(
+    data: tuple[str, ...], config_path: Path, protocol: str, capture: Path | None, framed: bool
+) -> None:
+    """Decode Proton messages to JSON: one object per message, one per line, on stdout.
+
+    \b
+    Input, as for erc-codec decode, one of:
+      HEX...      one message in hex (spaces and colons may separate digits)
+      - or none   standard input: hex text, one message per non-empty line,
+                  else raw bytes: one message
+      --pcap FILE every UDP payload of a pcap or pcapng capture
+    With --framed, HEX or standard input is a serial stream of Proton frames.
+    A datagram's 4-byte Proton 2.0 UDP header, when it has one, is read and
+    its node id shown ("node_id").
+
+    \b
+    Output, one line per message:
+      {"bundle": "status", "id": 256, "length": 31, "signals": {...}}
+      {"error": "...", "reason": "unknown_bundle", "length": 5}
+    (reasons: empty, corrupt, unknown_bundle, unsupported_operation; not_hex,
+    with "line", for a line of standard input that is not hex). With --pcap
+    every object starts with "time", "src" and "dst"; --pcap and --framed end
+    with a summary line on stderr.
+
+    \b
+    Exit status: 0 every message decoded; 1 at least one did not, or a line
+    was not hex; 2 usage error, a configuration that does not load (one line
+    naming its file, line and key), unreadable or damaged capture, or --pcap
+    without dpkt.
+    """
+    if capture is not None and (data or framed):
+        raise click.UsageError("--pcap reads the capture only: give no HEX, '-' or --framed")
+    if "-" in data and len(data) > 1:
+        raise click.UsageError("'-' (standard input) cannot be combined with HEX")
+    given = None
+    if data and data != ("-",):
+        try:
+            given = unhex(" ".join(data))
+        except ValueError as error:
+            raise click.BadParameter(str(error), param_hint="HEX") from None
+    codec = _codec(config_path, protocol)
+    printer = _Printer(codec)
+    summary: str | None = None
+    if capture is not None:
+        with Capture(capture) as packets:
+            summary = _from_capture(printer, packets)
+    else:
+        hex_text, chunks = (False, iter([given])) if given is not None else read_stdin()
+        if hex_text:
+            chunks = hex_lines(chunks, printer.not_hex)
+        if framed:
+            summary = _deframe(printer, chunks)
+        elif hex_text:
+            for message in chunks:
+                printer.message(message)
+        else:  # one message: HEX (even an empty one), or raw standard input unless empty
+            whole = b"".join(chunks)
+            if whole or given is not None:
+                printer.message(whole)
+    if summary is not None:
+        click.echo(summary, err=True)
+    sys.exit(1 if printer.failed or printer.bad_lines else 0)
+
+
+def _deframe(printer: _Printer, chunks: Iterable[bytes]) -> str:
+    deframer = Deframer(max_length=_MAX_FRAME)
+    for chunk in chunks:
+        for payload in deframer.feed(chunk):
+            printer.message(payload, udp=False)
+    stats = deframer.stats()
+    parts = [plural(stats.frames, "frame"), f"{printer.failed} undecodable"]
+    if stats.discarded_bytes:
+        reasons = ", ".join(f"{why} {n}" for why, n in sorted(stats.discarded_bytes.items()))
+        parts.append(f"{plural(sum(stats.discarded_bytes.values()), 'byte')} discarded ({reasons})")
+    if deframer.buffered():
+        parts.append(f"{plural(deframer.buffered(), 'byte')} left in an unfinished frame")
+    if printer.bad_lines:
+        parts.append(f"{plural(printer.bad_lines, 'line')} not hex")
+    return ", ".join(parts)
+
+
+def _from_capture(printer: _Printer, capture: Capture) -> str:
+    for datagram in capture.datagrams():
+        where = {"time": datagram.time, "src": datagram.source, "dst": datagram.destination}
+        printer.message(datagram.data, where)
+    skipped = capture.skipped
+    reasons = ", ".join(f"{count} {why}" for why, count in sorted(skipped.items()))
+    summary = (
+        f"{plural(printer.messages, 'datagram')}, {printer.failed} undecodable, "
+        f"{plural(sum(skipped.values()), 'packet')} skipped" + (f" ({reasons})" if reasons else "")
+    )
+    if capture.damage:
+        click.echo(summary, err=True)
+        raise Fatal(one_line(capture.damage))
+    return summary
+
+
+@proton.command()
+@click.argument("address", metavar="[HOST:]PORT")
+@_CONFIG
+@_PROTOCOL
+@click.option("--count", type=click.IntRange(min=1), help="Stop after this many datagrams.")
+@click.option(
+    "--seconds", type=click.FloatRange(min=0, min_open=True), help="Stop after this long."
+)
+def listen(
+    address: str, config_path: Path, protocol: str, count: int | None, seconds: float | None
+) -> None:
+    """Print the Proton datagrams arriving on [HOST:]PORT (host 127.0.0.1 unless given).
+
+    One JSON line per datagram, as decode prints them, each with "from"
+    (address:port). Port 0 takes any free port; the address actually bound is
+    the first line on stderr. It stops after --count datagrams, --seconds, or
+    Ctrl-C, and prints its counters on stderr. Exit status 0; 2 for a usage
+    error, a configuration that does not load or an address it cannot bind.
+    """
+    import asyncio
+
+    host, port = parse_address(address, default_host="127.0.0.1")
+    printer = _Printer(_codec(config_path, protocol))
+    _, local = resolve(host, port)
+    with contextlib.suppress(KeyboardInterrupt):  # Ctrl-C ends it as --count would
+        asyncio.run(_listen(printer, local, count, seconds))
+    counters = {
+        "received": printer.messages,
+        "bundles": printer.bundles,
+        "undecodable": printer.errors,
+    }
+    click.echo(f"counters: {json.dumps(counters)}", err=True)
+
+
+async def _listen(
+    printer: _Printer, local: tuple[Any, ...], count: int | None, seconds: float | None
+) -> None:
+    import asyncio
+
+    finished = asyncio.get_running_loop().create_future()
+    endpoint: ProtonUdp | None = None
+
+    def heard(data: bytes, sender: Any) -> None:
+        if finished.done():
+            return  # already read when --count was reached
+        printer.message(data, {"from": shown(sender)})
+        if count is not None and printer.messages >= count:
+            finished.set_result(None)
+
+    try:
+        endpoint = await open_datagrams(heard, local[0], local[1])
+    except OSError as error:
+        raise Fatal(f"cannot listen on {shown(local)}: {error}") from None
+    click.echo(f"listening on {shown(endpoint.address)}", err=True)
+    try:
+        await asyncio.wait([finished], timeout=seconds)
+    finally:
+        endpoint.close()

@@ -1,0 +1,55 @@
+"""Proton in Python: Clearpath's protobuf protocol for MCU <-> PC links, byte for byte with Proton's
+own C libraries, in protocol 2.0 and in 1.0 (the one Proton's documentation describes).
+
+- configurations: ``load_config``/``parse_config`` (Proton's YAML, read as its generator reads it)
+  into ``Config`` records; a mistake is a ``ProtonConfigError`` naming the file, line and key;
+- bundles: ``BundleCodec(config, version)`` encodes a bundle's values and decodes a message to a
+  ``Bundle``;
+- a node: ``Node`` (sans-IO, an injected clock) holds the registry, says what is due (``Sent``),
+  applies what arrives, sends and watches heartbeats (peers as ``erc_codec.Liveness``);
+- links: ``open_proton_udp`` and ``run_proton_serial`` (asyncio, loaded only inside a loop),
+  ``split_udp_header`` for a 2.0 sender's UDP header.
+
+Reading a configuration needs the ``proton`` extra (pyyaml); nothing else here does.
+"""
+
+from ._codec import Bundle, BundleCodec
+from ._config import (
+    BundleConfig,
+    Config,
+    ConnectionConfig,
+    EndpointConfig,
+    NodeConfig,
+    ProtonConfigError,
+    SignalConfig,
+    load_config,
+    parse_config,
+)
+from ._node import Node, Sent
+from ._transport import LinkStats, ProtonUdp, open_proton_udp, run_proton_serial
+from ._types import Value, Version
+from ._udp_header import UdpHeader, split_udp_header
+
+__all__ = [
+    "Bundle",
+    "BundleCodec",
+    "BundleConfig",
+    "Config",
+    "ConnectionConfig",
+    "EndpointConfig",
+    "LinkStats",
+    "Node",
+    "NodeConfig",
+    "ProtonConfigError",
+    "ProtonUdp",
+    "Sent",
+    "SignalConfig",
+    "UdpHeader",
+    "Value",
+    "Version",
+    "load_config",
+    "open_proton_udp",
+    "parse_config",
+    "run_proton_serial",
+    "split_udp_header",
+]

@@ -1,0 +1,349 @@
+"""erc_codec.proton against Proton's own C libraries, byte for byte, both directions, both versions.
+
+The session builds two real peers once, from the sources beside the repository
+(``../shared/peers/proton``, Apache-2.0, unmodified):
+
+- Proton 2.0 (``2.0-d269668``): its C core (registry, ``proton_encode_bundle``, ``proton_decode``,
+  serial framing helpers) with its vendored nanopb, and the registry its own generator
+  (``generator_scripts/generator.py``, which needs jinja2 and pyyaml) writes for node ``mcu`` of
+  tests/proton/types.yaml, linked with our tests/proton/driver2.c;
+- Proton 1.0 (``1.0-8c898cf``, the seed's protocol): its C runtime ``protonc`` (``PROTON_Encode``,
+  ``PROTON_Decode``, its framing helpers) with the nanopb sources that nanopb's generator writes
+  from 1.0's own ``proto/`` and ``.options`` (version 0.4.9.1 from the test extra: the version of
+  the nanopb runtime Proton vendors, which both builds use). protonc's own generator is not
+  published: tests/proton/driver1.c builds at run time, from tests/proton/types_1_0.yaml, the
+  ``proton_bundle_t`` and ``proton_signal_t`` structures that generator wrote.
+
+For every bundle of those configurations (every signal type: 2.0's nine, 1.0's nine and nine list
+types), hypothesis draws values (full integer ranges, ±0, NaN, ±inf, subnormals, empty and full
+strings and bytes, multi-byte UTF-8 to the last byte of a capacity); the C peer sets them through
+its own accessors and encodes: its bytes must be erc_codec's, exactly, and decode in Python to the
+same values; erc_codec's bytes must decode in C to the same values. Serial frames made by each
+library's helpers must deframe in the other. And ``erc_codec.proton.Node`` must send what 2.0's
+node manager (``proton_node_update``) sends, in its order, polled at the same times.
+
+Without ``../shared``, gcc or jinja2 the tests skip, saying why, except when ERC_REQUIRE_INTEROP=1
+(CI), where they fail.
+"""
+
+import importlib.util
+import os
+import shutil
+import struct
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from proton_values import HERE, TYPES_1_0, TYPES_2_0, same, values
+
+import erc_codec
+from erc_codec.proton import BundleCodec, Node, SignalConfig, Value
+
+pytestmark = pytest.mark.interop
+
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "peers" / "proton"
+CORE = SHARED / "2.0-d269668"
+PROTONC = SHARED / "1.0-8c898cf"
+V2 = BundleCodec(TYPES_2_0)
+V1 = BundleCodec(TYPES_1_0, "1.0")
+_LAYOUTS = {"double": "<d", "float": "<f", "int32": "<i", "int64": "<q"}
+_LAYOUTS |= {"uint32": "<I", "uint64": "<Q", "bool": "<?"}
+_SETTINGS = settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+
+
+class Peer:
+    """A running driver: one request line in, one answer line out."""
+
+    def __init__(self, program: Path) -> None:
+        self._process = subprocess.Popen(
+            [str(program)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, bufsize=1
+        )
+
+    def ask(self, requests: list[str]) -> list[str]:
+        assert self._process.stdin is not None
+        assert self._process.stdout is not None
+        self._process.stdin.write("".join(f"{request}\n" for request in requests))
+        self._process.stdin.flush()
+        answers: list[str] = []
+        while len(answers) < len(requests):
+            line = self._process.stdout.readline()
+            assert line, "the C peer stopped"
+            if not line.startswith("Error: "):  # protonc prints nanopb's error first, on stdout
+                answers.append(line.rstrip("\n"))
+        return answers
+
+    def close(self) -> None:
+        assert self._process.stdin is not None
+        assert self._process.stdout is not None
+        self._process.stdin.close()
+        assert self._process.wait(timeout=10) == 0
+        self._process.stdout.close()
+
+
+def _missing() -> str:
+    if not SHARED.is_dir():
+        return f"Proton's sources beside the repository ({SHARED})"
+    if shutil.which("gcc") is None:
+        return "gcc"
+    for module, package in (("jinja2", "jinja2"), ("yaml", "pyyaml"), ("nanopb", "nanopb")):
+        if importlib.util.find_spec(module) is None:
+            return f"{package} (the test extra: pip install -e '.[test]')"
+    return ""
+
+
+def _gcc(*args: str | Path) -> None:
+    done = subprocess.run(["gcc", "-O1", *map(str, args)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+
+
+@pytest.fixture(scope="session")
+def programs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """The two drivers, built once per session."""
+    missing = _missing()
+    if missing:
+        reason = f"Proton interop tests need {missing}"
+        if os.environ.get("ERC_REQUIRE_INTEROP") == "1":
+            pytest.fail(f"ERC_REQUIRE_INTEROP=1 but {reason}")
+        pytest.skip(reason)
+    build = tmp_path_factory.mktemp("proton")
+    nanopb = CORE / "external" / "nanopb"
+    runtime = sorted(nanopb.glob("pb_*.c"))
+    # 2.0: the registry for node mcu, as Proton's generator writes it, and the core around it.
+    generated = build / "mcu"
+    subprocess.run(
+        [
+            sys.executable,
+            str(CORE / "generator_scripts" / "generator.py"),
+            *("-c", str(HERE / "types.yaml"), "-t", "mcu", "-d", str(generated)),
+        ],
+        check=True,
+        capture_output=True,
+    )
+    core = [
+        *sorted((CORE / "core" / "src").glob("*.c")),
+        *sorted((CORE / "core" / "src" / "generated").glob("*.c")),
+        *sorted((CORE / "core" / "src" / "transport").glob("*.c")),
+    ]
+    include = CORE / "core" / "include"
+    _gcc(
+        *("-std=c11", "-I", include, "-I", include / "proton" / "generated", "-I", nanopb),
+        *("-I", generated, "-o", build / "driver2", HERE / "driver2.c"),
+        *(generated / "target_registry.c", generated / "target_node.c", *core, *runtime),
+    )
+    # 1.0: protonc, with nanopb's sources for 1.0's own .proto and .options.
+    headers = build / "protonc-generated"
+    (headers / "protonc").mkdir(parents=True)
+    subprocess.run(
+        [
+            *(sys.executable, "-m", "nanopb.generator.nanopb_generator", "-q", "-I", "."),
+            *("-D", str(headers / "protonc"), "bundle.proto", "signal.proto"),
+        ],
+        cwd=PROTONC / "proto",
+        check=True,
+        capture_output=True,
+    )
+    _gcc(
+        *("-std=c11", "-I", headers, "-I", PROTONC / "protonc" / "include", "-I", nanopb),
+        *("-o", build / "driver1", HERE / "driver1.c"),
+        *sorted((PROTONC / "protonc" / "src").glob("*.c")),
+        *sorted((headers / "protonc").glob("*.pb.c")),
+        *runtime,
+    )
+    return build / "driver2", build / "driver1"
+
+
+@pytest.fixture(scope="session")
+def core(programs: tuple[Path, Path]) -> Iterator[Peer]:
+    """Proton 2.0's core, its registry shared by every test that talks to it."""
+    peer = Peer(programs[0])
+    yield peer
+    peer.close()
+
+
+@pytest.fixture(scope="session")
+def protonc(programs: tuple[Path, Path]) -> Iterator[Peer]:
+    """Proton 1.0's protonc, with every bundle of types_1_0.yaml described to it."""
+    peer = Peer(programs[1])
+    described = peer.ask(
+        [f"B {bundle.id} {_specs(bundle.signals)}" for bundle in TYPES_1_0.bundles]
+    )
+    assert described == ["OK"] * len(TYPES_1_0.bundles)
+    yield peer
+    peer.close()
+
+
+def _specs(names: tuple[str, ...]) -> str:
+    specs = []
+    for name in names:
+        signal = TYPES_1_0.signal(name)
+        specs.append(f"{signal.type}:{signal.length}:{signal.capacity}")
+    return " ".join(specs)
+
+
+def c_value(signal: SignalConfig, value: Value) -> str:
+    """A value as the drivers take and print it: the C variable's bytes, in hex."""
+    element = signal.type.removeprefix("list_")
+    if isinstance(value, list):
+        return ",".join(_c_item(element, item) for item in value)
+    return _c_item(element, value)
+
+
+def _c_item(element: str, value: object) -> str:
+    if isinstance(value, str):
+        data = value.encode("utf-8")
+    elif isinstance(value, bytes):
+        data = value
+    else:
+        data = struct.pack(_LAYOUTS[element], value)
+    return data.hex() or "-"
+
+
+def decoded_line(bundle_id: int, items: list[str]) -> str:
+    return " ".join(["OK", str(bundle_id), *items])
+
+
+def _values(codec: BundleCodec, bundle: str, data: st.DataObject) -> dict[str, Value]:
+    config = codec.config
+    return {
+        name: codec.check(name, data.draw(values(config.signal(name), codec.version), label=name))
+        for name in config.bundle(bundle).signals
+    }
+
+
+def _same_values(got: dict[str, Value], sent: dict[str, Value]) -> bool:
+    return list(got) == list(sent) and all(same(got[name], sent[name]) for name in sent)
+
+
+@pytest.mark.parametrize("bundle", [bundle.name for bundle in TYPES_2_0.bundles])
+@given(data=st.data())
+@_SETTINGS
+def test_bundles_byte_for_byte_with_protons_c_core(
+    core: Peer, bundle: str, data: st.DataObject
+) -> None:
+    config = TYPES_2_0.bundle(bundle)
+    sent = _values(V2, bundle, data)
+    ours = V2.encode(bundle, sent)
+    signals = [TYPES_2_0.signal(name) for name in config.signals]
+    *set_, encoded, decoded = core.ask(
+        [f"S {s.id} {c_value(s, sent[s.name])}" for s in signals]
+        + [f"E {config.id}", f"D {ours.hex()}"]
+    )
+    assert set_ == ["OK"] * len(signals)
+    # 1. The C core's encoding of these values is erc_codec's, byte for byte.
+    assert encoded == f"OK {ours.hex()}"
+    # 2. erc_codec decodes the C core's bytes to the values it was given.
+    assert _same_values(V2.decode(bytes.fromhex(encoded[3:])).signals, sent)
+    # 3. The C core decodes erc_codec's bytes to the same values, read back through its getters.
+    assert decoded == decoded_line(
+        config.id, [f"{s.id}={c_value(s, sent[s.name])}" for s in signals]
+    )
+
+
+def test_the_c_registry_starts_where_the_configuration_says(programs: tuple[Path, Path]) -> None:
+    """Until a signal is first set, the generated registry sends string and bytes signals at their
+    whole capacity (a string padded with NULs): erc_codec reads each as the configured default."""
+    peer = Peer(programs[0])
+    try:
+        answers = peer.ask([f"E {bundle.id}" for bundle in TYPES_2_0.bundles])
+    finally:
+        peer.close()
+    for bundle, answer in zip(TYPES_2_0.bundles, answers, strict=True):
+        assert answer.startswith("OK ")
+        decoded = V2.decode(bytes.fromhex(answer[3:]))
+        defaults = {name: TYPES_2_0.signal(name).default for name in bundle.signals}
+        assert _same_values(decoded.signals, defaults), bundle.name
+    assert "text_300" in TYPES_2_0.bundle("strings").signals  # whose 300 bytes were mostly NULs
+
+
+def test_node_sends_what_protons_node_manager_sends_when_it_does(
+    programs: tuple[Path, Path],
+) -> None:
+    """Node and Proton's node manager (``proton_node_update``, called until it has nothing left),
+    polled at the same uptimes (every 7 ms: on time, late, early) with the same triggers, send the
+    same bundles in the same order, as the same bytes, but for the heartbeat's counter: the C node
+    leaves counting it to its application."""
+    node = Node(TYPES_2_0, "mcu")
+    peer = Peer(programs[0])
+    triggers = {0: ["bools"], 203: ["doubles", "strings"], 469: ["everything", "blobs"]}
+    triggers |= {728: ["slow", "bools", "heartbeat"], 1001: ["int32s"]}
+    try:
+        # The same registry in both: the C one's strings and bytes start at their whole capacity.
+        setting = [f"S {s.id} {c_value(s, node.get(s.name))}" for s in TYPES_2_0.signals]
+        assert peer.ask(setting) == ["OK"] * len(setting)
+        sent = 0
+        for ms in range(0, 2001, 7):
+            names = triggers.get(ms, [])
+            for name in names:
+                node.trigger(name)
+            *triggered, polled = peer.ask(
+                [f"T {TYPES_2_0.bundle(name).id}" for name in names] + [f"P {ms}"]
+            )
+            assert triggered == ["OK"] * len(names)
+            theirs = [bytes.fromhex(message) for message in polled.split()[1:]]
+            ours = node.poll(ms / 1000)
+            assert [V2.decode(m).name for m in theirs] == [s.bundle for s in ours], ms
+            for mine, message in zip(ours, theirs, strict=True):
+                assert mine.bundle == "heartbeat" or mine.data == message, (ms, mine.bundle)
+            sent += len(ours)
+    finally:
+        peer.close()
+    assert sent > 60  # 40 heartbeats, 20 of everything, 16 slow and the triggered ones
+
+
+@pytest.mark.parametrize("bundle", [bundle.name for bundle in TYPES_1_0.bundles])
+@given(data=st.data())
+@_SETTINGS
+def test_bundles_byte_for_byte_with_protonc(
+    protonc: Peer, bundle: str, data: st.DataObject
+) -> None:
+    config = TYPES_1_0.bundle(bundle)
+    sent = _values(V1, bundle, data)
+    ours = V1.encode(bundle, sent)
+    signals = [TYPES_1_0.signal(name) for name in config.signals]
+    *set_, encoded, decoded = protonc.ask(
+        [f"S {config.id} {i} {c_value(s, sent[s.name])}" for i, s in enumerate(signals)]
+        + [f"E {config.id}", f"D {ours.hex()}"]
+    )
+    assert set_ == ["OK"] * len(signals)
+    assert encoded == f"OK {ours.hex()}"
+    assert _same_values(V1.decode(bytes.fromhex(encoded[3:])).signals, sent)
+    assert decoded == decoded_line(config.id, [c_value(s, sent[s.name]) for s in signals])
+
+
+def _frames_agree(peers: tuple[Peer, ...], payload: bytes) -> None:
+    ours = erc_codec.frame(payload)
+    for peer in peers:
+        # One request at a time: two long ones in a row would fill both pipes (a deadlock).
+        (framed,) = peer.ask([f"F {payload.hex() or '-'}"])
+        (unframed,) = peer.ask([f"U {ours.hex()}"])
+        assert framed == f"OK {ours.hex()}"  # Proton's helpers frame as erc_codec does
+        assert unframed == f"OK {payload.hex() or '-'}"  # and accept erc_codec's frame
+        deframer = erc_codec.Deframer(max_length=0xFFFF)
+        stream = bytes.fromhex(framed[3:])
+        assert deframer.feed(stream[:3]) + deframer.feed(stream[3:]) == [payload]
+
+
+@given(payload=st.binary(max_size=1024))
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_serial_frames_deframe_in_the_other_library(
+    core: Peer, protonc: Peer, payload: bytes
+) -> None:
+    _frames_agree((core, protonc), payload)
+
+
+@pytest.mark.parametrize("length", [255, 256, 65534, 65535])
+def test_the_longest_frames_too(core: Peer, protonc: Peer, length: int) -> None:
+    """Lengths whose two bytes both matter, up to Proton's maximum (a uint16)."""
+    _frames_agree((core, protonc), bytes(range(256)) * (length // 256) + bytes(length % 256))
+
+
+def test_a_bad_crc_is_refused_by_both(core: Peer, protonc: Peer) -> None:
+    broken = bytearray(erc_codec.frame(b"\x0a\x00"))
+    broken[-1] ^= 0x01
+    assert core.ask([f"U {broken.hex()}"]) == [f"ERR {11}"]  # PROTON_CRC16_ERROR
+    assert protonc.ask([f"U {broken.hex()}"]) == ["ERR crc"]
+    assert erc_codec.Deframer(max_length=16).feed(bytes(broken)) == []
