@@ -1,16 +1,30 @@
 """The fixed-size contract on encode: what a nanopb receiver would drop or misread is refused."""
 
+import random
+import struct
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import pytest
+from datagrams import (
+    MODES,
+    Build,
+    assert_all_forms,
+    descriptor,
+    fill_random,
+    fill_widest,
+    h,
+    members,
+    new,
+)
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from google.protobuf.message import Message
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import erc_codec
-from erc_codec import strategies
+from erc_codec import Codec, EncodeError, strategies
 from erc_codec.schema import descriptor_of, enum_of, message_of
 
 CODEC = erc_codec.Codec.default()
@@ -107,3 +121,161 @@ def test_values_at_the_limits_are_sent() -> None:
 @given(strategies.messages(LIMITS, "LimitsRecord"))
 def test_strategies_respect_every_limit(message: Message) -> None:
     assert LIMITS.decode(LIMITS.encode(message)).message == message
+
+
+# -- undeclared enum values, payload by payload ------------------------------------------------
+
+
+def _gps_fix_99(codec: Codec) -> Message:
+    return cast(Message, new(codec, "SensorBoardGPSInfo", latitude=1.0, fix_quality=99))
+
+
+def _nested_gps_fix_minus_one(codec: Codec) -> Message:
+    message = new(codec, "SensorBoardDiagnostics", state=1)
+    message.gps_sensor_1.fix_quality = -1
+    return cast(Message, message)
+
+
+def _nested_motor_state_7(codec: Codec) -> Message:
+    message = new(codec, "DrivingBoardDiagnostics", state=1)
+    message.front_left_motor.state = 2
+    message.back_left_motor.state = 7
+    return cast(Message, message)
+
+
+def _top_level_state_1000(codec: Codec) -> Message:
+    return cast(Message, new(codec, "ArmBoardDiagnostics", state=1000))
+
+
+def _nested_sensor_state(codec: Codec) -> Message:
+    message = new(codec, "SensorBoardDiagnostics")
+    message.imu_sensor.error_code = 9
+    return cast(Message, message)
+
+
+ENUM_ERRORS: list[tuple[str, Build, str, str, str]] = [
+    ("top level", _gps_fix_99, "gps_info", "SensorBoardGPSInfo.fix_quality", "= 99"),
+    (
+        "nested -1",
+        _nested_gps_fix_minus_one,
+        "sensor_diagnostics",
+        "SensorBoardDiagnostics.gps_sensor_1.fix_quality",
+        "= -1",
+    ),
+    (
+        "nested motor",
+        _nested_motor_state_7,
+        "driving_diagnostics",
+        "DrivingBoardDiagnostics.back_left_motor.state",
+        "= 7",
+    ),
+    ("wide value", _top_level_state_1000, "arm_diagnostics", "ArmBoardDiagnostics.state", "= 1000"),
+    (
+        "nested imu",
+        _nested_sensor_state,
+        "sensor_diagnostics",
+        "SensorBoardDiagnostics.imu_sensor.error_code",
+        "= 9",
+    ),
+]
+
+
+_ENUM_NAMES = {
+    "top level": "GPSFixQuality",
+    "nested -1": "GPSFixQuality",
+    "nested motor": "MotorState",
+    "wide value": "ArmBoardState",
+    "nested imu": "IMUErrorCode",
+}
+
+
+@pytest.mark.parametrize(
+    ("case", "build", "kind", "path", "value"),
+    ENUM_ERRORS,
+    ids=[case[0] for case in ENUM_ERRORS],
+)
+@pytest.mark.parametrize("mode", MODES)
+def test_encode_rejects_undeclared_enum_values(
+    codec: Codec, case: str, build: Build, kind: str, path: str, value: str, mode: erc_codec.Mode
+) -> None:
+    payload = build(codec)
+    envelope = new(codec, "PBEnvelope")
+    getattr(envelope, kind).CopyFrom(payload)
+    for message in (payload, envelope):
+        with pytest.raises(EncodeError) as caught:
+            codec.encode(message, mode)
+        text = str(caught.value)
+        assert path in text
+        assert value in text
+        assert _ENUM_NAMES[case] in text
+
+
+def test_an_enum_error_clears_once_the_value_is_declared(codec: Codec) -> None:
+    message = new(codec, "DrivingBoardDiagnostics")
+    message.back_left_motor.state = 7
+    with pytest.raises(EncodeError, match=r"DrivingBoardDiagnostics\.back_left_motor\.state = 7"):
+        codec.encode(message)
+    message.back_left_motor.state = 3  # declared again: fine
+    assert codec.decode(codec.encode(message)).message == message
+
+
+def _payload_enum_cases(codec: Codec) -> Iterator[tuple[str, str, str, list[int], str]]:
+    """(member, payload type, dotted path, declared numbers, enum full name) of every enum field
+    of every payload."""
+    for member in members(codec):
+        payload = message_of(member)
+        for path, field in enum_paths(payload):
+            numbers = [value.number for value in enum_of(field).values]
+            yield member.name, payload.full_name, path, numbers, enum_of(field).full_name
+
+
+def test_every_enum_field_of_every_payload_is_checked(codec: Codec) -> None:
+    """An undeclared value anywhere, whatever the rest of the payload holds, is refused."""
+    rng = random.Random(99)
+    cases = list(_payload_enum_cases(codec))
+    assert len(cases) >= 40
+    refused = 0
+    for kind, name, path, numbers, enum in cases:
+        undeclared = [max(numbers) + 1, 99, 127, 128, 1000, 2**31 - 1, -1, -(2**31)]
+        for value in undeclared:
+            assert value not in numbers
+            for filler in ("empty", "widest", "random"):
+                payload = codec.message_class(name)()
+                if filler == "widest":
+                    fill_widest(payload)
+                elif filler == "random":
+                    fill_random(rng, payload)
+                set_path(payload, path, value)
+                envelope = new(codec, "PBEnvelope")
+                getattr(envelope, kind).CopyFrom(payload)
+                for message in (payload, envelope):
+                    mode = rng.choice(MODES)
+                    with pytest.raises(EncodeError) as caught:
+                        codec.encode(message, mode)
+                    text = str(caught.value)
+                    assert f"{name}.{path} = {value}" in text, (text, name, path, value)
+                    assert enum in text, text
+                    refused += 1
+    assert refused == len(cases) * 8 * 3 * 2
+
+
+def test_float_bytes_that_look_like_a_bad_enum_are_not_refused(codec: Codec) -> None:
+    """Bytes of a float can spell an enum tag and an undeclared value: that is no error."""
+    (lookalike,) = struct.unpack("<f", h("08 07 08 63"))  # "state = 7", "state = 99"
+    (negative,) = struct.unpack("<f", h("08 ff 48 ff"))  # "state = -1...", "fix_quality = ..."
+    message = new(codec, "DrivingBoardDiagnostics", state=2)
+    for field in descriptor(message).fields[1:]:
+        motor = getattr(message, field.name)
+        motor.state = 1
+        motor.rpm = lookalike
+        motor.voltage = negative
+        motor.encoder_angle = lookalike
+    body = message.SerializeToString()
+    assert h("08 07") in body
+    assert h("08 ff") in body
+    assert_all_forms(codec, message)
+    sensors = new(codec, "SensorBoardDiagnostics", state=1, board_temperature=lookalike)
+    sensors.gps_sensor_1.altitude = negative
+    sensors.imu_sensor.accel_x = struct.unpack("<f", h("70 63 78 63"))[0]  # state, error_code
+    sensors.imu_sensor.error_code = 8
+    assert_all_forms(codec, sensors)
