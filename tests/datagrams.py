@@ -4,8 +4,13 @@ Imported as conftest is (``from datagrams import h, new``); it holds no tests. E
 written out by hand from the protobuf wire format and cross-checked against protobuf's own
 serialization of the envelope. The packaged schema's PBEnvelope has 21 members; members 1..15 have
 one-byte tags (``number << 3 | 2``), members 16..21 two-byte tags.
+
+The one generator of hostile datagrams is here too (``hostile_datagrams``): the fuzzer of
+test_properties.py runs on it, and so do the tests holding a speed trick of the decoding side to
+its plain version.
 """
 
+import functools
 import math
 import random
 import struct
@@ -14,9 +19,11 @@ from typing import Any, cast
 
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from google.protobuf.message import Message
+from hypothesis import strategies as st
 
 import erc_codec
-from erc_codec import Codec, Decoded
+from erc_codec import Codec, Decoded, strategies
+from erc_codec.schema import LEN, encode_varint
 
 MAX = 255  # nanopb's PBEnvelope_size for the packaged schema
 MODES: tuple[erc_codec.Mode, ...] = ("exact", "strip", "pad")
@@ -412,3 +419,84 @@ def random_payloads(codec: Codec, seed: int, per_member: int) -> Iterator[tuple[
         cls = codec.message_class(field.message_type.full_name)
         for _ in range(per_member):
             yield field.name, fill_random(rng, cls())
+
+
+# -- hostile datagrams -------------------------------------------------------------------------
+
+
+@functools.cache
+def payloads(codec: Codec, kind: str) -> st.SearchStrategy[Message]:
+    """Any payload member ``kind`` carries, as ``erc_codec.strategies`` draws them."""
+    return strategies.messages(codec, descriptor(codec.payload_class(kind)).full_name)
+
+
+@functools.cache
+def sent_datagrams(codec: Codec) -> st.SearchStrategy[bytes]:
+    """What a sender may send: any payload of any member in any form, or an edge datagram."""
+    kinds = sorted(codec.kinds().values())
+
+    @st.composite
+    def encoded(draw: st.DrawFn) -> bytes:
+        message = draw(payloads(codec, draw(st.sampled_from(kinds))))
+        return codec.encode(message, draw(st.sampled_from(MODES)))
+
+    return st.one_of(st.sampled_from(valid_datagrams(codec)), encoded())
+
+
+def arbitrary_bytes(codec: Codec) -> st.SearchStrategy[bytes]:
+    """Any bytes, up to a little longer than the envelope."""
+    return st.binary(max_size=codec.max_size(codec.root) + 8)
+
+
+def behind_a_member_tag(codec: Codec) -> st.SearchStrategy[bytes]:
+    """A member's tag (one byte or two; this schema's members and some it lacks), a length of one
+    byte or two, then any bytes: cut anywhere, some zero-padded."""
+    longest = codec.max_size(codec.root)
+    tags = [encode_varint(number << 3 | LEN) for number in [*sorted(codec.kinds()), 22, 100, 2047]]
+
+    @st.composite
+    def build(draw: st.DrawFn) -> bytes:
+        data = draw(st.sampled_from(tags)) + encode_varint(draw(st.integers(0, longest + 45)))
+        data += draw(st.binary(max_size=60))
+        data = data[: draw(st.integers(1, len(data)))]
+        if draw(st.booleans()):
+            data += bytes(draw(st.integers(0, longest)))
+        return data
+
+    return build()
+
+
+MUTATIONS = ("flip", "cut", "insert", "delete", "pad", "strip")
+
+
+def mutated_datagrams(codec: Codec) -> st.SearchStrategy[bytes]:
+    """What a sender may send, then one to four of: a bit flipped, the end cut off, bytes inserted,
+    a byte deleted, zeros appended (sometimes past the envelope's size), trailing zeros cut."""
+    longest = codec.max_size(codec.root)
+
+    @st.composite
+    def mutate(draw: st.DrawFn) -> bytes:
+        data = bytearray(draw(sent_datagrams(codec)))
+        for _ in range(draw(st.integers(1, 4))):
+            action = draw(st.sampled_from(MUTATIONS))
+            at = draw(st.integers(0, max(len(data) - 1, 0)))
+            if action == "flip" and data:
+                data[at] ^= 1 << draw(st.integers(0, 7))
+            elif action == "cut":
+                del data[at:]
+            elif action == "insert":
+                data[at:at] = draw(st.binary(min_size=1, max_size=4))
+            elif action == "delete" and data:
+                del data[at]
+            elif action == "pad":
+                data += bytes(draw(st.integers(1, longest)))
+            elif action == "strip":
+                data = bytearray(bytes(data).rstrip(b"\0"))
+        return bytes(data)
+
+    return mutate()
+
+
+def hostile_datagrams(codec: Codec) -> st.SearchStrategy[bytes]:
+    """Whatever may arrive: any bytes, bytes behind a member tag, mutated datagrams."""
+    return st.one_of(arbitrary_bytes(codec), behind_a_member_tag(codec), mutated_datagrams(codec))
