@@ -10,41 +10,33 @@ from collections.abc import Callable
 
 import pytest
 from datagrams import (
+    MAX,
+    MODES,
     arbitrary_bytes,
     behind_a_member_tag,
     h,
     mutated_datagrams,
+    payloads,
     widest_driving_diagnostics,
 )
 from google.protobuf.message import DecodeError as ProtobufDecodeError
-from google.protobuf.message import Message
 from google.protobuf.unknown_fields import UnknownFieldSet
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import erc_codec
-from erc_codec import Decoded, strategies
-from erc_codec.schema import SGROUP, descriptor_of, message_of
+from erc_codec import Decoded
+from erc_codec.schema import SGROUP
 
 CODEC = erc_codec.Codec.default()
 ENVELOPE = CODEC.message_class("PBEnvelope")
-MAX = CODEC.max_size("PBEnvelope")
 KINDS = sorted(CODEC.kinds().values())
-MODES: list[erc_codec.Mode] = ["strip", "exact", "pad"]
-
-
-def payload_type(kind: str) -> str:
-    return message_of(descriptor_of(ENVELOPE).fields_by_name[kind]).full_name
-
-
-def payloads(kind: str) -> st.SearchStrategy[Message]:
-    return strategies.messages(CODEC, payload_type(kind))
 
 
 @pytest.mark.parametrize("kind", KINDS)
 @given(data=st.data())
 def test_every_mode_round_trips(kind: str, data: st.DataObject) -> None:
-    message = data.draw(payloads(kind))
+    message = data.draw(payloads(CODEC, kind))
     exact = CODEC.encode(message, "exact")
     wrapped = ENVELOPE()
     getattr(wrapped, kind).CopyFrom(message)
@@ -66,7 +58,7 @@ def test_stripped_and_padded_forms_of_an_envelope_decode_alike(
     kind: str, data: st.DataObject
 ) -> None:
     envelope = ENVELOPE()
-    getattr(envelope, kind).CopyFrom(data.draw(payloads(kind)))
+    getattr(envelope, kind).CopyFrom(data.draw(payloads(CODEC, kind)))
     exact = envelope.SerializeToString()
     # Every length between stripped and padded is a form some sender may use.
     width = data.draw(st.integers(len(exact.rstrip(b"\0")), MAX))
@@ -200,5 +192,5 @@ def test_mutated_datagrams_decode_or_raise_decode_error(data: bytes) -> None:
 @given(data=st.data())
 @settings(max_examples=25)
 def test_strategy_draws_only_sendable_messages(kind: str, data: st.DataObject) -> None:
-    message = data.draw(payloads(kind))
+    message = data.draw(payloads(CODEC, kind))
     assert len(CODEC.encode(message, "exact")) <= MAX
