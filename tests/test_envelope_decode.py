@@ -4,6 +4,7 @@ Stripped datagrams get back the zeros their last field needs, padded ones lose t
 explicitly present zeros survive both; anything else is a DecodeError saying what and where.
 """
 
+import contextlib
 import math
 from pathlib import Path
 from typing import Any, cast
@@ -16,10 +17,14 @@ from datagrams import (
     Build,
     assert_decodes_to,
     h,
+    hostile_datagrams,
     new,
+    payloads,
     valid_datagrams,
 )
 from google.protobuf.message import DecodeError as ProtobufDecodeError
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import erc_codec
 from erc_codec import Codec, DecodeError
@@ -207,6 +212,56 @@ def test_cutting_only_trailing_zeros_never_changes_the_message(codec: Codec) -> 
         stripped = data.rstrip(b"\0")
         for length in range(len(stripped), len(data) + 1):
             assert codec.decode(data[:length]) == expected
+
+
+# -- decode is peek and one parse --------------------------------------------------------------
+
+# Envelope.decode repeats Envelope.peek's arithmetic inline, for the decode target of
+# benchmarks/bench_codec.py; these hold the copy to the original.
+CODEC = Codec.default()
+KINDS = sorted(CODEC.kinds().values())
+
+
+def assert_decode_is_peek_and_a_parse(data: bytes) -> None:
+    """Where ``peek`` locates a payload, ``decode`` gives that payload parsed by its class, or a
+    DecodeError exactly where that parse fails; elsewhere it decodes or raises DecodeError."""
+    found = CODEC.peek(data)
+    if found is None:
+        with contextlib.suppress(DecodeError):
+            CODEC.decode(data)
+        return
+    kind, payload = found
+    try:
+        expected = CODEC.payload_class(kind).FromString(payload)
+    except ProtobufDecodeError:
+        with pytest.raises(DecodeError, match=rf"its {kind} payload of {len(payload)} bytes"):
+            CODEC.decode(data)
+        return
+    decoded = CODEC.decode(data)
+    # (kind, expected), compared as bytes: == cannot tell -0.0 from 0.0, nor NaN from itself
+    assert decoded.kind == kind
+    assert type(decoded.message) is type(expected)
+    assert decoded.message.SerializeToString() == expected.SerializeToString()
+
+
+@pytest.mark.parametrize("kind", KINDS)
+@given(data=st.data())
+@settings(max_examples=50)
+def test_decode_is_peek_and_a_parse_on_every_form(kind: str, data: st.DataObject) -> None:
+    """Every form of every payload type: exact, stripped, padded and every length between."""
+    message = data.draw(payloads(CODEC, kind))
+    exact = CODEC.encode(message, "exact")
+    stripped = exact.rstrip(b"\0")
+    datagram = (stripped + bytes(MAX))[: data.draw(st.integers(len(stripped), MAX))]
+    # Every datagram a sender writes has the usual shape: peek finds its exact payload.
+    assert CODEC.peek(datagram) == (kind, message.SerializeToString())
+    assert_decode_is_peek_and_a_parse(datagram)
+
+
+@given(hostile_datagrams(CODEC))
+@settings(max_examples=500, suppress_health_check=[HealthCheck.too_slow])
+def test_decode_is_peek_and_a_parse_on_hostile_bytes(data: bytes) -> None:
+    assert_decode_is_peek_and_a_parse(data)
 
 
 # -- explicit presence and fixed-width integers (tests/schema_trees/presence) ------------------
