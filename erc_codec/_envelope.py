@@ -60,7 +60,7 @@ class Decoded(NamedTuple):
 
 
 # Builds a Decoded without NamedTuple's Python-level __new__, for the decode target of
-# benchmarks/bench_codec.py (decode <= 1.25x the bare runtime); tests/test_envelope.py holds it
+# benchmarks/bench_codec.py (decode <= 1.25x the bare runtime); tests/test_codec.py holds it
 # equal to Decoded(kind, message).
 _decoded = tuple.__new__
 
