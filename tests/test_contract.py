@@ -97,6 +97,10 @@ def record(**values: Any) -> Message:
         ({"palette": {1: 5}}, r"LimitsRecord.palette\[0\] = 5 is not a declared value"),
         ({"small": 65536}, r"LimitsRecord.small = 65536 does not fit nanopb int_size \(0..65535\)"),
         ({"colour": 299}, r"LimitsRecord.colour = 299 is not a declared value of LimitsColour"),
+        ({"origin": {"colour": 2}}, r"LimitsRecord.origin.colour = 2 is not a declared value"),
+        ({"origin": {"x": 128}}, r"LimitsPoint.x = 128 does not fit nanopb int_size"),
+        ({"places": {1: {}, 2: {}, 3: {}}}, r"LimitsRecord.places holds 3 items"),
+        ({"places": {7: {"x": -129}}}, r"LimitsPoint.x = -129 does not fit nanopb int_size"),
     ],
 )
 def test_nanopb_limits_are_enforced(values: dict[str, Any], complaint: str) -> None:
@@ -114,6 +118,8 @@ def test_values_at_the_limits_are_sent() -> None:
         palette={1: 300, 2: 0},
         small=65535,
         colour=300,
+        origin={"x": 127, "colour": 1},
+        places={1: {"x": -128, "colour": 300}, 2: {}},
     )
     assert LIMITS.decode(LIMITS.encode(widest)).message == widest
 
