@@ -25,6 +25,7 @@ from datagrams import (
 
 import erc_codec
 from erc_codec import Codec, Decoded, DecodeError, EncodeError
+from erc_codec.schema import Sizes
 
 # -- the codec's public surface ----------------------------------------------------------------
 
@@ -59,6 +60,29 @@ def test_message_class_is_the_envelope_member_class(codec: Codec) -> None:
     envelope = new(codec, "PBEnvelope")
     assert type(envelope.gps_info) is codec.message_class("SensorBoardGPSInfo")
     assert descriptor(codec.message_class("MotorInformation")).full_name == "MotorInformation"
+
+
+def test_payload_class_is_the_class_each_member_carries(codec: Codec) -> None:
+    envelope = new(codec, "PBEnvelope")
+    for kind in ENVELOPE_MEMBERS.values():
+        cls = codec.payload_class(kind)
+        assert type(getattr(envelope, kind)) is cls
+        assert codec.message_class(descriptor(cls).full_name) is cls
+    assert codec.payload_class("gps_info") is codec.message_class("SensorBoardGPSInfo")
+    with pytest.raises(erc_codec.SchemaError, match=r"'gps' is not a payload kind of PBEnvelope"):
+        codec.payload_class("gps")
+
+
+def test_schema_and_nanopb_are_the_codecs_own(codec: Codec) -> None:
+    assert codec.root == codec.schema.root.full_name == "PBEnvelope"
+    assert codec.schema.message_class("MotorInformation") is codec.message_class("MotorInformation")
+    assert isinstance(codec.nanopb, Sizes)
+    assert codec.nanopb is codec.nanopb  # one Sizes, computed once
+    assert codec.nanopb.max_size("PBEnvelope") == codec.max_size("PBEnvelope") == MAX
+    assert codec.nanopb.all() == codec.sizes()
+    gps = descriptor(codec.message_class("SensorBoardGPSInfo"))
+    assert codec.nanopb.max_size(gps.full_name) == 71
+    assert not codec.nanopb.ignored(gps.fields_by_name["fix_quality"])
 
 
 def test_decoded_is_a_named_tuple(codec: Codec) -> None:
