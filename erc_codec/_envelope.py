@@ -60,7 +60,7 @@ class Decoded(NamedTuple):
 
 
 # Builds a Decoded without NamedTuple's Python-level __new__, for the decode target of
-# benchmarks/bench_codec.py (decode <= 1.25x the bare runtime); tests/test_envelope.py holds it
+# benchmarks/bench_codec.py (decode <= 1.25x the bare runtime); tests/test_codec.py holds it
 # equal to Decoded(kind, message).
 _decoded = tuple.__new__
 
@@ -242,8 +242,8 @@ class Envelope:
         """The payload of a datagram in exact, stripped or zero-padded form."""
         # peek's arithmetic, written out here once more: the call to peek would cost a tenth of
         # a decode, and the decode target of benchmarks/bench_codec.py (exact datagrams in at
-        # most 1.25x the bare runtime's time) has no tenth to spare. tests/test_envelope.py holds
-        # decode equal to peek and a parse, on every form and on hostile bytes.
+        # most 1.25x the bare runtime's time) has no tenth to spare. tests/test_envelope_decode.py
+        # holds decode equal to peek and a parse, on every form and on hostile bytes.
         size = len(data)
         if not 0 < size <= self._max_size:
             return self._decode_envelope(data)  # raises the right error

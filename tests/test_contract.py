@@ -1,17 +1,37 @@
-"""The fixed-size contract on encode: what a nanopb receiver would drop or misread is refused."""
+"""The fixed-size contract on encode: what a nanopb receiver would drop or misread is refused.
 
+The contract's compiled checks and byte screens are held to a plain recursive reading of the same
+rules (``plain_complaints``), on the rover's payload types and on tests/contract_tree.
+"""
+
+import functools
+import random
+import struct
+from collections.abc import Callable, Iterator, Mapping, MutableMapping
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import pytest
+from datagrams import (
+    MODES,
+    Build,
+    assert_all_forms,
+    descriptor,
+    fill_random,
+    fill_widest,
+    h,
+    members,
+    new,
+)
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from google.protobuf.message import Message
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import erc_codec
-from erc_codec import strategies
-from erc_codec.schema import descriptor_of, enum_of, message_of
+from erc_codec import Codec, EncodeError, strategies
+from erc_codec._contract import Contract, contract
+from erc_codec.schema import Sizes, descriptor_of, enum_of, message_of
 
 CODEC = erc_codec.Codec.default()
 LIMITS = erc_codec.Codec.from_path(Path(__file__).parent / "contract_tree", root="LimitsEnvelope")
@@ -83,6 +103,10 @@ def record(**values: Any) -> Message:
         ({"palette": {1: 5}}, r"LimitsRecord.palette\[0\] = 5 is not a declared value"),
         ({"small": 65536}, r"LimitsRecord.small = 65536 does not fit nanopb int_size \(0..65535\)"),
         ({"colour": 299}, r"LimitsRecord.colour = 299 is not a declared value of LimitsColour"),
+        ({"origin": {"colour": 2}}, r"LimitsRecord.origin.colour = 2 is not a declared value"),
+        ({"origin": {"x": 128}}, r"LimitsPoint.x = 128 does not fit nanopb int_size"),
+        ({"places": {1: {}, 2: {}, 3: {}}}, r"LimitsRecord.places holds 3 items"),
+        ({"places": {7: {"x": -129}}}, r"LimitsPoint.x = -129 does not fit nanopb int_size"),
     ],
 )
 def test_nanopb_limits_are_enforced(values: dict[str, Any], complaint: str) -> None:
@@ -100,6 +124,8 @@ def test_values_at_the_limits_are_sent() -> None:
         palette={1: 300, 2: 0},
         small=65535,
         colour=300,
+        origin={"x": 127, "colour": 1},
+        places={1: {"x": -128, "colour": 300}, 2: {}},
     )
     assert LIMITS.decode(LIMITS.encode(widest)).message == widest
 
@@ -107,3 +133,403 @@ def test_values_at_the_limits_are_sent() -> None:
 @given(strategies.messages(LIMITS, "LimitsRecord"))
 def test_strategies_respect_every_limit(message: Message) -> None:
     assert LIMITS.decode(LIMITS.encode(message)).message == message
+
+
+# -- undeclared enum values, payload by payload ------------------------------------------------
+
+
+def _gps_fix_99(codec: Codec) -> Message:
+    return cast(Message, new(codec, "SensorBoardGPSInfo", latitude=1.0, fix_quality=99))
+
+
+def _nested_gps_fix_minus_one(codec: Codec) -> Message:
+    message = new(codec, "SensorBoardDiagnostics", state=1)
+    message.gps_sensor_1.fix_quality = -1
+    return cast(Message, message)
+
+
+def _nested_motor_state_7(codec: Codec) -> Message:
+    message = new(codec, "DrivingBoardDiagnostics", state=1)
+    message.front_left_motor.state = 2
+    message.back_left_motor.state = 7
+    return cast(Message, message)
+
+
+def _top_level_state_1000(codec: Codec) -> Message:
+    return cast(Message, new(codec, "ArmBoardDiagnostics", state=1000))
+
+
+def _nested_sensor_state(codec: Codec) -> Message:
+    message = new(codec, "SensorBoardDiagnostics")
+    message.imu_sensor.error_code = 9
+    return cast(Message, message)
+
+
+ENUM_ERRORS: list[tuple[str, Build, str, str, str]] = [
+    ("top level", _gps_fix_99, "gps_info", "SensorBoardGPSInfo.fix_quality", "= 99"),
+    (
+        "nested -1",
+        _nested_gps_fix_minus_one,
+        "sensor_diagnostics",
+        "SensorBoardDiagnostics.gps_sensor_1.fix_quality",
+        "= -1",
+    ),
+    (
+        "nested motor",
+        _nested_motor_state_7,
+        "driving_diagnostics",
+        "DrivingBoardDiagnostics.back_left_motor.state",
+        "= 7",
+    ),
+    ("wide value", _top_level_state_1000, "arm_diagnostics", "ArmBoardDiagnostics.state", "= 1000"),
+    (
+        "nested imu",
+        _nested_sensor_state,
+        "sensor_diagnostics",
+        "SensorBoardDiagnostics.imu_sensor.error_code",
+        "= 9",
+    ),
+]
+
+
+_ENUM_NAMES = {
+    "top level": "GPSFixQuality",
+    "nested -1": "GPSFixQuality",
+    "nested motor": "MotorState",
+    "wide value": "ArmBoardState",
+    "nested imu": "IMUErrorCode",
+}
+
+
+@pytest.mark.parametrize(
+    ("case", "build", "kind", "path", "value"),
+    ENUM_ERRORS,
+    ids=[case[0] for case in ENUM_ERRORS],
+)
+@pytest.mark.parametrize("mode", MODES)
+def test_encode_rejects_undeclared_enum_values(
+    codec: Codec, case: str, build: Build, kind: str, path: str, value: str, mode: erc_codec.Mode
+) -> None:
+    payload = build(codec)
+    envelope = new(codec, "PBEnvelope")
+    getattr(envelope, kind).CopyFrom(payload)
+    for message in (payload, envelope):
+        with pytest.raises(EncodeError) as caught:
+            codec.encode(message, mode)
+        text = str(caught.value)
+        assert path in text
+        assert value in text
+        assert _ENUM_NAMES[case] in text
+
+
+def test_an_enum_error_clears_once_the_value_is_declared(codec: Codec) -> None:
+    message = new(codec, "DrivingBoardDiagnostics")
+    message.back_left_motor.state = 7
+    with pytest.raises(EncodeError, match=r"DrivingBoardDiagnostics\.back_left_motor\.state = 7"):
+        codec.encode(message)
+    message.back_left_motor.state = 3  # declared again: fine
+    assert codec.decode(codec.encode(message)).message == message
+
+
+def _payload_enum_cases(codec: Codec) -> Iterator[tuple[str, str, str, list[int], str]]:
+    """(member, payload type, dotted path, declared numbers, enum full name) of every enum field
+    of every payload."""
+    for member in members(codec):
+        payload = message_of(member)
+        for path, field in enum_paths(payload):
+            numbers = [value.number for value in enum_of(field).values]
+            yield member.name, payload.full_name, path, numbers, enum_of(field).full_name
+
+
+def test_every_enum_field_of_every_payload_is_checked(codec: Codec) -> None:
+    """An undeclared value anywhere, whatever the rest of the payload holds, is refused."""
+    rng = random.Random(99)
+    cases = list(_payload_enum_cases(codec))
+    assert len(cases) >= 40
+    refused = 0
+    for kind, name, path, numbers, enum in cases:
+        undeclared = [max(numbers) + 1, 99, 127, 128, 1000, 2**31 - 1, -1, -(2**31)]
+        for value in undeclared:
+            assert value not in numbers
+            for filler in ("empty", "widest", "random"):
+                payload = codec.message_class(name)()
+                if filler == "widest":
+                    fill_widest(payload)
+                elif filler == "random":
+                    fill_random(rng, payload)
+                set_path(payload, path, value)
+                envelope = new(codec, "PBEnvelope")
+                getattr(envelope, kind).CopyFrom(payload)
+                for message in (payload, envelope):
+                    mode = rng.choice(MODES)
+                    with pytest.raises(EncodeError) as caught:
+                        codec.encode(message, mode)
+                    text = str(caught.value)
+                    assert f"{name}.{path} = {value}" in text, (text, name, path, value)
+                    assert enum in text, text
+                    refused += 1
+    assert refused == len(cases) * 8 * 3 * 2
+
+
+def test_float_bytes_that_look_like_a_bad_enum_are_not_refused(codec: Codec) -> None:
+    """Bytes of a float can spell an enum tag and an undeclared value: that is no error."""
+    (lookalike,) = struct.unpack("<f", h("08 07 08 63"))  # "state = 7", "state = 99"
+    (negative,) = struct.unpack("<f", h("08 ff 48 ff"))  # "state = -1...", "fix_quality = ..."
+    message = new(codec, "DrivingBoardDiagnostics", state=2)
+    for field in descriptor(message).fields[1:]:
+        motor = getattr(message, field.name)
+        motor.state = 1
+        motor.rpm = lookalike
+        motor.voltage = negative
+        motor.encoder_angle = lookalike
+    body = message.SerializeToString()
+    assert h("08 07") in body
+    assert h("08 ff") in body
+    assert_all_forms(codec, message)
+    sensors = new(codec, "SensorBoardDiagnostics", state=1, board_temperature=lookalike)
+    sensors.gps_sensor_1.altitude = negative
+    sensors.imu_sensor.accel_x = struct.unpack("<f", h("70 63 78 63"))[0]  # state, error_code
+    sensors.imu_sensor.error_code = 8
+    assert_all_forms(codec, sensors)
+
+
+# -- the compiled check and its screen, held to a plain reading of the contract ----------------
+
+# contract() compiles a straight-line check per payload type and screens serialized bytes with a
+# regular expression first (for the encode target of benchmarks/bench_codec.py). Below is the
+# plain version: the contract read field by field, recursively, the slow obvious way.
+
+_T = FieldDescriptor
+_TEXT = (_T.TYPE_STRING, _T.TYPE_BYTES)
+_WIRE_RANGES = {  # the values protobuf itself lets an integer field hold
+    _T.TYPE_INT32: (-(2**31), 2**31 - 1),
+    _T.TYPE_SINT32: (-(2**31), 2**31 - 1),
+    _T.TYPE_INT64: (-(2**63), 2**63 - 1),
+    _T.TYPE_SINT64: (-(2**63), 2**63 - 1),
+    _T.TYPE_UINT32: (0, 2**32 - 1),
+    _T.TYPE_UINT64: (0, 2**64 - 1),
+}
+
+
+def item_field(field: FieldDescriptor) -> FieldDescriptor:
+    """The field whose values a repeated field holds: a map's value field, or the field itself."""
+    entry = field.message_type
+    if entry is not None and entry.GetOptions().map_entry:
+        return entry.fields_by_name["value"]
+    return field
+
+
+def plain_complaints(sizes: Sizes, message: Any, top: str = "", prefix: str = "") -> list[str]:
+    """Every way ``message`` breaks the fixed-size contract, in field order, named as the codec
+    names it: an enum field by its path from the payload type (``Top.sub.state``); any other
+    field by the type declaring it (``Sub.name``); an item by its index in the field
+    (``Top.counts[2]``, a map's values in iteration order); and an item that is a message on
+    its own, from its own type (``Item.state``)."""
+    descriptor = message.DESCRIPTOR
+    top = top or descriptor.full_name
+    found: list[str] = []
+    for field in descriptor.fields:
+        if sizes.ignored(field):
+            continue
+        value = getattr(message, field.name)
+        where = f"{descriptor.full_name}.{field.name}"
+        if field.is_repeated:
+            count = sizes.max_count(field)
+            if count is not None and len(value) > count:
+                found.append(f"{where} holds {len(value)} items, more than its max_count {count}")
+            items = list(value.values() if isinstance(value, Mapping) else value)
+            for index, item in enumerate(items):
+                found += plain_item(sizes, item_field(field), item, f"{where}[{index}]")
+        elif field.type == _T.TYPE_MESSAGE:
+            found += plain_complaints(sizes, value, top, f"{prefix}{field.name}.")
+        elif field.type == _T.TYPE_ENUM:
+            found += plain_item(sizes, field, value, f"{top}.{prefix}{field.name}")
+        else:
+            found += plain_item(sizes, field, value, where)
+    return found
+
+
+def plain_item(sizes: Sizes, field: FieldDescriptor, value: Any, path: str) -> list[str]:
+    """What is wrong with one value of ``field`` (a single field's, or one item's)."""
+    if field.type == _T.TYPE_MESSAGE:
+        return plain_complaints(sizes, value)
+    if field.type == _T.TYPE_ENUM:
+        if value in {declared.number for declared in enum_of(field).values}:
+            return []
+        return [f"{path} = {value} is not a declared value of {enum_of(field).full_name}"]
+    limit = sizes.max_bytes(field) if field.type in _TEXT else None
+    if limit is not None:
+        length = len(value.encode("utf-8") if field.type == _T.TYPE_STRING else value)
+        if length <= limit:
+            return []
+        return [f"{path} is {length} bytes long, more than the {limit} allowed"]
+    bounds = sizes.int_range(field)
+    if bounds is not None and not bounds[0] <= value <= bounds[1]:
+        return [f"{path} = {value} does not fit nanopb int_size ({bounds[0]}..{bounds[1]})"]
+    return []
+
+
+# -- breaking one field at random, anywhere
+
+Draw = Callable[[st.SearchStrategy[Any]], Any]
+
+
+def bad_values(sizes: Sizes, field: FieldDescriptor) -> st.SearchStrategy[Any] | None:
+    """Values of ``field`` (a scalar) that the contract refuses, if there are any."""
+    if field.type == _T.TYPE_ENUM:
+        declared = {value.number for value in enum_of(field).values}
+        numbers = st.one_of(st.integers(-3, 400), st.integers(-(2**31), 2**31 - 1))
+        return numbers.filter(lambda number: number not in declared)
+    limit = sizes.max_bytes(field) if field.type in _TEXT else None
+    if limit is not None:
+        if field.type == _T.TYPE_BYTES:
+            return st.binary(min_size=limit + 1, max_size=limit + 8)
+        return st.text(max_size=limit + 8).map(lambda text: too_long(text, limit))
+    bounds = sizes.int_range(field)
+    if bounds is None:
+        return None
+    low, high = _WIRE_RANGES[field.type]
+    outside = [st.integers(low, bounds[0] - 1)] if low < bounds[0] else []
+    outside += [st.integers(bounds[1] + 1, high)] if bounds[1] < high else []
+    return st.one_of(outside) if outside else None
+
+
+def too_long(text: str, limit: int) -> str:
+    """``text``, lengthened with euro signs (three bytes, one character) past ``limit`` bytes."""
+    while len(text.encode("utf-8")) <= limit:
+        text += "\u20ac"
+    return text
+
+
+def breakable(sizes: Sizes, field: FieldDescriptor) -> bool:
+    """Whether some value of ``field`` breaks the contract."""
+    if sizes.ignored(field):
+        return False
+    if field.is_repeated and sizes.max_count(field) is not None:
+        return True
+    item = item_field(field)
+    if item.type == _T.TYPE_MESSAGE:
+        return any(breakable(sizes, inner) for inner in message_of(item).fields)
+    return bad_values(sizes, item) is not None
+
+
+def break_message(draw: Draw, sizes: Sizes, message: Any) -> None:
+    """Break exactly one field of ``message``, at any depth, so that the contract refuses it."""
+    fields = [field for field in message.DESCRIPTOR.fields if breakable(sizes, field)]
+    field = draw(st.sampled_from(fields))
+    if field.is_repeated:
+        break_repeated(draw, sizes, message, field)
+    elif field.type == _T.TYPE_MESSAGE:
+        break_message(draw, sizes, getattr(message, field.name))
+    else:
+        strategy = bad_values(sizes, field)
+        assert strategy is not None
+        setattr(message, field.name, draw(strategy))
+
+
+def break_repeated(draw: Draw, sizes: Sizes, message: Any, field: FieldDescriptor) -> None:
+    """Give a repeated field (or map) more items than ``max_count``, or one item that is bad."""
+    values = getattr(message, field.name)
+    count = sizes.max_count(field)
+    item = item_field(field)
+    bad = bad_values(sizes, item) if item.type != _T.TYPE_MESSAGE else None
+    one_bad = bad is not None or (item.type == _T.TYPE_MESSAGE and breakable(sizes, item))
+    room = count is None or len(values) < count  # for one more item
+    if count is not None and not (one_bad and (room or values) and draw(st.booleans())):
+        while len(values) <= count:
+            add_item(values, item)
+        return
+    at = draw(st.integers(0, len(values) if room else len(values) - 1))  # len(values): a new one
+    if at == len(values):
+        add_item(values, item)
+    key = list(values)[at] if isinstance(values, Mapping) else at
+    if bad is None:
+        break_message(draw, sizes, values[key])
+    else:
+        values[key] = draw(bad)
+
+
+def add_item(values: Any, item: FieldDescriptor) -> None:
+    """One more item the contract accepts: a default value, or an empty message."""
+    if isinstance(values, MutableMapping):
+        key = max(values, default=0) + 1  # the contract tree's maps have integer keys
+        if item.type == _T.TYPE_MESSAGE:
+            values[key].SetInParent()
+        else:
+            values[key] = zero(item)
+    elif item.type == _T.TYPE_MESSAGE:
+        values.add()
+    else:
+        values.append(zero(item))
+
+
+def zero(field: FieldDescriptor) -> Any:
+    """The zero value of a scalar field, which every limit accepts (a proto3 enum declares 0)."""
+    zeros = {_T.TYPE_STRING: "", _T.TYPE_BYTES: b"", _T.TYPE_BOOL: False}
+    return zeros.get(field.type, 0.0 if field.cpp_type == _T.CPPTYPE_FLOAT else 0)
+
+
+@functools.cache
+def compiled(codec: Codec, name: str) -> Contract | None:
+    return contract(codec.nanopb, codec.schema.descriptor(name))
+
+
+@functools.cache
+def drawn(codec: Codec, name: str) -> st.SearchStrategy[Message]:
+    return strategies.messages(codec, name)
+
+
+def assert_the_compiled_check_agrees(schema: Codec, name: str, data: st.DataObject) -> None:
+    """A message drawn whole, perhaps with one field broken: the compiled check refuses it exactly
+    when the plain reading does, in the same words; the screen lets every such message through to
+    the check; encode, which runs the two, refuses the same."""
+    sizes = schema.nanopb
+    rules = compiled(schema, name)
+    message = data.draw(drawn(schema, name))
+    can_break = any(breakable(sizes, field) for field in schema.schema.descriptor(name).fields)
+    assert rules is not None or not can_break  # a type with no contract has nothing to break
+    broken = can_break and data.draw(st.booleans())
+    if broken:
+        break_message(data.draw, sizes, message)
+    complaints = plain_complaints(sizes, message)
+    assert len(complaints) == broken, complaints  # one field broken, one complaint
+    if rules is None:
+        return
+    try:
+        rules.check(message)
+        refused = None
+    except EncodeError as error:
+        refused = str(error)
+    assert refused == (complaints[0] if complaints else None)
+    if complaints and rules.screen is not None:
+        assert rules.screen(message.SerializeToString()), complaints[0]
+    try:
+        schema.encode(message)
+        sent = None
+    except EncodeError as error:
+        sent = str(error)
+    assert sent == refused
+
+
+PAYLOAD_TYPES = [message_of(member).full_name for member in ENVELOPE.fields]
+
+
+@pytest.mark.parametrize("name", PAYLOAD_TYPES)
+@given(data=st.data())
+@settings(max_examples=30)
+def test_the_compiled_check_and_its_screen_agree_with_the_plain_reading(
+    name: str, data: st.DataObject
+) -> None:
+    """Every payload type of the rover's schema: enum fields at every depth, three screens."""
+    assert_the_compiled_check_agrees(CODEC, name, data)
+
+
+@pytest.mark.parametrize("name", ["LimitsRecord", "LimitsPoint", "LimitsPanel"])
+@given(data=st.data())
+@settings(max_examples=150)
+def test_the_compiled_check_agrees_with_the_plain_reading_on_every_limit(
+    name: str, data: st.DataObject
+) -> None:
+    """tests/contract_tree: strings, bytes, repeated fields, maps and int_size, at the top and
+    below it; a screened type whose enum fields share a tag but not their declared values."""
+    assert_the_compiled_check_agrees(LIMITS, name, data)

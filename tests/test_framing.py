@@ -1,4 +1,9 @@
-"""Proton serial framing: the test vectors, and recovery from any chunking, noise and damage."""
+"""Proton serial framing: the test vectors, and recovery from any chunking, noise and damage.
+
+The Deframer checks runs of equal-length frames a batch at a time (a speed trick for the target of
+benchmarks/bench_framing.py); ``reference_stats`` is the plain version it is held to: the same
+rules read frame by frame over the whole stream at once.
+"""
 
 import binascii
 import itertools
@@ -70,7 +75,8 @@ def reference(stream: bytes, max_length: int) -> list[bytes]:
 
 
 def reference_stats(stream: bytes, max_length: int) -> tuple[list[bytes], DeframerStats, int]:
-    """The payloads, the counters and the bytes left buffered, frame by frame."""
+    """The plain version the Deframer's batches are held to: the payloads, the counters and the
+    bytes left buffered, reading ``stream`` frame by frame, one candidate at a time."""
     found, i = [], 0
     discarded: Counter[str] = Counter()
     rejected: Counter[str] = Counter()

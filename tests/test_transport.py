@@ -1,8 +1,18 @@
-"""The asyncio shells, over real sockets on 127.0.0.1."""
+"""The asyncio shells, over real sockets on 127.0.0.1.
+
+UdpEndpoint implements asyncio's datagram protocol itself rather than inheriting it, so that
+``import erc_codec`` never imports asyncio: it is held to asyncio.DatagramProtocol's methods, and
+the imports are watched in a fresh interpreter.
+"""
 
 import asyncio
+import inspect
 import socket
+import subprocess
+import sys
+from collections.abc import Callable
 
+import pytest
 from google.protobuf.message import Message
 
 import erc_codec
@@ -95,3 +105,34 @@ def test_a_serial_stream_is_deframed_and_dispatched() -> None:
     assert [m.latitude for m in got] == [1.0, 2.0]  # type: ignore[attr-defined]
     assert stats.frames == 2
     assert stats.discarded_bytes == {"garbage": 6}
+
+
+def parameters(method: Callable[..., object]) -> list[tuple[object, object]]:
+    """How a method can be called: each parameter's kind and default (asyncio passes arguments
+    by position, so the names are free)."""
+    return [(p.kind, p.default) for p in inspect.signature(method).parameters.values()]
+
+
+@pytest.mark.parametrize("protocol", [asyncio.BaseProtocol, asyncio.DatagramProtocol])
+def test_the_endpoint_has_every_method_of_asyncios_datagram_protocol(protocol: type) -> None:
+    names = [name for name in dir(protocol) if not name.startswith("_")]
+    assert "connection_made" in names
+    for name in names:
+        theirs = getattr(protocol, name)
+        ours = getattr(erc_codec.UdpEndpoint, name, None)
+        assert callable(ours), f"UdpEndpoint lacks {protocol.__name__}.{name}"
+        assert inspect.iscoroutinefunction(ours) == inspect.iscoroutinefunction(theirs), name
+        assert parameters(ours) == parameters(theirs), name
+
+
+@pytest.mark.parametrize("package", ["erc_codec", "erc_lint"])
+def test_importing_a_package_does_not_import_asyncio(package: str) -> None:
+    script = (
+        f"import sys, {package}\n"
+        "print(sorted(n for n in sys.modules if n == 'asyncio' or n.startswith('asyncio.')))"
+    )
+    result = subprocess.run(  # -I: no PYTHON* variables, no user site, no working directory
+        [sys.executable, "-I", "-c", script], capture_output=True, text=True, check=False
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "[]", f"import {package} imports {result.stdout.strip()}"
