@@ -21,6 +21,8 @@ Guarantees:
   rejected candidate under the candidate's reason (and the candidate in ``rejected``), any other
   byte outside a frame under ``garbage``; a candidate whose first byte ends up inside a delivered
   frame is counted nowhere;
+- ``flush()`` (the stream ended) discards what the window still holds, counted as ``unfinished``,
+  and returns it: a frame is never lost silently, since a complete one is already out;
 - memory is bounded: between feeds the window holds the bytes from the earliest undecided
   candidate on, at most ``max_length + 5`` of them (a candidate is decided by its
   ``max_length + 6``-th byte), and a few integers for each candidate in it;
@@ -193,6 +195,19 @@ class Deframer:
             self._base = self._pos
         self._frames += len(payloads)
         return payloads
+
+    def flush(self) -> bytes:
+        """The stream ended: discard the bytes held (a frame still arriving, the first bytes of
+        a header), counted as ``unfinished``, and return them. The deframer starts afresh."""
+        held = bytes(self._buffer)
+        self._discard("unfinished", len(held))
+        self._base = self._pos = self._scan = self._base + len(held)
+        self._buffer = bytearray()
+        self._wanted, self._last, self._batch = 2, -1, _FIRST_BATCH
+        self._heap.clear()
+        self._starts.clear()
+        self._fate.clear()
+        return held
 
     def buffered(self) -> int:
         """Bytes held while waiting for the rest of a frame."""

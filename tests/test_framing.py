@@ -1,5 +1,5 @@
 """Proton serial framing: the test vectors; the Deframer held to a byte-at-a-time reading of the
-rule, whatever the chunking, noise and damage; the cost of bad input."""
+rule, whatever the chunking, noise and damage; flush; the cost of bad input."""
 
 import binascii
 import itertools
@@ -281,7 +281,10 @@ def test_the_counters_at_any_point_are_those_of_the_bytes_so_far(
     assert (deframer.stats(), deframer.buffered()) == (stats, held)
     deframer.feed(stream[cut:])
     _, stats, held = reference_stats(stream, MAX)
-    assert (deframer.stats(), deframer.buffered()) == (stats, held)
+    assert deframer.flush() == stream[len(stream) - held :]
+    discarded = stats.discarded_bytes | ({"unfinished": held} if held else {})
+    assert deframer.stats() == stats._replace(discarded_bytes=discarded)
+    assert deframer.buffered() == 0
 
 
 @st.composite
@@ -399,6 +402,27 @@ def test_a_frame_holding_a_whole_frame_loses_to_it() -> None:
     assert deframer.feed(outer) == [b"inner"]
     assert deframer.stats().rejected == {"overtaken": 1}
     assert sum(deframer.stats().discarded_bytes.values()) == len(outer) - len(inner)
+
+
+def test_flush_discards_and_returns_what_the_end_of_the_stream_cut_off() -> None:
+    deframer = Deframer(max_length=255)
+    cut = frame(b"cut off at the end")[:-1]
+    assert deframer.feed(b"x" + frame(b"kept") + cut) == [b"kept"]
+    assert deframer.buffered() == len(cut)
+    assert deframer.flush() == cut
+    assert deframer.stats() == DeframerStats(1, {"garbage": 1, "unfinished": len(cut)}, {})
+    assert (deframer.buffered(), deframer.flush()) == (0, b"")
+    assert deframer.feed(b"R" + frame(b"next")) == [b"next"]  # afresh: the "R" is garbage
+    assert deframer.stats().discarded_bytes == {"garbage": 2, "unfinished": len(cut)}
+
+
+def test_flush_discards_overlapping_candidates_too() -> None:
+    deframer = Deframer(max_length=0xFFFF)
+    held = b"PR\xf0\x00" + b"PR\xff\xff" * 3 + frame(b"almost")[:-2]
+    assert deframer.feed(held[:5]) + deframer.feed(held[5:]) == []
+    assert deframer.flush() == held
+    assert deframer.stats() == DeframerStats(0, {"unfinished": len(held)}, {})
+    assert deframer.feed(b"PR\xf0\x00" + STOP) == [STOP[4:-2]]
 
 
 def adversarial(size: int) -> dict[str, bytes]:
