@@ -49,6 +49,19 @@ overlap: a candidate incomplete at the end of the data with another one starting
 one holding another that may complete first. Frames back to back, however chunked, are checked
 whole as they complete.
 
+CRC-16's blind spots. A good CRC is evidence, not proof. The CRC of ``ff ff`` followed by any
+number of zeros is 0 (``ff ff`` empties the register the init value 0xFFFF filled, and zeros keep
+it empty): ``50 52 02 00 ff ff 00 00`` is a valid frame, and a line that idles high then drops
+can forge one. And any 16-bit check passes about 1 in 65,536 random candidates: a noisy line full
+of ``PR`` delivers a false frame now and then. A caller can check payloads too: with
+``accept=callable``, a frame with a good CRC whose payload ``accept`` refuses is rejected as if
+its CRC were bad (``undecodable``), and the candidates after its first byte carry on, so a frame
+it was hiding (one starting inside it and ending later) still comes out;
+``Deframer.for_codec(codec, validate=True)`` accepts what ``codec.decode`` decodes. ``accept``
+runs once for every candidate with a good CRC, on top of the bound above: rarely on noise, but as
+often as a crafted stream has candidates. It must not raise: an exception from it leaves the feed
+it came from half done. (Frames are checked one at a time then, not in batches.)
+
 Speed: frames of one length back to back (a board sending padded envelopes, say) are checked a
 batch at a time, with the Python-level work per batch rather than per frame. A run's first batch
 is 16 frames, and each whole batch doubles the next (up to 256), so a CRC failure wastes at most
@@ -67,10 +80,11 @@ import re
 import struct
 import warnings
 from collections import Counter, deque
+from collections.abc import Callable
 from itertools import repeat
 from typing import TYPE_CHECKING, NamedTuple
 
-from ._errors import EncodeError
+from ._errors import DecodeError, EncodeError
 
 if TYPE_CHECKING:
     from ._codec import Codec
@@ -112,9 +126,13 @@ class DeframerStats(NamedTuple):
 class Deframer:
     """Turns a byte stream, fed in any chunks, back into the payloads that were framed."""
 
-    def __init__(self, max_length: int | None = None) -> None:
+    def __init__(
+        self, max_length: int | None = None, *, accept: Callable[[bytes], bool] | None = None
+    ) -> None:
         """``max_length``: the longest payload accepted (``Deframer.for_codec(codec)``: the
-        codec's envelope size). Leaving it out is deprecated: it loads the packaged schema."""
+        codec's envelope size). Leaving it out is deprecated: it loads the packaged schema.
+        ``accept``: if given, a frame is delivered only if ``accept(payload)`` is true; else it
+        is rejected as ``undecodable``, like a bad CRC."""
         if max_length is None:
             warnings.warn(
                 "Deframer() without max_length is deprecated: give max_length, or use "
@@ -128,6 +146,7 @@ class Deframer:
         if not 0 <= max_length <= _MAX_LENGTH:
             raise ValueError(f"max_length must be within 0..{_MAX_LENGTH}")
         self._max = max_length
+        self._accept = accept
         self._buffer = bytearray()  # the window: the bytes not yet decided
         self._base = 0  # the stream offset of the window's first byte
         self._pos = 0  # the first byte not yet decided (between feeds: the window's first)
@@ -146,9 +165,21 @@ class Deframer:
         self._rejected: dict[str, int] = {}
 
     @classmethod
-    def for_codec(cls, codec: "Codec") -> "Deframer":
-        """A deframer accepting payloads up to ``codec``'s envelope size."""
-        return cls(codec.max_size(codec.root))
+    def for_codec(cls, codec: "Codec", *, validate: bool = False) -> "Deframer":
+        """A deframer accepting payloads up to ``codec``'s envelope size; with ``validate``,
+        only payloads ``codec`` decodes (others are rejected as ``undecodable``)."""
+        if not validate:
+            return cls(codec.max_size(codec.root))
+        decode = codec.decode
+
+        def decodes(payload: bytes) -> bool:
+            try:
+                decode(payload)
+            except DecodeError:
+                return False
+            return True
+
+        return cls(codec.max_size(codec.root), accept=decodes)
 
     def feed(self, chunk: bytes | bytearray | memoryview) -> list[bytes]:
         """Take the next bytes of the stream; the payloads of the frames they complete."""
@@ -224,6 +255,7 @@ class Deframer:
         # One loop with its state in locals, not split into calls: a call per frame candidate
         # would cost the deframing target of benchmarks/bench_framing.py.
         append, find, crc, limit = payloads.append, data.find, binascii.crc_hqx, self._max
+        accept = self._accept
         pos, end, last = self._pos - base, len(data), self._last  # last: frame that ended at pos
         batch, overlap, wanted = self._batch, -1, 0  # wanted: bytes needed, from the start
         start = find(MAGIC, pos)  # the next candidate
@@ -254,7 +286,7 @@ class Deframer:
                 if find(MAGIC, start + 1) >= 0:  # unless another candidate started meanwhile
                     overlap = start
                 break
-            if length == last:  # a run of equal lengths: a batch at once
+            if length == last and accept is None:  # a run of equal lengths: a batch at once
                 step = length + _HEADER + _TRAILER
                 count = min(batch, (end - start) // step)
                 run = _run(data, start, length, count)
@@ -279,6 +311,8 @@ class Deframer:
             payload = data[start + _HEADER : stop]
             if crc(payload, 0xFFFF) != data[stop] | data[stop + 1] << 8:
                 self._reject("bad_crc")
+            elif accept is not None and not accept(payload):
+                self._reject("undecodable")
             else:
                 append(payload)
                 pos, last, batch = done, length, _FIRST_BATCH  # perhaps a run starts
@@ -300,7 +334,7 @@ class Deframer:
         its end, or -1 (the overlapping path decides)."""
         length = data[inner + 2] | data[inner + 3] << 8 if inner + _HEADER <= end else -1
         done = inner + _HEADER + length + _TRAILER
-        if not 0 <= length <= self._max or done >= end:
+        if self._accept is not None or not 0 <= length <= self._max or done >= end:
             return -1
         after = data.find(MAGIC, inner + 1)
         if 0 <= after < done and _completes_inside(data, after, done, self._max):
@@ -322,7 +356,7 @@ class Deframer:
         # case the module promises (benchmarks/bench_framing.py measures it).
         heap, starts, fate = self._heap, self._starts, self._fate
         find, crc, push, pop = data.find, binascii.crc_hqx, heapq.heappush, heapq.heappop
-        limit, tables = self._max, _zero_tables()
+        limit, accept, tables = self._max, self._accept, _zero_tables()
         released: list[str] = []  # the reasons of the candidates that left the window
         end, pos, garbage = base + len(data), self._pos, 0
         scan, (qa_at, qa), (qb_at, qb) = self._scan, self._qa, self._qb
@@ -370,6 +404,8 @@ class Deframer:
                 x = table[x & 0xFF] ^ table[256 + (x >> 8)]
             if x ^ qb != data[stop] | data[stop + 1] << 8:
                 fate[start] = "bad_crc"
+            elif accept is not None and not accept(bytes(data[start + _HEADER - base : stop])):
+                fate[start] = "undecodable"
             else:
                 payloads.append(bytes(data[start + _HEADER - base : stop]))
                 self._pos = pos

@@ -1,5 +1,5 @@
 """Proton serial framing: the test vectors; the Deframer held to a byte-at-a-time reading of the
-rule, whatever the chunking, noise and damage; flush; the cost of bad input."""
+rule, whatever the chunking, noise and damage; flush; validation; the cost of bad input."""
 
 import binascii
 import itertools
@@ -9,6 +9,7 @@ import subprocess
 import sys
 from array import array
 from collections import Counter
+from collections.abc import Callable
 
 import pytest
 from hypothesis import given, settings
@@ -71,12 +72,17 @@ def test_a_real_frame_inside_a_false_one_is_found() -> None:
     assert deframer.feed(stream) == [b"inside"]
 
 
-def reference(stream: bytes, max_length: int) -> list[bytes]:
+Accept = Callable[[bytes], bool] | None
+
+
+def reference(stream: bytes, max_length: int, accept: Accept = None) -> list[bytes]:
     """The framing rule applied to the whole stream, the slow obvious way."""
-    return reference_stats(stream, max_length)[0]
+    return reference_stats(stream, max_length, accept)[0]
 
 
-def reference_stats(stream: bytes, max_length: int) -> tuple[list[bytes], DeframerStats, int]:
+def reference_stats(
+    stream: bytes, max_length: int, accept: Accept = None
+) -> tuple[list[bytes], DeframerStats, int]:
     """The payloads, the counters and the bytes left held, by the rule read literally: the bytes
     arrive one at a time, and after each one every candidate it completes is decided, the
     earliest start first; decided bytes at the front of the window leave it."""
@@ -95,7 +101,7 @@ def reference_stats(stream: bytes, max_length: int) -> tuple[list[bytes], Defram
         for start in range(pos, n - 3):  # every candidate whose length has arrived
             if stream[start : start + 2] != b"PR" or start in fate:
                 continue
-            verdict = judged(stream, start, n, max_length)
+            verdict = judged(stream, start, n, max_length, accept)
             if verdict == "frame":  # delivered: every candidate before it drops
                 for first in range(pos, start):
                     magic = stream[first : first + 2] == b"PR"
@@ -117,7 +123,7 @@ def reference_stats(stream: bytes, max_length: int) -> tuple[list[bytes], Defram
     return found, DeframerStats(len(found), dict(discarded), dict(rejected)), len(stream) - pos
 
 
-def judged(stream: bytes, start: int, n: int, max_length: int) -> str:
+def judged(stream: bytes, start: int, n: int, max_length: int, accept: Accept) -> str:
     """What the first ``n`` bytes say of the candidate at ``start``: "frame", why it fails, or
     nothing yet."""
     length = int.from_bytes(stream[start + 2 : start + 4], "little")
@@ -128,6 +134,8 @@ def judged(stream: bytes, start: int, n: int, max_length: int) -> str:
     payload = stream[start + 4 : n - 2]
     if crc16(payload) != int.from_bytes(stream[n - 2 : n], "little"):
         return "bad_crc"
+    if accept is not None and not accept(payload):
+        return "undecodable"
     return "frame"
 
 
@@ -147,10 +155,10 @@ def chunked(stream: bytes, cuts: list[int]) -> list[bytes]:
 
 
 def deframed(
-    stream: bytes, cuts: list[int], max_length: int = MAX
+    stream: bytes, cuts: list[int], max_length: int = MAX, accept: Accept = None
 ) -> tuple[list[bytes], DeframerStats, int]:
     """The payloads, the counters and the bytes held, after feeding ``stream`` cut at ``cuts``."""
-    deframer = Deframer(max_length=max_length)
+    deframer = Deframer(max_length=max_length, accept=accept)
     out: list[bytes] = []
     edges = sorted({0, len(stream), *(c % (len(stream) + 1) for c in cuts)})
     for start, stop in itertools.pairwise(edges):
@@ -262,6 +270,14 @@ def tangled(draw: st.DrawFn, max_length: int = MAX) -> bytes:
 @given(tangled(), CUTS)
 def test_overlapping_candidates_give_what_the_rules_give(stream: bytes, cuts: list[int]) -> None:
     assert deframed(stream, cuts) == reference_stats(stream, MAX)
+
+
+@given(tangled(), CUTS)
+def test_a_refusing_accept_gives_what_the_rules_give(stream: bytes, cuts: list[int]) -> None:
+    def accept(payload: bytes) -> bool:
+        return not payload.startswith(b"\xff") and len(payload) != 3
+
+    assert deframed(stream, cuts, accept=accept) == reference_stats(stream, MAX, accept)
 
 
 @settings(deadline=None)
@@ -423,6 +439,50 @@ def test_flush_discards_overlapping_candidates_too() -> None:
     assert deframer.flush() == held
     assert deframer.stats() == DeframerStats(0, {"unfinished": len(held)}, {})
     assert deframer.feed(b"PR\xf0\x00" + STOP) == [STOP[4:-2]]
+
+
+def test_ff_ff_and_zeros_pass_the_crc() -> None:
+    """CRC-16's blind spot: without more checks the forged frame is a frame."""
+    assert all(crc16(b"\xff\xff" + bytes(n)) == 0 for n in range(300))
+    deframer = Deframer(max_length=255)
+    forged = [frame(b"\xff\xff" + bytes(n)) for n in (0, 1, 10)]
+    assert forged[0] == FORGED
+    assert deframer.feed(b"".join(forged)) == [
+        b"\xff\xff",
+        b"\xff\xff\x00",
+        b"\xff\xff" + bytes(10),
+    ]
+
+
+def test_validation_rejects_a_frame_the_codec_cannot_decode(codec: erc_codec.Codec) -> None:
+    deframer = Deframer.for_codec(codec, validate=True)
+    assert deframer.feed(FORGED + STOP) == [STOP[4:-2]]
+    assert deframer.stats() == DeframerStats(
+        1, {"undecodable": 1, "garbage": len(FORGED) - 1}, {"undecodable": 1}
+    )
+    plain = Deframer.for_codec(codec)
+    assert plain.feed(FORGED + STOP) == [b"\xff\xff", STOP[4:-2]]
+
+
+def test_validation_finds_the_frame_a_forged_one_hid(codec: erc_codec.Codec) -> None:
+    """A frame with a good CRC (forged, or a 1-in-65,536 accident) that starts before a real
+    one and ends inside it would take the real one's place; validation gives it back."""
+    inner = STOP
+    k = 5  # the forged frame ends with the real one's 5th and 6th bytes as its CRC
+    wanted = int.from_bytes(inner[k : k + 2], "little")
+    junk = next(
+        bytes([0xFF, a, b])
+        for a in range(256)
+        for b in range(256)
+        if crc16(bytes([0xFF, a, b]) + inner[:k]) == wanted
+    )
+    outer = junk + inner[:k]
+    stream = b"PR" + len(outer).to_bytes(2, "little") + outer + inner[k:]
+    assert Deframer.for_codec(codec).feed(stream) == [outer]
+    deframer = Deframer.for_codec(codec, validate=True)
+    assert deframer.feed(stream) == [inner[4:-2]]
+    assert deframer.stats().rejected == {"undecodable": 1}
+    assert Deframer(max_length=255, accept=lambda p: p != outer).feed(stream) == [inner[4:-2]]
 
 
 def adversarial(size: int) -> dict[str, bytes]:
