@@ -209,16 +209,14 @@ class Deframer:
             return payloads
         else:
             data, base = b"".join((buffer, chunk)), self._base
-        start = -1
-        while True:
-            if self._heap or start >= 0:
-                self._overlapping(data, base, payloads)
-                if self._heap:
-                    break  # they wait for more bytes
+        start = -1 if self._heap else self._plain(data, base, payloads)
+        while self._heap or start >= 0:  # overlapping candidates: decide them, then go on
+            if start >= 0:
+                self._scan, self._qa, self._qb = start, (start, 0), (start, 0)
+            self._overlapping(data, base, payloads)
+            if self._heap:
+                break  # they wait for more bytes
             start = self._plain(data, base, payloads)
-            if start < 0:
-                break
-            self._scan, self._qa, self._qb = start, (start, 0), (start, 0)
         if self._heap:
             self._keep(data, base)
         else:  # what _keep does, without the call: the benchmark's chunks all come here
@@ -545,7 +543,7 @@ def _run(data: bytes, start: int, length: int, count: int) -> tuple[bytes, ...]:
     payloads come out of one ``struct`` layout of the whole batch."""
     step = length + _HEADER + _TRAILER
     end = start + count * step
-    payloads, crcs, headers = _layout(length, count)
+    payloads, crcs, headers, shorter = _layout(length, count)
     columns = (  # the magic's two bytes and the length's two, frame by frame
         data[start:end:step],
         data[start + 1 : end : step],
@@ -557,9 +555,8 @@ def _run(data: bytes, start: int, length: int, count: int) -> tuple[bytes, ...]:
             _first_difference(a, b) for a, b in zip(columns, headers, strict=True) if a != b
         )
         end = start + count * step
-        payloads, crcs, _ = _layout(length, count)
+        payloads, crcs, _, _ = _layout(length, count)
     found = payloads.unpack_from(data, start)
-    shorter = _shorter(length)
     if shorter is not None:  # the run stops before the first frame holding a candidate that
         # may end inside it. Such a "PR" lies in a payload, unless the header holds a "P" past
         # its magic; searching the payloads alone skips the partial matches every header is.
@@ -599,12 +596,15 @@ def _shorter(length: int) -> "re.Pattern[bytes] | None":
 
 
 @functools.lru_cache(maxsize=64)  # at most 64 layouts of at most 256 frames: under 1 MB
-def _layout(length: int, count: int) -> tuple[struct.Struct, struct.Struct, tuple[bytes, ...]]:
+def _layout(
+    length: int, count: int
+) -> tuple[struct.Struct, struct.Struct, tuple[bytes, ...], "re.Pattern[bytes] | None"]:
     """For ``count`` frames of ``length`` bytes back to back: the layout of their payloads, that
-    of their CRCs, and what their header bytes must be, column by column."""
+    of their CRCs, what their header bytes must be, column by column, and ``_shorter(length)``."""
     header = MAGIC + length.to_bytes(2, "little")
     columns = tuple(header[offset : offset + 1] * count for offset in range(_HEADER))
-    return struct.Struct(f"4x{length}s2x" * count), struct.Struct(f"<{count}H"), columns
+    payloads, crcs = struct.Struct(f"4x{length}s2x" * count), struct.Struct(f"<{count}H")
+    return payloads, crcs, columns, _shorter(length)
 
 
 def _first_difference(a: bytes, b: bytes) -> int:
