@@ -65,14 +65,14 @@ def _deframe(decoder: _Decoder, chunks: Iterable[bytes], deframer: Deframer) -> 
     for chunk in chunks:
         for payload in deframer.feed(chunk):
             decoder.datagram(payload)
-    stats = deframer.stats()
+    stats = deframer.stats()  # before flush: what the stream itself threw away
     parts = [plural(stats.frames, "frame"), f"{decoder.failed} undecodable"]
     discarded = stats.discarded_bytes
     if discarded:
         reasons = ", ".join(f"{reason} {count}" for reason, count in sorted(discarded.items()))
         parts.append(f"{plural(sum(discarded.values()), 'byte')} discarded ({reasons})")
-    if deframer.buffered():
-        parts.append(f"{plural(deframer.buffered(), 'byte')} left in an unfinished frame")
+    if unfinished := len(deframer.flush()):
+        parts.append(f"{plural(unfinished, 'byte')} left in an unfinished frame")
     if decoder.bad_lines:
         parts.append(f"{plural(decoder.bad_lines, 'line')} not hex")
     return ", ".join(parts)
