@@ -10,10 +10,9 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from ._config import Config, ConfigError
+    from ._config import Config
+    from ._errors import ConfigError, GitError, LedgerError, LintError
     from ._finding import Finding, Severity
-    from ._git import GitError
-    from ._ledger import LedgerError
     from ._run import check, lint
     from .rules import RULES, Rule
 
@@ -24,6 +23,7 @@ __all__ = [
     "Finding",
     "GitError",
     "LedgerError",
+    "LintError",
     "Rule",
     "Severity",
     "check",
@@ -32,11 +32,12 @@ __all__ = [
 
 _LAZY = {
     "Config": "._config",
-    "ConfigError": "._config",
+    "ConfigError": "._errors",
     "Finding": "._finding",
     "Severity": "._finding",
-    "GitError": "._git",
-    "LedgerError": "._ledger",
+    "GitError": "._errors",
+    "LedgerError": "._errors",
+    "LintError": "._errors",
     "check": "._run",
     "lint": "._run",
     "RULES": ".rules",

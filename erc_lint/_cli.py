@@ -10,9 +10,9 @@ import click
 from erc_codec import CodecError
 from erc_codec.cli import OneLineGroup
 
-from ._config import Config, ConfigError, find_config, read_config
+from ._config import Config, find_config, read_config
+from ._errors import LintError
 from ._finding import Finding
-from ._git import GitError
 from ._inputs import Source, open_input
 from ._report import FORMATS, render
 from ._run import compare
@@ -168,13 +168,9 @@ def _guard() -> Iterator[None]:
         yield
     except click.ClickException:
         raise
-    except (ConfigError, GitError, OSError, CodecError) as error:
+    except (LintError, OSError, CodecError) as error:
         raise _Failure(" ".join(str(error).split())) from None
     except Exception as error:
-        from ._ledger import LedgerError  # not loaded unless a ledger was read
-
-        if isinstance(error, LedgerError):
-            raise _Failure(" ".join(str(error).split())) from None
         # a bug of ours must not read as "errors found" (exit 1)
         raise _Failure(f"internal error ({type(error).__name__}): {error}") from None
 

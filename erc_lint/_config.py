@@ -3,13 +3,11 @@
 from pathlib import Path
 from typing import Any, NamedTuple
 
-__all__ = ["LEDGER", "Config", "ConfigError", "find_config", "read_config"]
+from ._errors import ConfigError
+
+__all__ = ["LEDGER", "Config", "find_config", "read_config"]
 
 LEDGER = "erc-lint.lock"  # the ledger's file name, beside a tree's protos
-
-
-class ConfigError(Exception):
-    """The configuration file cannot be read or says something invalid."""
 
 
 _ROOTS = ("PBEnvelope",)  # embedded roots unless the configuration names others

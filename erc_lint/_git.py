@@ -17,17 +17,15 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, TYPE_CHECKING
 
+from ._errors import GitError
+
 if TYPE_CHECKING:
     import subprocess
 
-__all__ = ["GitError", "Repository"]
+__all__ = ["Repository"]
 
 
 _LINK = "link:"  # marks a symlink's blob in a parsed tree
-
-
-class GitError(Exception):
-    """The repository or an object in it cannot be read."""
 
 
 class Repository:

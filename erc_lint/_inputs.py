@@ -13,8 +13,9 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import NamedTuple
 
+from ._errors import GitError
 from ._finding import Finding
-from ._git import GitError, Repository
+from ._git import Repository
 
 __all__ = ["GitInput", "Source", "locate", "materialize", "open_input", "parse", "relocate"]
 

@@ -9,10 +9,11 @@ from pathlib import Path
 import pytest
 
 import erc_lint
+from erc_lint import LedgerError
 from erc_lint._git import Repository
 from erc_lint._history import History, keys
 from erc_lint._inputs import GitInput
-from erc_lint._ledger import Entry, Key, Ledger, LedgerError
+from erc_lint._ledger import Entry, Key, Ledger
 from erc_lint._loader import load_tree
 
 HEADER = 'syntax = "proto3";\n'
