@@ -1,15 +1,10 @@
-"""The ``erc-lint`` command as a process: start-up and exit tuned for a run of a fraction of a
-second, most of it spent importing and then tearing down what was imported.
+"""The ``erc-lint`` command as a process: its exit tuned for a run of a fraction of a second.
 
-- The cyclic garbage collector runs a hundredth as often: a run allocates a few hundred thousand
-  objects, nearly none of them in cycles, and each young-generation pass re-walks them all.
-  (The threshold is set before the heavy imports, which allocate most of those objects.)
-- The process ends with ``os._exit`` once the output is flushed: freeing every module, class and
-  descriptor one by one at interpreter shutdown takes longer than linting a small tree. Nothing
-  the command does is left to shutdown: files and scratch folders are closed by the commands.
+The process ends with ``os._exit`` once the output is flushed: freeing every module, class and
+descriptor one by one at interpreter shutdown takes longer than linting a small tree. Nothing the
+command does is left to shutdown: files and scratch folders are closed by the commands.
 """
 
-import gc
 import os
 import sys
 
@@ -18,7 +13,6 @@ __all__ = ["run"]
 
 def run() -> None:
     """``erc-lint`` with ``sys.argv``, then leave the process with the command's exit status."""
-    gc.set_threshold(70_000, 10, 10)
     from ._cli import main
 
     try:
