@@ -406,7 +406,7 @@ def test_linting_folders_leaves_what_it_does_not_use_unloaded(tmp_path: Path) ->
     """Start-up is most of a CI run's time: `erc-lint OLD NEW` imports what it uses."""
     old = tree(tmp_path / "old", {"a.proto": "message A { int32 x = 1; }\n"})
     script = (  # what the interpreter's start-up loaded (site's .pth files) does not count
-        "import sys\nbefore = set(sys.modules)\nfrom erc_lint._cli import main\n"
+        "import sys\nbefore = set(sys.modules)\nfrom erc_lint.cli import main\n"
         "try:\n    main([sys.argv[1], sys.argv[1]])\nexcept SystemExit:\n    pass\n"
         "print(sorted(m for m in set(sys.modules) - before if m.startswith(('erc_lint.', "
         "'erc_codec.')) or m in ('subprocess', 'json', 'importlib.resources', 'asyncio')))"
@@ -416,7 +416,7 @@ def test_linting_folders_leaves_what_it_does_not_use_unloaded(tmp_path: Path) ->
     )
     loaded = set(ast.literal_eval(done.stdout))
     assert "erc_lint._run" in loaded  # it did lint
-    unused = {"erc_lint._history", "erc_lint._cli_ledger", "erc_lint._ledger"}
+    unused = {"erc_lint._history", "erc_lint.cli._ledger", "erc_lint._ledger"}
     unused |= {"erc_codec.cli._main", "erc_codec.cli._decode", "erc_codec.strategies"}
     unused |= {"subprocess", "json"}  # git inputs and --format json only
     unused |= {"asyncio"}  # erc_codec's UDP endpoint runs in a loop; importing it needs none
@@ -508,7 +508,7 @@ def _close_stdout() -> None:
 def test_the_command_exits_as_python_would_for_system_exit(
     code: object, status: int, said: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from erc_lint._entry import _status
+    from erc_lint.cli._entry import _status
 
     assert _status(code) == status
     assert capsys.readouterr().err == said

@@ -8,13 +8,13 @@ command does is left to shutdown: files and scratch folders are closed by the co
 import os
 import sys
 
+from ._main import main
+
 __all__ = ["run"]
 
 
 def run() -> None:
     """``erc-lint`` with ``sys.argv``, then leave the process with the command's exit status."""
-    from ._cli import main
-
     try:
         main()
     except SystemExit as done:
