@@ -22,12 +22,12 @@ from pathlib import Path
 
 from google.protobuf import descriptor_pb2
 
-from erc_codec.schema import ProtocError, compile_files
+from erc_codec.schema import ProtocError, compile_files, imports
 
 from ._git import Repository
 from ._inputs import GitInput, locate
 from ._ledger import Entry, Key, Ledger
-from ._loader import by_basename, imports, matches, utf8_name
+from ._loader import by_basename, matches, utf8_name
 from ._model import type_of
 
 __all__ = ["History", "keys"]

@@ -17,38 +17,18 @@ Guarantees:
 
 import os
 import re
-from collections.abc import Collection, Iterator, Sequence
+from collections.abc import Collection, Sequence
 from fnmatch import fnmatchcase
 from pathlib import Path
 
 from google.protobuf import descriptor_pb2
 
-from erc_codec.schema import Location, ProtocError, compile_files
+from erc_codec.schema import Location, ProtocError, compile_files, imports
 
 from ._finding import Finding
 
-__all__ = ["LoadedTree", "by_basename", "imports", "load_tree", "matches", "relative", "utf8_name"]
+__all__ = ["LoadedTree", "by_basename", "load_tree", "matches", "relative", "utf8_name"]
 
-# One pass over a file, tokenised as protoc does: comments and string literals are skipped whole,
-# so an import inside one is no import; an import statement (comments allowed between its
-# tokens, none needed around a string) captures its file name: adjacent string literals, which
-# protoc joins.
-_STRING = r'"(?:\\.|[^"\\\n])*"|\'(?:\\.|[^\'\\\n])*\''
-_GAP = r"(?:[ \t\n\r\v\f]|//[^\n]*|/\*.*?\*/)"
-_SCAN = re.compile(
-    rf"//[^\n]*|/\*.*?\*/|{_STRING}|\bimport\b(?:{_GAP}*(?:public|weak)\b)?"
-    rf"{_GAP}*({_STRING})((?:{_GAP}*(?:{_STRING}))*){_GAP}*;",
-    re.DOTALL,
-)
-# The literals of a run of them (and the comments between them, to skip), and the escapes
-# protoc's tokenizer reads inside one. Rarely needed: compiled on first use (re caches them).
-_LITERALS = rf"(?s)//[^\n]*|/\*.*?\*/|({_STRING})"
-_ESCAPE = (
-    r"(?s)\\(?:([0-7]{1,3})|[xX]([0-9A-Fa-f]{1,2})"
-    r"|u([dD][89abAB][0-9A-Fa-f]{2})\\u([dD][c-fC-F][0-9A-Fa-f]{2})"
-    r"|u([0-9A-Fa-f]{4})|U([0-9A-Fa-f]{8})|(.))"
-)
-_C_ESCAPES = {"a": "\a", "b": "\b", "f": "\f", "n": "\n", "r": "\r", "t": "\t", "v": "\v"}
 _DIAGNOSTIC = re.compile(r"^(.*?):(\d+):(\d+): (.*)$")
 
 
@@ -110,60 +90,11 @@ def load_tree(
     return tree
 
 
-def imports(text: str) -> Iterator[tuple[int, int, str]]:
-    """``(start, end, spelling)`` of each import's file name as protoc reads it: ``start:end``
-    spans its string literals (several, joined, perhaps over several lines, with whatever lies
-    between them), ``spelling`` is their text unescaped (comments skipped)."""
-    if "import" not in text:
-        return
-    for match in _SCAN.finditer(text):
-        first = match[1]
-        if first is None:
-            continue
-        if match[2] or "\\" in first:
-            yield match.start(1), match.end(2), _unquote(text[match.start(1) : match.end(2)])
-        else:
-            yield match.start(1), match.end(1), first[1:-1]
-
-
 def _literal(name: str, span: str) -> str:
     """A string literal protoc reads as ``name``, to stand for ``span`` (an import's literals):
     as many lines as ``span``, so that the lines after it keep their numbers."""
     escaped = name.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
     return f'"{escaped}"' + "\n" * span.count("\n")
-
-
-def _unquote(literals: str) -> str:
-    """The bytes protoc makes of adjacent string literals, read as UTF-8."""
-    joined = bytearray()
-    for match in re.finditer(_LITERALS, literals):
-        if match[1] is not None:
-            body = match[1][1:-1]
-            at = 0
-            for escape in re.finditer(_ESCAPE, body):
-                joined += body[at : escape.start()].encode("utf-8", "surrogatepass")
-                joined += _unescape(escape)
-                at = escape.end()
-            joined += body[at:].encode("utf-8", "surrogatepass")
-    return joined.decode("utf-8", "replace")
-
-
-def _unescape(escape: re.Match[str]) -> bytes:
-    """One escape sequence's bytes, as protoc's tokenizer makes them."""
-    octal, hexa, head, trail, u4, u8, other = escape.groups()
-    if octal is not None:
-        return bytes([int(octal, 8) & 0xFF])  # protoc keeps the low byte of \777
-    if hexa is not None:
-        return bytes([int(hexa, 16)])
-    if head is not None:  # a UTF-16 surrogate pair, one code point
-        point = 0x10000 + ((int(head, 16) - 0xD800) << 10 | (int(trail, 16) - 0xDC00))
-    elif u4 is not None or u8 is not None:
-        point = int(u4 or u8, 16)
-        if point > 0x10FFFF:
-            return f"\\U{point:08x}".encode()  # out of range: protoc writes it back out
-    else:
-        return _C_ESCAPES.get(other, other).encode("utf-8", "surrogatepass")
-    return chr(point).encode("utf-8", "surrogatepass")
 
 
 def matches(spelling: str, known: Collection[str], by_basename: dict[str, list[str]]) -> list[str]:

@@ -49,7 +49,7 @@ def test_imports_are_found_as_protoc_reads_them(tmp_path: Path) -> None:
     """Single quotes, comments between the tokens, none needed before the name; adjacent
     literals joined, over lines too; escapes unescaped. None inside a comment or a string, nor
     in an identifier that starts with ``import``."""
-    from erc_lint._loader import imports
+    from erc_codec.schema import imports
 
     user = (
         '// import "commented_out.proto";\n'
