@@ -2,17 +2,20 @@
 
 Guarantees:
 - Every ``.proto`` under the root is compiled with its imports; one that does not compile becomes
-  ``COMPILE`` findings carrying protoc's own ``path:line:col`` and text, and every other file is
-  still loaded. The whole tree goes to protoc at once; only when that fails is it split in halves,
-  recursively, so a tree with k broken files costs about k·log(n) compilations, not n.
+  ``COMPILE`` load problems carrying protoc's own ``path:line:col`` and text, and every other file
+  is still loaded. The whole tree goes to protoc at once; only when that fails is it split in
+  halves, recursively, so a tree with k broken files costs about k·log(n) compilations, not n.
 - Files that would collide when compiled together (nanopb compiles one file at a time and never
   notices) load side by side: the collisions are for the NAME_COLLISION rule to report.
 - Imports resolve whatever their spelling: relative to the root or an ``-I`` folder, prefixed with
   the repository's own folder name (``ERC-Protobufs/components/x.proto``), or a bare file name
   found anywhere in the tree. An import that matches several files is an ``IMPORT_AMBIGUOUS``
-  finding. Only when a spelling needs rewriting is the tree copied to a scratch folder (with
+  load problem. Only when a spelling needs rewriting is the tree copied to a scratch folder (with
   the spelling rewritten in place, line for line, so protoc's locations stay the originals');
   otherwise protoc reads the tree where it is.
+
+The loader reports what it met as ``LoadProblem`` records; the rules of the same names turn them
+into findings.
 """
 
 import os
@@ -20,28 +23,45 @@ import re
 from collections.abc import Collection, Sequence
 from fnmatch import fnmatchcase
 from pathlib import Path
+from typing import Literal, NamedTuple
 
 from google.protobuf import descriptor_pb2
 
 from erc_codec.schema import Location, ProtocError, compile_files, imports
 
-from ._finding import Finding
-
-__all__ = ["LoadedTree", "by_basename", "load_tree", "matches", "relative", "utf8_name"]
+__all__ = [
+    "LoadProblem",
+    "LoadedTree",
+    "by_basename",
+    "load_tree",
+    "matches",
+    "relative",
+    "utf8_name",
+]
 
 _DIAGNOSTIC = re.compile(r"^(.*?):(\d+):(\d+): (.*)$")
 
 
-class LoadedTree:
-    """The compiled files of one tree, with the findings loading produced."""
+class LoadProblem(NamedTuple):
+    """What loading a tree met: a file protoc does not compile (``COMPILE``, one per diagnostic),
+    or an import whose spelling matches several files of the tree (``IMPORT_AMBIGUOUS``)."""
 
-    __slots__ = ("failed", "files", "findings", "imported", "root", "texts")
+    kind: Literal["COMPILE", "IMPORT_AMBIGUOUS"]
+    key: str  # the same problem in another revision has the same key (no scratch paths in it)
+    location: Location
+    text: str
+
+
+class LoadedTree:
+    """The compiled files of one tree, with the problems loading met."""
+
+    __slots__ = ("failed", "files", "imported", "problems", "root", "texts")
 
     def __init__(self, root: Path) -> None:
         self.root = root
         self.files: dict[str, descriptor_pb2.FileDescriptorProto] = {}  # the tree's own, by name
         self.imported: dict[str, descriptor_pb2.FileDescriptorProto] = {}  # all protoc read
-        self.findings: list[tuple[str, Finding]] = []  # (key, finding)
+        self.problems: list[LoadProblem] = []
         self.failed: set[str] = set()  # files that did not compile
         self.texts: dict[str, str] = {}  # the tree's files as read
 
@@ -66,7 +86,7 @@ def load_tree(
         tree.failed.add(name)
         where = Location(str(root / name), 1, 1)
         text = "File name is not UTF-8: protoc cannot compile it, nor anything importing it."
-        tree.findings.append((repr(name), Finding.at(where, "COMPILE", text)))
+        tree.problems.append(LoadProblem("COMPILE", repr(name), where, text))
     names = [
         name
         for name in every
@@ -117,7 +137,7 @@ def _resolve_imports(
     tree: LoadedTree, texts: dict[str, str], reported: set[str], includes: Sequence[Path]
 ) -> dict[str, str]:
     """The texts whose imports needed respelling (relative to the root), respelled; ambiguous
-    imports of the files in ``reported`` are findings."""
+    imports of the files in ``reported`` are load problems."""
     known, index = set(texts), by_basename(texts)
     rewritten = {}
     for name, text in texts.items():
@@ -133,8 +153,8 @@ def _resolve_imports(
                 column = start - text.rfind("\n", 0, start)
                 where = Location(str(tree.root / name), line, column)
                 message = f'Import "{spelling}" is ambiguous: it matches {", ".join(found)}.'
-                finding = Finding.at(where, "IMPORT_AMBIGUOUS", message)
-                tree.findings.append((f"{name}:{spelling}", finding))
+                key = f"{name}:{spelling}"
+                tree.problems.append(LoadProblem("IMPORT_AMBIGUOUS", key, where, message))
         for start, end, replacement in reversed(edits):
             text = text[:start] + replacement + text[end:]
         if edits:
@@ -166,7 +186,7 @@ def _compile(tree: LoadedTree, base: Path, names: list[str], includes: Sequence[
 def _report(
     tree: LoadedTree, base: Path, name: str, lines: list[str], includes: Sequence[Path]
 ) -> None:
-    """COMPILE findings from protoc's diagnostics for ``name``, located in the original files.
+    """COMPILE problems from protoc's diagnostics for ``name``, located in the original files.
 
     An error inside an imported file is reported once, however many files import it.
     """
@@ -184,15 +204,17 @@ def _report(
                 path = str(tree.root / path)
             where, text = Location(path, int(match[2]), int(match[3])), match[4]
         if any(
-            f.path == where.path and f.line == where.line and f.message.startswith(text)
-            for _, f in tree.findings
+            p.location.path == where.path
+            and p.location.line == where.line
+            and p.text.startswith(text)
+            for p in tree.problems
         ):
             continue
         # Keyed by the erring file and the error, not by which importer protoc compiled first.
         key = f"{relative(tree.root, where.path)}:{text}"
         if where.path != str(tree.root / name):
             text = f"{text} (imported by {name})"
-        tree.findings.append((key, Finding.at(where, "COMPILE", text)))
+        tree.problems.append(LoadProblem("COMPILE", key, where, text))
 
 
 def utf8_name(name: str) -> bool:

@@ -13,8 +13,7 @@ from google.protobuf import descriptor_pb2
 
 from erc_codec.schema import Location
 
-from ._finding import Finding
-from ._loader import LoadedTree
+from ._loader import LoadedTree, LoadProblem
 
 __all__ = [
     "Definition",
@@ -196,8 +195,9 @@ class Revision:
         return self.tree.root
 
     @property
-    def load_findings(self) -> list[tuple[str, Finding]]:
-        return self.tree.findings
+    def problems(self) -> list[LoadProblem]:
+        """What loading the tree met (files that do not compile, ambiguous imports)."""
+        return self.tree.problems
 
 
 def build(tree: LoadedTree) -> Revision:

@@ -784,3 +784,34 @@ def test_a_packaged_roots_size_is_named_as_nanopb_names_it(tmp_path: Path) -> No
         'Maximum size of message "acme.io.Env" grew from 7 to 12 bytes: receivers built with '
         "the old acme_io_Env_size drop the longer datagrams."
     )
+
+
+def test_the_loader_returns_load_problems_not_findings(tmp_path: Path) -> None:
+    """What loading met is a record of its own (kind, key, location, text); the rules of the
+    same names make findings of it."""
+    from erc_codec.schema import Location
+    from erc_lint._loader import LoadProblem, load_tree
+
+    root = tree(
+        tmp_path / "t",
+        {
+            "a/shape.proto": "message ShapeA { float w = 1; }\n",
+            "b/shape.proto": "message ShapeB { float w = 1; }\n",
+            "user.proto": 'import "shape.proto";\nmessage User { int32 x = 1; }\n',
+            "broken.proto": "message Broken { Nope x = 1; }\n",
+        },
+    )
+    loaded = load_tree(root)
+    assert [(p.kind, p.key) for p in sorted(loaded.problems)] == [
+        ("COMPILE", 'broken.proto:"Nope" is not defined.'),
+        ("COMPILE", 'user.proto:Import "shape.proto" was not found or had errors.'),
+        ("COMPILE", "user.proto:shape.proto: File not found."),
+        ("IMPORT_AMBIGUOUS", "user.proto:shape.proto"),
+    ]
+    assert sorted(loaded.problems)[-1] == LoadProblem(
+        "IMPORT_AMBIGUOUS",
+        "user.proto:shape.proto",
+        Location(str(root / "user.proto"), 2, 8),
+        'Import "shape.proto" is ambiguous: it matches a/shape.proto, b/shape.proto.',
+    )
+    assert loaded.failed == {"broken.proto", "user.proto"}

@@ -20,16 +20,16 @@ Report = Iterator[tuple[str, Location, str]]
 
 @tree_rule("COMPILE", "A file does not compile (protoc's own diagnostic); the rest still load.")
 def compile_errors(revision: Revision, change: Change) -> Report:
-    for key, finding in revision.load_findings:
-        if finding.rule == "COMPILE":
-            yield key, _location(finding), finding.message
+    for problem in revision.problems:
+        if problem.kind == "COMPILE":
+            yield problem.key, problem.location, problem.text
 
 
 @tree_rule("IMPORT_AMBIGUOUS", "An import's spelling matches more than one file of the tree.")
 def import_ambiguous(revision: Revision, change: Change) -> Report:
-    for key, finding in revision.load_findings:
-        if finding.rule == "IMPORT_AMBIGUOUS":
-            yield key, _location(finding), finding.message
+    for problem in revision.problems:
+        if problem.kind == "IMPORT_AMBIGUOUS":
+            yield problem.key, problem.location, problem.text
 
 
 @tree_rule(
@@ -194,7 +194,3 @@ def _history(ledger: "Ledger", clashes: "list[Entry]") -> str:
 
 def _id(key: "Key") -> str:
     return f"{key.kind}:{key.container}:{key.number}:{key.name}:{key.type}"
-
-
-def _location(finding: Any) -> Location:
-    return Location(finding.path, finding.line, finding.column)
