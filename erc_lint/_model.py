@@ -5,13 +5,13 @@ definition, read from protoc's source info when first asked for (nearly none eve
 findings need one); names are full names (``Outer.Inner``; a package, if a file has one, in front).
 """
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from pathlib import Path
 from typing import NamedTuple
 
 from google.protobuf import descriptor_pb2
 
-from erc_codec.schema import Location
+from erc_codec.schema import Declaration, Location, SourceIndex, declarations
 
 from ._loader import LoadedTree, LoadProblem
 
@@ -22,7 +22,6 @@ __all__ = [
     "Field",
     "Message",
     "Revision",
-    "Source",
     "build",
     "type_of",
     "walk",
@@ -37,32 +36,6 @@ _SCALARS = {
 _LABELS = {number: name.removeprefix("LABEL_").lower() for name, number in _FD.Label.items()}
 # A proto2 group is a message type as far as the wire and the rules go.
 _KINDS = {_FD.TYPE_MESSAGE: "message", _FD.TYPE_GROUP: "message", _FD.TYPE_ENUM: "enum"}
-# SourceCodeInfo path components.
-_FILE_MESSAGE, _FILE_ENUM = 4, 5
-_MESSAGE_FIELD, _MESSAGE_NESTED, _MESSAGE_ENUM, _MESSAGE_ONEOF = 2, 3, 4, 8
-_ENUM_VALUE = 2
-
-
-class Source:
-    """Where one file's declarations are: protoc's source info, indexed on first use."""
-
-    def __init__(self, path: str, proto: descriptor_pb2.FileDescriptorProto) -> None:
-        self.path = path
-        self._proto: descriptor_pb2.FileDescriptorProto | None = proto
-        self._spans: dict[tuple[int, ...], Sequence[int]] = {}
-
-    def where(self, at: tuple[int, ...]) -> Location:
-        """The location of the declaration at source-info path ``at`` (1:1 if protoc has none)."""
-        if self._proto is not None:
-            # Declarations sit at even-length paths; the odd ones (names, numbers, types) are many.
-            self._spans = {
-                tuple(loc.path): loc.span
-                for loc in self._proto.source_code_info.location
-                if not len(loc.path) % 2
-            }
-            self._proto = None
-        span = self._spans.get(at)
-        return Location(self.path, span[0] + 1, span[1] + 1) if span else Location(self.path, 1, 1)
 
 
 class Field(NamedTuple):
@@ -73,7 +46,7 @@ class Field(NamedTuple):
     kind: str  # "scalar", "message" or "enum"
     cardinality: str  # "optional", "repeated" or "required"
     oneof: str | None  # the real oneof it belongs to (not a proto3 `optional`'s)
-    source: Source
+    source: SourceIndex
     at: tuple[int, ...]  # its source-info path (a map entry's fields: their map field's)
 
     @property
@@ -85,8 +58,12 @@ class EnumValue(NamedTuple):
     owner: str
     name: str
     number: int
-    source: Source
+    source: SourceIndex
     at: tuple[int, ...]
+
+    @property
+    def kind(self) -> str:
+        return "enum value"
 
     @property
     def location(self) -> Location:
@@ -118,8 +95,15 @@ class Reserved:
 class Message:
     __slots__ = ("at", "by_name", "fields", "file", "map_entry", "name", "reserved", "source")
 
+    kind = "message"
+
     def __init__(
-        self, name: str, file: str, source: Source, at: tuple[int, ...], map_entry: bool = False
+        self,
+        name: str,
+        file: str,
+        source: SourceIndex,
+        at: tuple[int, ...],
+        map_entry: bool = False,
     ) -> None:
         self.name = name
         self.file = file
@@ -153,7 +137,9 @@ class Message:
 class Enum:
     __slots__ = ("at", "by_name", "file", "name", "reserved", "source", "values")
 
-    def __init__(self, name: str, file: str, source: Source, at: tuple[int, ...]) -> None:
+    kind = "enum"
+
+    def __init__(self, name: str, file: str, source: SourceIndex, at: tuple[int, ...]) -> None:
         self.name = name
         self.file = file
         self.source = source
@@ -186,9 +172,8 @@ class Revision:
         self.tree = tree
         self.messages: dict[str, Message] = {}
         self.enums: dict[str, Enum] = {}
-        # Every global name a definition takes (C++ scoping: enum values beside their enum),
-        # with the kind of definition ("message", "enum", "enum value") and the definition.
-        self.definitions: dict[str, list[tuple[str, Definition]]] = {}
+        # Every global name a definition takes (C++ scoping: enum values beside their enum).
+        self.definitions: dict[str, list[Definition]] = {}
 
     @property
     def root(self) -> Path:
@@ -204,85 +189,75 @@ def build(tree: LoadedTree) -> Revision:
     """The model of a loaded tree."""
     revision = Revision(tree)
     for proto in tree.files.values():
-        _File(revision, proto).add()
+        _add_file(revision, proto)
     return revision
 
 
-class _File:
-    def __init__(self, revision: Revision, proto: descriptor_pb2.FileDescriptorProto) -> None:
-        self.revision = revision
-        self.proto = proto
-        self.source = Source(str(revision.root / proto.name), proto)
-        self.package = f"{proto.package}." if proto.package else ""
+def _add_file(revision: Revision, proto: descriptor_pb2.FileDescriptorProto) -> None:
+    source = SourceIndex(str(revision.root / proto.name), proto)
+    here: dict[str, Message] = {}  # this file's messages (another file may define a name too)
+    for declaration in declarations(proto):
+        if declaration.is_message:
+            message = _message(proto.name, source, declaration, here.get(declaration.parent or ""))
+            here[message.name] = message
+            _define(revision, message.name, message)
+            revision.messages.setdefault(message.name, message)
+        else:
+            _enum(revision, proto.name, source, declaration)
 
-    def define(self, name: str, kind: str, definition: Definition) -> None:
-        self.revision.definitions.setdefault(name, []).append((kind, definition))
 
-    def add(self) -> None:
-        for i, message in enumerate(self.proto.message_type):
-            self.message(self.package + message.name, message, (_FILE_MESSAGE, i))
-        for i, enum in enumerate(self.proto.enum_type):
-            self.enum(self.package + enum.name, self.package, enum, (_FILE_ENUM, i))
+def _define(revision: Revision, name: str, definition: Definition) -> None:
+    revision.definitions.setdefault(name, []).append(definition)
 
-    def message(
-        self,
-        name: str,
-        proto: descriptor_pb2.DescriptorProto,
-        path: tuple[int, ...],
-        declared: tuple[int, ...] | None = None,
-    ) -> None:
-        """Add message ``name``; ``declared`` is the path of the map field that a map entry and
-        its key and value, which have no source of their own, are located at."""
-        model = Message(
-            name, self.proto.name, self.source, declared or path, proto.options.map_entry
+
+def _message(
+    file: str, source: SourceIndex, declaration: Declaration, parent: Message | None
+) -> Message:
+    """The model of a declared message. A map entry and its key and value have no source of their
+    own: they are located at the map field of ``parent`` that uses the entry."""
+    proto = declaration.proto
+    assert isinstance(proto, descriptor_pb2.DescriptorProto)
+    name, map_entry = declaration.name, proto.options.map_entry
+    users = [f for f in parent.fields.values() if f.type == name] if parent and map_entry else []
+    declared = users[0].at if users else None
+    model = Message(name, file, source, declared or declaration.path, map_entry)
+    oneofs = [oneof.name for oneof in proto.oneof_decl]
+    for j, f in enumerate(proto.field):
+        real_oneof = f.HasField("oneof_index") and not f.proto3_optional
+        type_, kind = type_of(f)
+        entry = Field(
+            owner=name,
+            name=f.name,
+            number=f.number,
+            type=type_,
+            kind=kind,
+            cardinality=_LABELS[f.label],
+            oneof=oneofs[f.oneof_index] if real_oneof else None,
+            source=source,
+            at=declared or declaration.member(j),
         )
-        self.define(name, "message", model)
-        self.revision.messages.setdefault(name, model)
-        oneofs = [oneof.name for oneof in proto.oneof_decl]
-        for j, f in enumerate(proto.field):
-            real_oneof = f.HasField("oneof_index") and not f.proto3_optional
-            type_, kind = type_of(f)
-            entry = Field(
-                owner=name,
-                name=f.name,
-                number=f.number,
-                type=type_,
-                kind=kind,
-                cardinality=_LABELS[f.label],
-                oneof=oneofs[f.oneof_index] if real_oneof else None,
-                source=self.source,
-                at=declared or (*path, _MESSAGE_FIELD, j),
-            )
-            model.fields.setdefault(f.number, entry)
-            model.by_name.setdefault(f.name, entry)
-        # protoc's message ranges end before ``end``; enum ranges include it
-        model.reserved.ranges.extend((r.start, r.end - 1) for r in proto.reserved_range)
-        model.reserved.names.update(proto.reserved_name)
-        for j, nested in enumerate(proto.nested_type):
-            full = f"{name}.{nested.name}"
-            users = [f for f in model.fields.values() if f.type == full]
-            declared = users[0].at if nested.options.map_entry and users else None
-            self.message(full, nested, (*path, _MESSAGE_NESTED, j), declared)
-        for j, enum in enumerate(proto.enum_type):
-            self.enum(f"{name}.{enum.name}", f"{name}.", enum, (*path, _MESSAGE_ENUM, j))
+        model.fields.setdefault(f.number, entry)
+        model.by_name.setdefault(f.name, entry)
+    # protoc's message ranges end before ``end``; enum ranges include it
+    model.reserved.ranges.extend((r.start, r.end - 1) for r in proto.reserved_range)
+    model.reserved.names.update(proto.reserved_name)
+    return model
 
-    def enum(
-        self,
-        name: str,
-        scope: str,
-        proto: descriptor_pb2.EnumDescriptorProto,
-        path: tuple[int, ...],
-    ) -> None:
-        model = Enum(name, self.proto.name, self.source, path)
-        self.define(name, "enum", model)
-        self.revision.enums.setdefault(name, model)
-        for j, value in enumerate(proto.value):
-            entry = EnumValue(name, value.name, value.number, self.source, (*path, _ENUM_VALUE, j))
-            self.define(scope + value.name, "enum value", entry)
-            model.values.setdefault(value.number, entry)
-            model.by_name.setdefault(value.name, entry)
-        model.reserved.ranges.extend((r.start, r.end) for r in proto.reserved_range)
-        model.reserved.names.update(proto.reserved_name)
+
+def _enum(revision: Revision, file: str, source: SourceIndex, declaration: Declaration) -> None:
+    """Add a declared enum; its values take global names beside it (C++ scoping)."""
+    proto = declaration.proto
+    assert isinstance(proto, descriptor_pb2.EnumDescriptorProto)
+    model = Enum(declaration.name, file, source, declaration.path)
+    _define(revision, model.name, model)
+    revision.enums.setdefault(model.name, model)
+    for j, value in enumerate(proto.value):
+        entry = EnumValue(model.name, value.name, value.number, source, declaration.member(j))
+        _define(revision, declaration.scope + value.name, entry)
+        model.values.setdefault(value.number, entry)
+        model.by_name.setdefault(value.name, entry)
+    model.reserved.ranges.extend((r.start, r.end) for r in proto.reserved_range)
+    model.reserved.names.update(proto.reserved_name)
 
 
 def type_of(f: descriptor_pb2.FieldDescriptorProto) -> tuple[str, str]:

@@ -6,7 +6,7 @@ from pathlib import Path
 from google.protobuf import descriptor_pb2
 
 from erc_codec import SchemaError
-from erc_codec.schema import Location, Schema, Sizes
+from erc_codec.schema import Declaration, Location, Schema, Sizes, declarations
 
 from .._model import Enum, Message, Revision
 from .._pairing import Change
@@ -93,9 +93,6 @@ def envelope_size_grown(change: Change) -> Report:
             )
 
 
-_Definition = descriptor_pb2.DescriptorProto | descriptor_pb2.EnumDescriptorProto
-
-
 def _files(revision: Revision, root: str) -> dict[str, descriptor_pb2.FileDescriptorProto]:
     """The file defining message ``root`` and every file it imports, each after its imports:
     what protoc resolved the root's types in (the tree may define a name twice elsewhere)."""
@@ -113,40 +110,24 @@ def _files(revision: Revision, root: str) -> dict[str, descriptor_pb2.FileDescri
     return order
 
 
-def _definitions(
-    files: dict[str, descriptor_pb2.FileDescriptorProto],
-) -> dict[str, tuple[descriptor_pb2.FileDescriptorProto, _Definition]]:
-    """Every message and enum of ``files``, nested ones too, by full name."""
-    index: dict[str, tuple[descriptor_pb2.FileDescriptorProto, _Definition]] = {}
-    for file in files.values():
-        prefix = f"{file.package}." if file.package else ""
-        pending: list[tuple[str, _Definition]] = [
-            *((prefix + m.name, m) for m in file.message_type),
-            *((prefix + e.name, e) for e in file.enum_type),
-        ]
-        while pending:
-            name, proto = pending.pop()
-            index.setdefault(name, (file, proto))
-            if isinstance(proto, descriptor_pb2.DescriptorProto):
-                pending.extend((f"{name}.{m.name}", m) for m in proto.nested_type)
-                pending.extend((f"{name}.{e.name}", e) for e in proto.enum_type)
-    return index
-
-
 def _size_inputs(
     revision: Revision, files: dict[str, descriptor_pb2.FileDescriptorProto], root: str
 ) -> dict[tuple[str, str], object]:
     """What nanopb computes ``root``'s size from: the descriptor of every message and enum it
     reaches (without source locations, so comments and layout don't count) and, for each file
     holding one, its package, syntax, edition, file options and ``.options`` text."""
-    index = _definitions(files)
+    index: dict[str, tuple[descriptor_pb2.FileDescriptorProto, Declaration]] = {}
+    for file in files.values():
+        for declared in declarations(file):
+            index.setdefault(declared.name, (file, declared))
     found: dict[tuple[str, str], object] = {}
     pending = [root]
     while pending:
         name = pending.pop()
         if ("type", name) in found or name not in index:
             continue
-        file, proto = index[name]
+        file, declared = index[name]
+        proto = declared.proto
         found["type", name] = proto.SerializeToString(deterministic=True)
         if isinstance(proto, descriptor_pb2.DescriptorProto):
             pending.extend(f.type_name.lstrip(".") for f in proto.field if f.type_name)

@@ -40,13 +40,13 @@ def name_collision(revision: Revision, change: Change) -> Report:
     for name, definitions in sorted(revision.definitions.items()):
         if len(definitions) < 2:
             continue
-        places = sorted(((kind, d.location) for kind, d in definitions), key=lambda p: p[1])
+        places = sorted(((d.kind, d.location) for d in definitions), key=lambda p: p[1])
         listed = " and ".join(f"{kind} at {where}" for kind, where in places)
         # Point at a definition the other revision lacks, if any: that is the one to look at.
         other = change.old if revision is change.new else change.new
         known = {
             (relative(other.root, d.location.path), d.location.line)
-            for _, d in other.definitions.get(name, [])
+            for d in other.definitions.get(name, [])
         }
         fresh = [
             where
