@@ -1,17 +1,28 @@
-"""One revision of a proto tree as the rules see it: messages, enums, their members and locations.
+"""One revision of a proto tree as the rules see it: messages, enums, their members and locations,
+and what nanopb makes of them (maximum sizes, bounds).
 
 Built from the descriptors the loader compiled. Every element has the ``Location`` of its
 definition, read from protoc's source info when first asked for (nearly none ever are: only
 findings need one); names are full names (``Outer.Inner``; a package, if a file has one, in front).
+Sizes and nanopb options are computed when a rule first asks, once per revision (and root).
 """
 
 from collections.abc import Iterator
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 from google.protobuf import descriptor_pb2
 
-from erc_codec.schema import Declaration, Location, SourceIndex, declarations
+from erc_codec import SchemaError
+from erc_codec.schema import (
+    Declaration,
+    Location,
+    Schema,
+    Sizes,
+    SourceIndex,
+    declarations,
+    resolve_options,
+)
 
 from ._loader import LoadedTree, LoadProblem
 
@@ -24,7 +35,6 @@ __all__ = [
     "Revision",
     "build",
     "type_of",
-    "walk",
 ]
 
 _FD = descriptor_pb2.FieldDescriptorProto
@@ -36,6 +46,7 @@ _SCALARS = {
 _LABELS = {number: name.removeprefix("LABEL_").lower() for name, number in _FD.Label.items()}
 # A proto2 group is a message type as far as the wire and the rules go.
 _KINDS = {_FD.TYPE_MESSAGE: "message", _FD.TYPE_GROUP: "message", _FD.TYPE_ENUM: "enum"}
+_Files = dict[str, descriptor_pb2.FileDescriptorProto]
 
 
 class Field(NamedTuple):
@@ -166,7 +177,7 @@ Definition = Message | Enum | EnumValue
 class Revision:
     """One side of a comparison."""
 
-    __slots__ = ("definitions", "enums", "messages", "tree")
+    __slots__ = ("_bounds", "_files", "definitions", "enums", "messages", "tree")
 
     def __init__(self, tree: LoadedTree) -> None:
         self.tree = tree
@@ -174,6 +185,8 @@ class Revision:
         self.enums: dict[str, Enum] = {}
         # Every global name a definition takes (C++ scoping: enum values beside their enum).
         self.definitions: dict[str, list[Definition]] = {}
+        self._files: dict[str, _Files] = {}  # by root: what protoc resolved its types in
+        self._bounds: dict[str, Any] | None = None  # nanopb's options by field, when first asked
 
     @property
     def root(self) -> Path:
@@ -183,6 +196,91 @@ class Revision:
     def problems(self) -> list[LoadProblem]:
         """What loading the tree met (files that do not compile, ambiguous imports)."""
         return self.tree.problems
+
+    def reach(self, root: str) -> Iterator[tuple[str, Field]]:
+        """Every field reachable from message ``root``, with its path (``Root.a.b``), once each,
+        nearest first."""
+        seen = {root}
+        queue = [(root, root)]
+        while queue:
+            name, path = queue.pop(0)
+            message = self.messages.get(name)
+            if message is None:
+                continue
+            for entry in sorted(message.fields.values(), key=lambda f: f.number):
+                here = f"{path}.{entry.name}"
+                yield here, entry
+                if entry.kind == "message" and entry.type not in seen:
+                    seen.add(entry.type)
+                    queue.append((entry.type, here))
+
+    def bounded(self, field: Field) -> bool:
+        """Whether nanopb gives a string or bytes field a maximum length (``max_size`` or
+        ``max_length``, from a ``.options`` file or an annotation)."""
+        if self._bounds is None:
+            files = tuple(self.tree.imported.values())
+            self._bounds = resolve_options(self.root, files).fields
+        bound = self._bounds.get(f"{field.owner}.{field.name}")
+        return bound is not None and (bound.HasField("max_size") or bound.HasField("max_length"))
+
+    def max_size(self, root: str) -> int | None:
+        """nanopb's ``<root>_size`` in this revision; ``None`` where nanopb has none (an
+        unbounded field on the way) or the tree has no such message."""
+        files = self._root_files(root)
+        if not files:
+            return None
+        try:
+            schema = Schema(self.root, root, descriptor_pb2.FileDescriptorSet(file=files.values()))
+            return Sizes(schema).max_size(root)
+        except SchemaError:
+            return None
+
+    def size_inputs(self, root: str) -> dict[tuple[str, str], object]:
+        """What nanopb computes ``root``'s size from: the descriptor of every message and enum it
+        reaches (without source locations, so comments and layout don't count) and, for each file
+        holding one, its package, syntax, edition, file options and ``.options`` text. Equal
+        inputs, equal sizes: comparing them spares two size computations."""
+        files = self._root_files(root)
+        index: dict[str, tuple[descriptor_pb2.FileDescriptorProto, Declaration]] = {}
+        for file in files.values():
+            for declared in declarations(file):
+                index.setdefault(declared.name, (file, declared))
+        found: dict[tuple[str, str], object] = {}
+        pending = [root]
+        while pending:
+            name = pending.pop()
+            if ("type", name) in found or name not in index:
+                continue
+            file, declared = index[name]
+            proto = declared.proto
+            found["type", name] = proto.SerializeToString(deterministic=True)
+            if isinstance(proto, descriptor_pb2.DescriptorProto):
+                pending.extend(f.type_name.lstrip(".") for f in proto.field if f.type_name)
+            if ("file", file.name) not in found:
+                options = self.root / Path(file.name).with_suffix(".options")
+                text = options.read_bytes() if options.is_file() else None
+                settings = file.options.SerializeToString(deterministic=True)
+                found["file", file.name] = (file.package, file.syntax, file.edition, settings, text)
+        return found
+
+    def _root_files(self, root: str) -> _Files:
+        """The file defining message ``root`` and every file it imports, each after its imports:
+        what protoc resolved the root's types in (the tree may define a name twice elsewhere)."""
+        order = self._files.get(root)
+        if order is not None:
+            return order
+        files, order = self.tree.imported, {}
+
+        def visit(name: str) -> None:
+            if name in files and name not in order:
+                for dependency in files[name].dependency:
+                    visit(dependency)
+                order[name] = files[name]
+
+        if root in self.messages:
+            visit(self.messages[root].file)
+        self._files[root] = order
+        return order
 
 
 def build(tree: LoadedTree) -> Revision:
@@ -264,20 +362,3 @@ def type_of(f: descriptor_pb2.FieldDescriptorProto) -> tuple[str, str]:
     """A field's type as the rules name it (``float``, or a full name) and its kind."""
     kind = _KINDS.get(f.type, "scalar")
     return (f.type_name.lstrip(".") if kind != "scalar" else _SCALARS[f.type]), kind
-
-
-def walk(revision: Revision, root: str) -> Iterator[tuple[str, Field]]:
-    """Every field reachable from message ``root``, with its path (``Root.a.b``), once each."""
-    seen = {root}
-    queue = [(root, root)]
-    while queue:
-        name, path = queue.pop(0)
-        message = revision.messages.get(name)
-        if message is None:
-            continue
-        for entry in sorted(message.fields.values(), key=lambda f: f.number):
-            here = f"{path}.{entry.name}"
-            yield here, entry
-            if entry.kind == "message" and entry.type not in seen:
-                seen.add(entry.type)
-                queue.append((entry.type, here))

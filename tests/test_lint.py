@@ -815,3 +815,38 @@ def test_the_loader_returns_load_problems_not_findings(tmp_path: Path) -> None:
         'Import "shape.proto" is ambiguous: it matches a/shape.proto, b/shape.proto.',
     )
     assert loaded.failed == {"broken.proto", "user.proto"}
+
+
+@pytest.mark.parametrize(
+    ("edit", "same"),
+    [
+        (("reading.options", "16", "32"), False),
+        (("reading.proto", "MODE_RUN = 1;", "MODE_RUN = 1; MODE_BACK = -1;"), False),
+        (("reading.proto", " [(nanopb).int_size = IS_8]", ""), False),
+        (("reading.proto", "uint32 count", "int32 count"), False),
+        (("envelope.proto", "Reading reading = 1;", "Reading reading = 1; Mode m = 2;"), False),
+        (("reading.proto", "MODE_IDLE = 0;", "MODE_IDLE = 0; // idle\n"), True),
+        (("reading.proto", "  Mode mode = 2;\n", "\n\n  Mode   mode = 2;  // moved\n"), True),
+    ],
+)
+def test_equal_size_inputs_mean_equal_sizes(
+    tmp_path: Path, edit: tuple[str, str, str], same: bool
+) -> None:
+    """ENVELOPE_SIZE_GROWN compares what nanopb sizes the root from before it computes sizes
+    (bench_lint's 30-file ratio): that shortcut must agree with comparing the sizes."""
+    from erc_lint._loader import load_tree
+    from erc_lint._model import build
+
+    name, before, after = edit
+    changed = {**READING, name: READING[name].replace(before, after)}
+    revisions = []
+    for side, files in (("old", READING), ("new", changed)):
+        root = tree(tmp_path / side, files)
+        (root / "reading.options").write_text(files["reading.options"])
+        revisions.append(build(load_tree(root)))
+    old, new = revisions
+    assert (old.size_inputs("PBEnvelope") == new.size_inputs("PBEnvelope")) == same
+    sizes = (old.max_size("PBEnvelope"), new.max_size("PBEnvelope"))
+    assert None not in sizes
+    if same:
+        assert sizes[0] == sizes[1]

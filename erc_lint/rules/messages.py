@@ -1,14 +1,10 @@
 """Rules on whole messages and enums: deletions, renames, reservations, the envelope's size."""
 
 from collections.abc import Iterator
-from pathlib import Path
 
-from google.protobuf import descriptor_pb2
+from erc_codec.schema import Location
 
-from erc_codec import SchemaError
-from erc_codec.schema import Declaration, Location, Schema, Sizes, declarations
-
-from .._model import Enum, Message, Revision
+from .._model import Enum, Message
 from .._pairing import Change
 from ._registry import pair_rule
 
@@ -79,11 +75,11 @@ def envelope_size_grown(change: Change) -> Report:
         message = change.new.messages.get(root)
         if message is None or root not in change.old.messages:
             continue
-        old_files, new_files = _files(change.old, root), _files(change.new, root)
-        if _size_inputs(change.old, old_files, root) == _size_inputs(change.new, new_files, root):
+        # bench_lint's 30-file ratio: equal inputs spare two size computations (about 20 ms of a
+        # 200 ms run); test_equal_size_inputs_mean_equal_sizes: the shortcut agrees with sizes.
+        if change.old.size_inputs(root) == change.new.size_inputs(root):
             continue  # nothing nanopb sizes the root from has changed
-        before = max_size(change.old, old_files, root)
-        after = max_size(change.new, new_files, root)
+        before, after = change.old.max_size(root), change.new.max_size(root)
         if before is not None and after is not None and after > before:
             yield (
                 message.location,
@@ -91,63 +87,3 @@ def envelope_size_grown(change: Change) -> Report:
                 f"built with the old {root.replace('.', '_')}_size drop the longer datagrams.",
                 False,
             )
-
-
-def _files(revision: Revision, root: str) -> dict[str, descriptor_pb2.FileDescriptorProto]:
-    """The file defining message ``root`` and every file it imports, each after its imports:
-    what protoc resolved the root's types in (the tree may define a name twice elsewhere)."""
-    files = revision.tree.imported
-    order: dict[str, descriptor_pb2.FileDescriptorProto] = {}
-
-    def visit(name: str) -> None:
-        if name in files and name not in order:
-            for dependency in files[name].dependency:
-                visit(dependency)
-            order[name] = files[name]
-
-    if root in revision.messages:
-        visit(revision.messages[root].file)
-    return order
-
-
-def _size_inputs(
-    revision: Revision, files: dict[str, descriptor_pb2.FileDescriptorProto], root: str
-) -> dict[tuple[str, str], object]:
-    """What nanopb computes ``root``'s size from: the descriptor of every message and enum it
-    reaches (without source locations, so comments and layout don't count) and, for each file
-    holding one, its package, syntax, edition, file options and ``.options`` text."""
-    index: dict[str, tuple[descriptor_pb2.FileDescriptorProto, Declaration]] = {}
-    for file in files.values():
-        for declared in declarations(file):
-            index.setdefault(declared.name, (file, declared))
-    found: dict[tuple[str, str], object] = {}
-    pending = [root]
-    while pending:
-        name = pending.pop()
-        if ("type", name) in found or name not in index:
-            continue
-        file, declared = index[name]
-        proto = declared.proto
-        found["type", name] = proto.SerializeToString(deterministic=True)
-        if isinstance(proto, descriptor_pb2.DescriptorProto):
-            pending.extend(f.type_name.lstrip(".") for f in proto.field if f.type_name)
-        if ("file", file.name) not in found:
-            options = revision.root / Path(file.name).with_suffix(".options")
-            text = options.read_bytes() if options.is_file() else None
-            settings = file.options.SerializeToString(deterministic=True)
-            found["file", file.name] = (file.package, file.syntax, file.edition, settings, text)
-    return found
-
-
-def max_size(
-    revision: Revision, files: dict[str, descriptor_pb2.FileDescriptorProto], root: str
-) -> int | None:
-    """nanopb's ``<root>_size`` in this revision, compiled from ``files`` (``_files``), ``None``
-    where it has none (or no such root)."""
-    if not files:
-        return None
-    try:
-        schema = Schema(revision.root, root, descriptor_pb2.FileDescriptorSet(file=files.values()))
-        return Sizes(schema).max_size(root)
-    except SchemaError:
-        return None

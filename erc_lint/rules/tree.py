@@ -3,12 +3,12 @@ a ledger, what the tree's history held)."""
 
 import re
 from collections.abc import Iterator
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
-from erc_codec.schema import Location, resolve_options
+from erc_codec.schema import Location
 
 from .._loader import relative
-from .._model import Revision, walk
+from .._model import Revision
 from .._pairing import Change, wire_compatible
 from ._registry import tree_rule
 
@@ -88,7 +88,7 @@ def embedded_root_missing(revision: Revision, change: Change) -> Report:
 )
 def embedded_repeated(revision: Revision, change: Change) -> Report:
     for root in change.config.roots:
-        for path, field in walk(revision, root):
+        for path, field in revision.reach(root):
             if field.cardinality == "repeated":
                 yield (
                     f"{root}:{change.old_name(revision, field.owner)}.{field.name}",
@@ -103,17 +103,9 @@ def embedded_repeated(revision: Revision, change: Change) -> Report:
     "A string or bytes field without nanopb max_size in a message an embedded root reaches.",
 )
 def embedded_unbounded(revision: Revision, change: Change) -> Report:
-    options: Any = None
     for root in change.config.roots:
-        for path, field in walk(revision, root):
-            if field.type not in ("string", "bytes"):
-                continue
-            if options is None:
-                options = resolve_options(
-                    revision.root, tuple(revision.tree.imported.values())
-                ).fields
-            bound = options.get(f"{field.owner}.{field.name}")
-            if bound is not None and (bound.HasField("max_size") or bound.HasField("max_length")):
+        for path, field in revision.reach(root):
+            if field.type not in ("string", "bytes") or revision.bounded(field):
                 continue
             yield (
                 f"{root}:{change.old_name(revision, field.owner)}.{field.name}",
