@@ -270,15 +270,18 @@ class Revision:
         if order is not None:
             return order
         files, order = self.tree.imported, {}
-
-        def visit(name: str) -> None:
-            if name in files and name not in order:
-                for dependency in files[name].dependency:
-                    visit(dependency)
+        message = self.messages.get(root)
+        # Depth first without recursion: an import chain may be thousands of files long. (protoc
+        # refuses import cycles, so a file on the stack is never imported again below itself.)
+        stack = [(message.file, iter(files[message.file].dependency))] if message else []
+        while stack:
+            name, pending = stack[-1]
+            after = next((d for d in pending if d in files and d not in order), None)
+            if after is None:
+                stack.pop()
                 order[name] = files[name]
-
-        if root in self.messages:
-            visit(self.messages[root].file)
+            else:
+                stack.append((after, iter(files[after].dependency)))
         self._files[root] = order
         return order
 

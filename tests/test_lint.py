@@ -850,3 +850,21 @@ def test_equal_size_inputs_mean_equal_sizes(
     assert None not in sizes
     if same:
         assert sizes[0] == sizes[1]
+
+
+def test_a_root_at_the_end_of_a_long_import_chain_is_sized(tmp_path: Path) -> None:
+    """The files a root's size is computed from are gathered without recursion: a chain of
+    imports longer than Python's recursion limit was an internal error (exit 2)."""
+    chain = 1100  # files, each importing the one before
+    files = {
+        f"c{i}.proto": (f'import "c{i - 1}.proto";\n' if i else "") + f"message C{i} {{}}\n"
+        for i in range(chain)
+    }
+    envelope = (
+        f'import "c{chain - 1}.proto";\nmessage PBEnvelope {{ oneof p {{ C{chain - 1} c = 1; }}'
+    )
+    old = tree(tmp_path / "old", {**files, "env.proto": envelope + " }\n"})
+    new = tree(tmp_path / "new", {**files, "env.proto": envelope + " int32 y = 2; }\n"})
+    assert [f.message.split(":")[0] for f in erc_lint.lint(old, new)] == [
+        'Maximum size of message "PBEnvelope" grew from 2 to 13 bytes'
+    ]
