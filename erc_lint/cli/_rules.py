@@ -11,5 +11,5 @@ __all__ = ["list_rules"]
 def list_rules() -> None:
     """List every rule: ID, default severity and purpose."""
     for rule in RULES.values():
-        severity = rule.severity if rule.pair else "error (warning if OLD has it)"
+        severity = "error (warning if OLD has it)" if rule.pairs == "tree" else rule.severity
         click.echo(f"{rule.id:<26} {severity:<30} {rule.purpose}")
