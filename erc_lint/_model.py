@@ -21,6 +21,7 @@ from erc_codec.schema import (
     Sizes,
     SourceIndex,
     declarations,
+    declared_names,
     resolve_options,
 )
 
@@ -177,7 +178,7 @@ Definition = Message | Enum | EnumValue
 class Revision:
     """One side of a comparison."""
 
-    __slots__ = ("_bounds", "_files", "definitions", "enums", "messages", "tree")
+    __slots__ = ("_bounds", "_failed_names", "_files", "definitions", "enums", "messages", "tree")
 
     def __init__(self, tree: LoadedTree) -> None:
         self.tree = tree
@@ -187,6 +188,7 @@ class Revision:
         self.definitions: dict[str, list[Definition]] = {}
         self._files: dict[str, _Files] = {}  # by root: what protoc resolved its types in
         self._bounds: dict[str, Any] | None = None  # nanopb's options by field, when first asked
+        self._failed_names: frozenset[str] | None = None  # what files that failed declare
 
     @property
     def root(self) -> Path:
@@ -196,6 +198,17 @@ class Revision:
     def problems(self) -> list[LoadProblem]:
         """What loading the tree met (files that do not compile, ambiguous imports)."""
         return self.tree.problems
+
+    def declared_where_it_failed(self, name: str) -> bool:
+        """Whether a file that did not compile declares a message, enum or group with the short
+        name of ``name`` (comments and strings are not declarations): then what ``name`` is in
+        this revision is unknown, not missing."""
+        if self._failed_names is None:
+            texts = self.tree.texts
+            self._failed_names = frozenset().union(
+                *(declared_names(texts.get(file, "")) for file in self.tree.failed)
+            )
+        return name.rsplit(".", 1)[-1] in self._failed_names
 
     def reach(self, root: str) -> Iterator[tuple[str, Field]]:
         """Every field reachable from message ``root``, with its path (``Root.a.b``), once each,

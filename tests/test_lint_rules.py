@@ -61,3 +61,26 @@ def test_every_rules_example_shows_the_rule(rule: Rule, tmp_path: Path) -> None:
         (tmp_path / side / "example.proto").write_text(f'syntax = "proto3";\n{text}')
     found = erc_lint.lint(tmp_path / "Before", tmp_path / "After")
     assert rule.id in {finding.rule for finding in found}, found
+
+
+@pytest.mark.parametrize(
+    ("envelope", "missing"),
+    [
+        ("message PBEnvelope { oneof p { Ph ph = 1 } }\n", False),  # declared, file broken
+        ("// message PBEnvelope { oneof p { Ph ph = 1; } }\nmessage Env { Ph ph = 1 }\n", True),
+        ('message Env { string s = 1 [json_name = "message PBEnvelope"] }\n', True),
+    ],
+    ids=["declared", "commented-out", "in-a-string"],
+)
+def test_a_root_declared_in_a_file_that_does_not_compile_is_not_missing(
+    tmp_path: Path, envelope: str, missing: bool
+) -> None:
+    """What a broken file declares is unknown, not missing (COMPILE says why); a declaration in
+    a comment or a string is no declaration."""
+    root = tmp_path / "t"
+    root.mkdir()
+    (root / "ph.proto").write_text('syntax = "proto3";\nmessage Ph { float ph = 1; }\n')
+    (root / "env.proto").write_text(f'syntax = "proto3";\nimport "ph.proto";\n{envelope}')
+    config = erc_lint.Config(roots=("PBEnvelope",), roots_line=1)
+    found = {finding.rule for finding in erc_lint.check(root, config)}
+    assert found == ({"COMPILE", "EMBEDDED_ROOT_MISSING"} if missing else {"COMPILE"})

@@ -2,7 +2,6 @@
 a ledger, what the tree's history held). Each is handed one revision, OLD and then NEW, and names
 every piece of damage by a key: a key OLD reports too is old damage (a warning), not new."""
 
-import re
 from typing import TYPE_CHECKING
 
 from erc_codec.schema import Location
@@ -163,11 +162,8 @@ def embedded_root_missing(revision: Revision, change: Change) -> Reports:
     if not config.roots_chosen or not revision.tree.files:
         return
     where = Location(config.source or str(revision.root), max(config.roots_line, 1), 1)
-    broken = [revision.tree.texts.get(name, "") for name in revision.tree.failed]
     for root in config.roots:
-        defined = re.compile(rf"\bmessage\s+{re.escape(root.rsplit('.', 1)[-1])}\b")
-        hidden = any(defined.search(text) for text in broken)  # in a file that failed?
-        if root not in revision.messages and not hidden:
+        if root not in revision.messages and not revision.declared_where_it_failed(root):
             yield Report(
                 where,
                 f'Embedded root "{root}" is not a message of the tree: no fixed-size rule or '
