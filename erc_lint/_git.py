@@ -13,7 +13,6 @@ Guarantees:
 
 import os
 import posixpath
-from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, TYPE_CHECKING
 
@@ -226,10 +225,3 @@ def _read_exactly(stream: IO[bytes], size: int) -> bytes:
         chunks.append(chunk)
         size -= len(chunk)
     return b"".join(chunks)
-
-
-def walk(files: dict[str, str], suffixes: tuple[str, ...]) -> Iterator[tuple[str, str]]:
-    """The ``(path, blob)`` entries whose names end with one of ``suffixes``, sorted."""
-    for path in sorted(files):
-        if path.endswith(suffixes):
-            yield path, files[path]

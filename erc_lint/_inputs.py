@@ -104,26 +104,13 @@ def open_input(text: str) -> Iterator[Source]:
             yield Source(folder, shown or spec.shown, commit)
 
 
-def materialize(
-    repository: Repository,
-    files: dict[str, str],
-    folder: Path,
-    present: dict[str, str] | None = None,
-) -> dict[str, str]:
-    """Write the tree's files (``{path: blob}``) into ``folder``; when ``present`` says what the
-    folder already holds, write only what changed and delete what is gone. What it now holds."""
-    wanted = {
-        path: blob for path, blob in files.items() if path.endswith(_SUFFIXES) or path in _TOP
-    }
-    for path in set(present or {}) - set(wanted):
-        (folder / path).unlink()
-    for path, blob in wanted.items():
-        if present is not None and present.get(path) == blob:
-            continue
-        target = folder / path
-        target.parent.mkdir(parents=True, exist_ok=True)
-        target.write_bytes(repository.read(blob))
-    return wanted
+def materialize(repository: Repository, files: dict[str, str], folder: Path) -> None:
+    """Write what the linter reads of a tree's files (``{path: blob}``) into ``folder``."""
+    for path, blob in files.items():
+        if path.endswith(_SUFFIXES) or path in _TOP:
+            target = folder / path
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_bytes(repository.read(blob))
 
 
 def relocate(findings: Sequence[Finding], sources: Sequence[Source]) -> list[Finding]:
