@@ -79,7 +79,9 @@ def _line_of(path: Path, key: str) -> int:
 
 def _table(path: Path) -> dict[str, Any] | None:
     """The ``[tool.erc-lint]`` table of a pyproject.toml, ``None`` if it has none."""
-    import tomllib  # only when there is a file to read
+    # Only when there is a file to read: for bench_lint's 30-file ratio, a tree without a
+    # configuration does not pay for it (about 8 ms of start-up).
+    import tomllib
 
     try:
         document = tomllib.loads(path.read_text(encoding="utf-8"))

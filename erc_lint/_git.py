@@ -8,7 +8,8 @@ Guarantees:
   it, not its length times its size.
 - Refs are resolved by git itself (``main``, ``origin/main``, ``HEAD~3``, a tag, an object id).
 
-``subprocess`` is imported when a repository is opened: linting folders does not pay for it.
+``subprocess`` is imported when a repository is opened: linting folders does not pay for it
+(bench_lint's 30-file ratio: about 3.5 ms of start-up).
 """
 
 import os

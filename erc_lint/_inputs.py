@@ -8,6 +8,7 @@ same file a plain folder would have named.
 """
 
 import os
+import tempfile
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -84,8 +85,6 @@ def open_input(text: str) -> Iterator[Source]:
     if isinstance(spec, Path):
         yield Source(spec, spec)
         return
-    import tempfile  # git inputs only
-
     with Repository(spec.folder) as repository:
         try:
             commit = repository.commit(spec.ref)

@@ -20,6 +20,7 @@ into findings.
 
 import os
 import re
+import tempfile
 from collections.abc import Collection, Sequence
 from fnmatch import fnmatchcase
 from pathlib import Path
@@ -98,8 +99,6 @@ def load_tree(
     if not rewritten:
         _compile(tree, root, names, includes)
         return tree
-    import tempfile  # only a tree whose imports need respelling is staged
-
     with tempfile.TemporaryDirectory(prefix="erc-lint-") as scratch:
         staged = Path(scratch)
         for name, text in texts.items():
