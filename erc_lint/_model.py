@@ -25,7 +25,7 @@ from erc_codec.schema import (
     resolve_options,
 )
 
-from ._loader import LoadedTree, LoadProblem
+from ._loader import LoadedTree, LoadProblem, relative
 
 __all__ = [
     "Definition",
@@ -198,6 +198,11 @@ class Revision:
     def problems(self) -> list[LoadProblem]:
         """What loading the tree met (files that do not compile, ambiguous imports)."""
         return self.tree.problems
+
+    def place(self, location: Location) -> tuple[str, int]:
+        """Where ``location`` is in the tree (its path from the root, its line): the same
+        declaration in another revision, of another folder, has the same place."""
+        return relative(self.root, location.path), location.line
 
     def declared_where_it_failed(self, name: str) -> bool:
         """Whether a file that did not compile declares a message, enum or group with the short

@@ -6,7 +6,6 @@ from typing import TYPE_CHECKING
 
 from erc_codec.schema import Location
 
-from .._loader import relative
 from .._model import EnumValue, Field, Revision
 from .._pairing import Change, wire_compatible
 from ._registry import Report, Reports, tree_rule
@@ -114,15 +113,8 @@ def name_collision(revision: Revision, change: Change) -> Reports:
         places = sorted(((d.kind, d.location) for d in definitions), key=lambda p: p[1])
         listed = " and ".join(f"{kind} at {where}" for kind, where in places)
         # Point at a definition the other revision lacks, if any: that is the one to look at.
-        known = {
-            (relative(other.root, d.location.path), d.location.line)
-            for d in other.definitions.get(name, [])
-        }
-        fresh = [
-            where
-            for _, where in places
-            if (relative(revision.root, where.path), where.line) not in known
-        ]
+        known = {other.place(d.location) for d in other.definitions.get(name, [])}
+        fresh = [where for _, where in places if revision.place(where) not in known]
         yield Report(
             (fresh or [places[-1][1]])[-1],
             f'Name "{name}" is defined {len(places)} times: {listed}.',
