@@ -176,7 +176,8 @@ Definition = Message | Enum | EnumValue
 
 
 class Revision:
-    """One side of a comparison."""
+    """One side of a comparison: its messages, enums and global names, and the questions rules
+    ask of them (what a root reaches, nanopb's bounds and sizes, what a broken file declares)."""
 
     __slots__ = ("_bounds", "_failed_names", "_files", "definitions", "enums", "messages", "tree")
 
@@ -204,7 +205,7 @@ class Revision:
         declaration in another revision, of another folder, has the same place."""
         return relative(self.root, location.path), location.line
 
-    def declared_where_it_failed(self, name: str) -> bool:
+    def declared_in_failed_file(self, name: str) -> bool:
         """Whether a file that did not compile declares a message, enum or group with the short
         name of ``name`` (comments and strings are not declarations): then what ``name`` is in
         this revision is unknown, not missing."""

@@ -155,7 +155,7 @@ def embedded_root_missing(revision: Revision, change: Change) -> Reports:
         return
     where = Location(config.source or str(revision.root), max(config.roots_line, 1), 1)
     for root in config.roots:
-        if root not in revision.messages and not revision.declared_where_it_failed(root):
+        if root not in revision.messages and not revision.declared_in_failed_file(root):
             yield Report(
                 where,
                 f'Embedded root "{root}" is not a message of the tree: no fixed-size rule or '
