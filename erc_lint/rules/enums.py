@@ -54,7 +54,7 @@ def reused(number: NumberPair, change: Change) -> Reports:
 
     ## Why is this bad?
     Senders built from OLD still send the number for the old value, and a receiver built from
-    NEW acts on it as the new value (a "stop" read as "run"), with nothing on the wire to tell
+    NEW acts on it as the new value (a "run" read as "stop"), with nothing on the wire to tell
     the two apart.
 
     ## Example
@@ -100,8 +100,8 @@ def deleted(number: NumberPair, change: Change) -> Reports:
     ## Why is this bad?
     Boards built from OLD keep sending the number, which receivers built from NEW hold as an
     undeclared value that no code handles (and erc_codec refuses to send). Once the number is
-    free, the next change may give it to another value, which then reads those boards' number
-    as its own meaning.
+    free, the next change may give it to another value, and receivers then read those boards'
+    number as that value.
 
     ## Example
     Before:
