@@ -52,6 +52,13 @@ class Report(NamedTuple):
 
 Reports = Iterator[Report]
 _Check = TypeVar("_Check", bound=Callable[..., Reports])
+# What each helper's rules are handed (and the change, for context).
+_FieldCheck = Callable[[FieldPair, Change], Reports]
+_NumberCheck = Callable[[NumberPair, Change], Reports]
+_MessageCheck = Callable[[Paired[Message], Change], Reports]
+_DefinitionCheck = Callable[[Paired[Any], Change], Reports]  # a message or an enum pair
+_DeletedCheck = Callable[[Message, Change], Reports]
+_TreeCheck = Callable[[Revision, Change], Reports]
 
 
 class Rule(NamedTuple):
@@ -84,19 +91,16 @@ def _register(id: str, purpose: str, severity: Severity, pairs: str) -> Callable
 
 def field_rule(
     id: str, purpose: str, severity: Severity = "error"
-) -> Callable[[Callable[[FieldPair, Change], Reports]], Callable[[FieldPair, Change], Reports]]:
+) -> Callable[[_FieldCheck], _FieldCheck]:
     """Register a rule handed each field of each paired message."""
     return _register(id, purpose, severity, "field")
 
 
 def enum_number_rule(
     id: str, purpose: str, severity: Severity = "error"
-) -> Callable[[Callable[[NumberPair, Change], Reports]], Callable[[NumberPair, Change], Reports]]:
+) -> Callable[[_NumberCheck], _NumberCheck]:
     """Register a rule handed each number of each paired enum."""
     return _register(id, purpose, severity, "enum number")
-
-
-_MessageCheck = Callable[[Paired[Message], Change], Reports]
 
 
 def message_rule(
@@ -108,21 +112,19 @@ def message_rule(
 
 def definition_rule(
     id: str, purpose: str, severity: Severity = "error"
-) -> Callable[[Callable[[Paired[Any], Change], Reports]], Callable[[Paired[Any], Change], Reports]]:
+) -> Callable[[_DefinitionCheck], _DefinitionCheck]:
     """Register a rule handed each paired message and each paired enum."""
     return _register(id, purpose, severity, "message or enum")
 
 
 def deleted_message_rule(
     id: str, purpose: str, severity: Severity = "error"
-) -> Callable[[Callable[[Message, Change], Reports]], Callable[[Message, Change], Reports]]:
+) -> Callable[[_DeletedCheck], _DeletedCheck]:
     """Register a rule handed each OLD message that NEW no longer has (not even renamed)."""
     return _register(id, purpose, severity, "deleted message")
 
 
-def tree_rule(
-    id: str, purpose: str
-) -> Callable[[Callable[[Revision, Change], Reports]], Callable[[Revision, Change], Reports]]:
+def tree_rule(id: str, purpose: str) -> Callable[[_TreeCheck], _TreeCheck]:
     """Register a rule handed one revision, OLD and then NEW."""
     return _register(id, purpose, "error", "tree")
 
