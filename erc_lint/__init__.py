@@ -2,20 +2,21 @@
 
 ``lint(old, new)`` compares two revisions of a tree (folders or git revisions) and returns the
 findings, sorted by location; ``check(tree)`` lints one tree on its own; ``erc-lint`` is the
-command line around them. Everything not re-exported here is private. The names load on first
-use, so the command can tune the process before the heavy imports (see ``_entry``).
+command line around them (``erc_lint.cli``). Everything not re-exported here is private.
+
+One module per job, and data flows one way: ``_inputs`` (a folder, or a git revision whose objects
+``_git`` reads) → ``_loader`` (compiled files and load problems) → ``_model`` (one revision: its
+messages, enums, names, sizes) → ``_pairing`` (OLD and NEW paired) → ``rules/`` (one pair at a
+time) → ``_report`` (text, JSON, GitHub annotations) → ``cli/``. ``_run`` is one lint run,
+``_config`` reads ``[tool.erc-lint]``, ``_ledger`` and ``_history`` keep the number ledger, and
+``_errors`` holds ``LintError``, the base of every failure to run.
 """
 
-import importlib
-from typing import TYPE_CHECKING, Any
-
-if TYPE_CHECKING:
-    from ._config import Config, ConfigError
-    from ._finding import Finding, Severity
-    from ._git import GitError
-    from ._ledger import LedgerError
-    from ._run import check, lint
-    from .rules import RULES, Rule
+from ._config import Config
+from ._errors import ConfigError, GitError, LedgerError, LintError
+from ._finding import Finding, Severity
+from ._run import check, lint
+from .rules import RULES, Rule
 
 __all__ = [
     "RULES",
@@ -24,29 +25,9 @@ __all__ = [
     "Finding",
     "GitError",
     "LedgerError",
+    "LintError",
     "Rule",
     "Severity",
     "check",
     "lint",
 ]
-
-_LAZY = {
-    "Config": "._config",
-    "ConfigError": "._config",
-    "Finding": "._finding",
-    "Severity": "._finding",
-    "GitError": "._git",
-    "LedgerError": "._ledger",
-    "check": "._run",
-    "lint": "._run",
-    "RULES": ".rules",
-    "Rule": ".rules",
-}
-
-
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name], __name__), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,5 +1,5 @@
 """``python -m erc_lint``: the same as the ``erc-lint`` command."""
 
-from ._entry import run
+from .cli import main
 
-run()
+main()

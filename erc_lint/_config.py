@@ -3,13 +3,11 @@
 from pathlib import Path
 from typing import Any, NamedTuple
 
-__all__ = ["LEDGER", "Config", "ConfigError", "find_config", "read_config"]
+from ._errors import ConfigError
+
+__all__ = ["LEDGER", "Config", "find_config", "read_config"]
 
 LEDGER = "erc-lint.lock"  # the ledger's file name, beside a tree's protos
-
-
-class ConfigError(Exception):
-    """The configuration file cannot be read or says something invalid."""
 
 
 _ROOTS = ("PBEnvelope",)  # embedded roots unless the configuration names others
@@ -81,7 +79,9 @@ def _line_of(path: Path, key: str) -> int:
 
 def _table(path: Path) -> dict[str, Any] | None:
     """The ``[tool.erc-lint]`` table of a pyproject.toml, ``None`` if it has none."""
-    import tomllib  # only when there is a file to read
+    # Only when there is a file to read: for bench_lint's 30-file ratio, a tree without a
+    # configuration does not pay for it (about 8 ms of start-up).
+    import tomllib
 
     try:
         document = tomllib.loads(path.read_text(encoding="utf-8"))

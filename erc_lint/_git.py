@@ -8,26 +8,24 @@ Guarantees:
   it, not its length times its size.
 - Refs are resolved by git itself (``main``, ``origin/main``, ``HEAD~3``, a tag, an object id).
 
-``subprocess`` is imported when a repository is opened: linting folders does not pay for it.
+``subprocess`` is imported when a repository is opened: linting folders does not pay for it
+(bench_lint's 30-file ratio: about 3.5 ms of start-up).
 """
 
 import os
 import posixpath
-from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, TYPE_CHECKING
+
+from ._errors import GitError
 
 if TYPE_CHECKING:
     import subprocess
 
-__all__ = ["GitError", "Repository"]
+__all__ = ["Repository"]
 
 
 _LINK = "link:"  # marks a symlink's blob in a parsed tree
-
-
-class GitError(Exception):
-    """The repository or an object in it cannot be read."""
 
 
 class Repository:
@@ -228,10 +226,3 @@ def _read_exactly(stream: IO[bytes], size: int) -> bytes:
         chunks.append(chunk)
         size -= len(chunk)
     return b"".join(chunks)
-
-
-def walk(files: dict[str, str], suffixes: tuple[str, ...]) -> Iterator[tuple[str, str]]:
-    """The ``(path, blob)`` entries whose names end with one of ``suffixes``, sorted."""
-    for path in sorted(files):
-        if path.endswith(suffixes):
-            yield path, files[path]

@@ -15,19 +15,19 @@ Guarantees:
 """
 
 import tempfile
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
 from pathlib import Path
 
 from google.protobuf import descriptor_pb2
 
-from erc_codec.schema import ProtocError, compile_files
+from erc_codec.schema import ProtocError, compile_files, declarations, imports
 
 from ._git import Repository
 from ._inputs import GitInput, locate
 from ._ledger import Entry, Key, Ledger
-from ._loader import by_basename, imports, matches, utf8_name
+from ._loader import by_basename, matches, utf8_name
 from ._model import type_of
 
 __all__ = ["History", "keys"]
@@ -40,31 +40,18 @@ def keys(files: Iterable[_FileProto]) -> set[Key]:
     """What the ledger records of compiled files: every field and enum value number."""
     found: set[Key] = set()
     for file in files:
-        for name, element in _declared(file):
+        for declared in declarations(file):
+            element = declared.proto
             if isinstance(element, descriptor_pb2.DescriptorProto):
                 found.update(
-                    Key("message", name, f.number, f.name, type_of(f)[0]) for f in element.field
+                    Key("message", declared.name, f.number, f.name, type_of(f)[0])
+                    for f in element.field
                 )
             else:
-                found.update(Key("enum", name, v.number, v.name, "-") for v in element.value)
+                found.update(
+                    Key("enum", declared.name, v.number, v.name, "-") for v in element.value
+                )
     return found
-
-
-def _declared(
-    file: _FileProto,
-) -> Iterator[tuple[str, descriptor_pb2.DescriptorProto | descriptor_pb2.EnumDescriptorProto]]:
-    """Every message and enum a file declares, nested ones included, with its full name."""
-    package = f"{file.package}." if file.package else ""
-    pending: list[
-        tuple[str, descriptor_pb2.DescriptorProto | descriptor_pb2.EnumDescriptorProto]
-    ] = [(package + m.name, m) for m in file.message_type]
-    pending += [(package + e.name, e) for e in file.enum_type]
-    while pending:
-        name, element = pending.pop()
-        yield name, element
-        if isinstance(element, descriptor_pb2.DescriptorProto):
-            pending += [(f"{name}.{m.name}", m) for m in element.nested_type]
-            pending += [(f"{name}.{e.name}", e) for e in element.enum_type]
 
 
 @dataclass(frozen=True)
@@ -200,7 +187,8 @@ def _defines(
         ("imports", proto.name, tuple(proto.dependency), tuple(proto.public_dependency)),
     }
     extensions = [(package, f) for f in proto.extension]
-    for name, element in _declared(proto):
+    for declared in declarations(proto):
+        element, name = declared.proto, declared.name
         if isinstance(element, descriptor_pb2.DescriptorProto):
             names.add((name, "message"))
             extensions += [(f"{name}.", f) for f in element.extension]

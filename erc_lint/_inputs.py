@@ -8,13 +8,15 @@ same file a plain folder would have named.
 """
 
 import os
+import tempfile
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import NamedTuple
 
+from ._errors import GitError
 from ._finding import Finding
-from ._git import GitError, Repository
+from ._git import Repository
 
 __all__ = ["GitInput", "Source", "locate", "materialize", "open_input", "parse", "relocate"]
 
@@ -83,8 +85,6 @@ def open_input(text: str) -> Iterator[Source]:
     if isinstance(spec, Path):
         yield Source(spec, spec)
         return
-    import tempfile  # git inputs only
-
     with Repository(spec.folder) as repository:
         try:
             commit = repository.commit(spec.ref)
@@ -103,26 +103,13 @@ def open_input(text: str) -> Iterator[Source]:
             yield Source(folder, shown or spec.shown, commit)
 
 
-def materialize(
-    repository: Repository,
-    files: dict[str, str],
-    folder: Path,
-    present: dict[str, str] | None = None,
-) -> dict[str, str]:
-    """Write the tree's files (``{path: blob}``) into ``folder``; when ``present`` says what the
-    folder already holds, write only what changed and delete what is gone. What it now holds."""
-    wanted = {
-        path: blob for path, blob in files.items() if path.endswith(_SUFFIXES) or path in _TOP
-    }
-    for path in set(present or {}) - set(wanted):
-        (folder / path).unlink()
-    for path, blob in wanted.items():
-        if present is not None and present.get(path) == blob:
-            continue
-        target = folder / path
-        target.parent.mkdir(parents=True, exist_ok=True)
-        target.write_bytes(repository.read(blob))
-    return wanted
+def materialize(repository: Repository, files: dict[str, str], folder: Path) -> None:
+    """Write what the linter reads of a tree's files (``{path: blob}``) into ``folder``."""
+    for path, blob in files.items():
+        if path.endswith(_SUFFIXES) or path in _TOP:
+            target = folder / path
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_bytes(repository.read(blob))
 
 
 def relocate(findings: Sequence[Finding], sources: Sequence[Source]) -> list[Finding]:

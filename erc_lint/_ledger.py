@@ -27,7 +27,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NamedTuple
 
-__all__ = ["Entry", "Key", "Ledger", "LedgerError"]
+from ._errors import LedgerError
+
+__all__ = ["Entry", "Key", "Ledger"]
 
 HEADER = (
     "# erc-lint ledger: every number each message and enum has carried, with its name and type,\n"
@@ -38,10 +40,6 @@ _HEADER_LINES = frozenset(HEADER.splitlines())
 _KINDS = ("message", "enum")
 _NUMBER = re.compile(r"-?[0-9]+")
 _REVISION = re.compile(r"-|[0-9a-f]{4,64}")
-
-
-class LedgerError(Exception):
-    """A ledger file that cannot be read or is not a ledger; the message names the line."""
 
 
 class Key(NamedTuple):

@@ -2,66 +2,67 @@
 
 Guarantees:
 - Every ``.proto`` under the root is compiled with its imports; one that does not compile becomes
-  ``COMPILE`` findings carrying protoc's own ``path:line:col`` and text, and every other file is
-  still loaded. The whole tree goes to protoc at once; only when that fails is it split in halves,
-  recursively, so a tree with k broken files costs about k·log(n) compilations, not n.
+  ``COMPILE`` load problems carrying protoc's own ``path:line:col`` and text, and every other file
+  is still loaded. The whole tree goes to protoc at once; only when that fails is it split in
+  halves, recursively, so a tree with k broken files costs about k·log(n) compilations, not n.
 - Files that would collide when compiled together (nanopb compiles one file at a time and never
   notices) load side by side: the collisions are for the NAME_COLLISION rule to report.
 - Imports resolve whatever their spelling: relative to the root or an ``-I`` folder, prefixed with
   the repository's own folder name (``ERC-Protobufs/components/x.proto``), or a bare file name
   found anywhere in the tree. An import that matches several files is an ``IMPORT_AMBIGUOUS``
-  finding. Only when a spelling needs rewriting is the tree copied to a scratch folder (with
+  load problem. Only when a spelling needs rewriting is the tree copied to a scratch folder (with
   the spelling rewritten in place, line for line, so protoc's locations stay the originals');
   otherwise protoc reads the tree where it is.
+
+The loader reports what it met as ``LoadProblem`` records; the rules of the same names turn them
+into findings.
 """
 
 import os
 import re
-from collections.abc import Collection, Iterator, Sequence
+import tempfile
+from collections.abc import Collection, Sequence
 from fnmatch import fnmatchcase
 from pathlib import Path
+from typing import Literal, NamedTuple
 
 from google.protobuf import descriptor_pb2
 
-from erc_codec.schema import Location, ProtocError, compile_files
+from erc_codec.schema import Location, ProtocError, compile_files, imports
 
-from ._finding import Finding
+__all__ = [
+    "LoadProblem",
+    "LoadedTree",
+    "by_basename",
+    "load_tree",
+    "matches",
+    "relative",
+    "utf8_name",
+]
 
-__all__ = ["LoadedTree", "by_basename", "imports", "load_tree", "matches", "relative", "utf8_name"]
-
-# One pass over a file, tokenised as protoc does: comments and string literals are skipped whole,
-# so an import inside one is no import; an import statement (comments allowed between its
-# tokens, none needed around a string) captures its file name: adjacent string literals, which
-# protoc joins.
-_STRING = r'"(?:\\.|[^"\\\n])*"|\'(?:\\.|[^\'\\\n])*\''
-_GAP = r"(?:[ \t\n\r\v\f]|//[^\n]*|/\*.*?\*/)"
-_SCAN = re.compile(
-    rf"//[^\n]*|/\*.*?\*/|{_STRING}|\bimport\b(?:{_GAP}*(?:public|weak)\b)?"
-    rf"{_GAP}*({_STRING})((?:{_GAP}*(?:{_STRING}))*){_GAP}*;",
-    re.DOTALL,
-)
-# The literals of a run of them (and the comments between them, to skip), and the escapes
-# protoc's tokenizer reads inside one. Rarely needed: compiled on first use (re caches them).
-_LITERALS = rf"(?s)//[^\n]*|/\*.*?\*/|({_STRING})"
-_ESCAPE = (
-    r"(?s)\\(?:([0-7]{1,3})|[xX]([0-9A-Fa-f]{1,2})"
-    r"|u([dD][89abAB][0-9A-Fa-f]{2})\\u([dD][c-fC-F][0-9A-Fa-f]{2})"
-    r"|u([0-9A-Fa-f]{4})|U([0-9A-Fa-f]{8})|(.))"
-)
-_C_ESCAPES = {"a": "\a", "b": "\b", "f": "\f", "n": "\n", "r": "\r", "t": "\t", "v": "\v"}
 _DIAGNOSTIC = re.compile(r"^(.*?):(\d+):(\d+): (.*)$")
 
 
-class LoadedTree:
-    """The compiled files of one tree, with the findings loading produced."""
+class LoadProblem(NamedTuple):
+    """What loading a tree met: a file protoc does not compile (``COMPILE``, one per diagnostic),
+    or an import whose spelling matches several files of the tree (``IMPORT_AMBIGUOUS``)."""
 
-    __slots__ = ("failed", "files", "findings", "imported", "root", "texts")
+    kind: Literal["COMPILE", "IMPORT_AMBIGUOUS"]
+    key: str  # the same problem in another revision has the same key (no scratch paths in it)
+    location: Location
+    text: str
+
+
+class LoadedTree:
+    """The compiled files of one tree, with the problems loading met."""
+
+    __slots__ = ("failed", "files", "imported", "problems", "root", "texts")
 
     def __init__(self, root: Path) -> None:
         self.root = root
         self.files: dict[str, descriptor_pb2.FileDescriptorProto] = {}  # the tree's own, by name
         self.imported: dict[str, descriptor_pb2.FileDescriptorProto] = {}  # all protoc read
-        self.findings: list[tuple[str, Finding]] = []  # (key, finding)
+        self.problems: list[LoadProblem] = []
         self.failed: set[str] = set()  # files that did not compile
         self.texts: dict[str, str] = {}  # the tree's files as read
 
@@ -86,7 +87,7 @@ def load_tree(
         tree.failed.add(name)
         where = Location(str(root / name), 1, 1)
         text = "File name is not UTF-8: protoc cannot compile it, nor anything importing it."
-        tree.findings.append((repr(name), Finding.at(where, "COMPILE", text)))
+        tree.problems.append(LoadProblem("COMPILE", repr(name), where, text))
     names = [
         name
         for name in every
@@ -98,8 +99,6 @@ def load_tree(
     if not rewritten:
         _compile(tree, root, names, includes)
         return tree
-    import tempfile  # only a tree whose imports need respelling is staged
-
     with tempfile.TemporaryDirectory(prefix="erc-lint-") as scratch:
         staged = Path(scratch)
         for name, text in texts.items():
@@ -110,60 +109,11 @@ def load_tree(
     return tree
 
 
-def imports(text: str) -> Iterator[tuple[int, int, str]]:
-    """``(start, end, spelling)`` of each import's file name as protoc reads it: ``start:end``
-    spans its string literals (several, joined, perhaps over several lines, with whatever lies
-    between them), ``spelling`` is their text unescaped (comments skipped)."""
-    if "import" not in text:
-        return
-    for match in _SCAN.finditer(text):
-        first = match[1]
-        if first is None:
-            continue
-        if match[2] or "\\" in first:
-            yield match.start(1), match.end(2), _unquote(text[match.start(1) : match.end(2)])
-        else:
-            yield match.start(1), match.end(1), first[1:-1]
-
-
 def _literal(name: str, span: str) -> str:
     """A string literal protoc reads as ``name``, to stand for ``span`` (an import's literals):
     as many lines as ``span``, so that the lines after it keep their numbers."""
     escaped = name.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
     return f'"{escaped}"' + "\n" * span.count("\n")
-
-
-def _unquote(literals: str) -> str:
-    """The bytes protoc makes of adjacent string literals, read as UTF-8."""
-    joined = bytearray()
-    for match in re.finditer(_LITERALS, literals):
-        if match[1] is not None:
-            body = match[1][1:-1]
-            at = 0
-            for escape in re.finditer(_ESCAPE, body):
-                joined += body[at : escape.start()].encode("utf-8", "surrogatepass")
-                joined += _unescape(escape)
-                at = escape.end()
-            joined += body[at:].encode("utf-8", "surrogatepass")
-    return joined.decode("utf-8", "replace")
-
-
-def _unescape(escape: re.Match[str]) -> bytes:
-    """One escape sequence's bytes, as protoc's tokenizer makes them."""
-    octal, hexa, head, trail, u4, u8, other = escape.groups()
-    if octal is not None:
-        return bytes([int(octal, 8) & 0xFF])  # protoc keeps the low byte of \777
-    if hexa is not None:
-        return bytes([int(hexa, 16)])
-    if head is not None:  # a UTF-16 surrogate pair, one code point
-        point = 0x10000 + ((int(head, 16) - 0xD800) << 10 | (int(trail, 16) - 0xDC00))
-    elif u4 is not None or u8 is not None:
-        point = int(u4 or u8, 16)
-        if point > 0x10FFFF:
-            return f"\\U{point:08x}".encode()  # out of range: protoc writes it back out
-    else:
-        return _C_ESCAPES.get(other, other).encode("utf-8", "surrogatepass")
-    return chr(point).encode("utf-8", "surrogatepass")
 
 
 def matches(spelling: str, known: Collection[str], by_basename: dict[str, list[str]]) -> list[str]:
@@ -186,7 +136,7 @@ def _resolve_imports(
     tree: LoadedTree, texts: dict[str, str], reported: set[str], includes: Sequence[Path]
 ) -> dict[str, str]:
     """The texts whose imports needed respelling (relative to the root), respelled; ambiguous
-    imports of the files in ``reported`` are findings."""
+    imports of the files in ``reported`` are load problems."""
     known, index = set(texts), by_basename(texts)
     rewritten = {}
     for name, text in texts.items():
@@ -202,8 +152,8 @@ def _resolve_imports(
                 column = start - text.rfind("\n", 0, start)
                 where = Location(str(tree.root / name), line, column)
                 message = f'Import "{spelling}" is ambiguous: it matches {", ".join(found)}.'
-                finding = Finding.at(where, "IMPORT_AMBIGUOUS", message)
-                tree.findings.append((f"{name}:{spelling}", finding))
+                key = f"{name}:{spelling}"
+                tree.problems.append(LoadProblem("IMPORT_AMBIGUOUS", key, where, message))
         for start, end, replacement in reversed(edits):
             text = text[:start] + replacement + text[end:]
         if edits:
@@ -235,7 +185,7 @@ def _compile(tree: LoadedTree, base: Path, names: list[str], includes: Sequence[
 def _report(
     tree: LoadedTree, base: Path, name: str, lines: list[str], includes: Sequence[Path]
 ) -> None:
-    """COMPILE findings from protoc's diagnostics for ``name``, located in the original files.
+    """COMPILE problems from protoc's diagnostics for ``name``, located in the original files.
 
     An error inside an imported file is reported once, however many files import it.
     """
@@ -253,15 +203,17 @@ def _report(
                 path = str(tree.root / path)
             where, text = Location(path, int(match[2]), int(match[3])), match[4]
         if any(
-            f.path == where.path and f.line == where.line and f.message.startswith(text)
-            for _, f in tree.findings
+            p.location.path == where.path
+            and p.location.line == where.line
+            and p.text.startswith(text)
+            for p in tree.problems
         ):
             continue
         # Keyed by the erring file and the error, not by which importer protoc compiled first.
         key = f"{relative(tree.root, where.path)}:{text}"
         if where.path != str(tree.root / name):
             text = f"{text} (imported by {name})"
-        tree.findings.append((key, Finding.at(where, "COMPILE", text)))
+        tree.problems.append(LoadProblem("COMPILE", key, where, text))
 
 
 def utf8_name(name: str) -> bool:

@@ -1,20 +1,31 @@
-"""One revision of a proto tree as the rules see it: messages, enums, their members and locations.
+"""One revision of a proto tree as the rules see it: messages, enums, their members and locations,
+and what nanopb makes of them (maximum sizes, bounds).
 
 Built from the descriptors the loader compiled. Every element has the ``Location`` of its
 definition, read from protoc's source info when first asked for (nearly none ever are: only
 findings need one); names are full names (``Outer.Inner``; a package, if a file has one, in front).
+Sizes and nanopb options are computed when a rule first asks, once per revision (and root).
 """
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 from google.protobuf import descriptor_pb2
 
-from erc_codec.schema import Location
+from erc_codec import SchemaError
+from erc_codec.schema import (
+    Declaration,
+    Location,
+    Schema,
+    Sizes,
+    SourceIndex,
+    declarations,
+    declared_names,
+    resolve_options,
+)
 
-from ._finding import Finding
-from ._loader import LoadedTree
+from ._loader import LoadedTree, LoadProblem, relative
 
 __all__ = [
     "Definition",
@@ -23,10 +34,8 @@ __all__ = [
     "Field",
     "Message",
     "Revision",
-    "Source",
     "build",
     "type_of",
-    "walk",
 ]
 
 _FD = descriptor_pb2.FieldDescriptorProto
@@ -38,32 +47,7 @@ _SCALARS = {
 _LABELS = {number: name.removeprefix("LABEL_").lower() for name, number in _FD.Label.items()}
 # A proto2 group is a message type as far as the wire and the rules go.
 _KINDS = {_FD.TYPE_MESSAGE: "message", _FD.TYPE_GROUP: "message", _FD.TYPE_ENUM: "enum"}
-# SourceCodeInfo path components.
-_FILE_MESSAGE, _FILE_ENUM = 4, 5
-_MESSAGE_FIELD, _MESSAGE_NESTED, _MESSAGE_ENUM, _MESSAGE_ONEOF = 2, 3, 4, 8
-_ENUM_VALUE = 2
-
-
-class Source:
-    """Where one file's declarations are: protoc's source info, indexed on first use."""
-
-    def __init__(self, path: str, proto: descriptor_pb2.FileDescriptorProto) -> None:
-        self.path = path
-        self._proto: descriptor_pb2.FileDescriptorProto | None = proto
-        self._spans: dict[tuple[int, ...], Sequence[int]] = {}
-
-    def where(self, at: tuple[int, ...]) -> Location:
-        """The location of the declaration at source-info path ``at`` (1:1 if protoc has none)."""
-        if self._proto is not None:
-            # Declarations sit at even-length paths; the odd ones (names, numbers, types) are many.
-            self._spans = {
-                tuple(loc.path): loc.span
-                for loc in self._proto.source_code_info.location
-                if not len(loc.path) % 2
-            }
-            self._proto = None
-        span = self._spans.get(at)
-        return Location(self.path, span[0] + 1, span[1] + 1) if span else Location(self.path, 1, 1)
+_Files = dict[str, descriptor_pb2.FileDescriptorProto]
 
 
 class Field(NamedTuple):
@@ -74,7 +58,7 @@ class Field(NamedTuple):
     kind: str  # "scalar", "message" or "enum"
     cardinality: str  # "optional", "repeated" or "required"
     oneof: str | None  # the real oneof it belongs to (not a proto3 `optional`'s)
-    source: Source
+    source: SourceIndex
     at: tuple[int, ...]  # its source-info path (a map entry's fields: their map field's)
 
     @property
@@ -86,8 +70,12 @@ class EnumValue(NamedTuple):
     owner: str
     name: str
     number: int
-    source: Source
+    source: SourceIndex
     at: tuple[int, ...]
+
+    @property
+    def kind(self) -> str:
+        return "enum value"
 
     @property
     def location(self) -> Location:
@@ -119,8 +107,15 @@ class Reserved:
 class Message:
     __slots__ = ("at", "by_name", "fields", "file", "map_entry", "name", "reserved", "source")
 
+    kind = "message"
+
     def __init__(
-        self, name: str, file: str, source: Source, at: tuple[int, ...], map_entry: bool = False
+        self,
+        name: str,
+        file: str,
+        source: SourceIndex,
+        at: tuple[int, ...],
+        map_entry: bool = False,
     ) -> None:
         self.name = name
         self.file = file
@@ -154,7 +149,9 @@ class Message:
 class Enum:
     __slots__ = ("at", "by_name", "file", "name", "reserved", "source", "values")
 
-    def __init__(self, name: str, file: str, source: Source, at: tuple[int, ...]) -> None:
+    kind = "enum"
+
+    def __init__(self, name: str, file: str, source: SourceIndex, at: tuple[int, ...]) -> None:
         self.name = name
         self.file = file
         self.source = source
@@ -179,130 +176,211 @@ Definition = Message | Enum | EnumValue
 
 
 class Revision:
-    """One side of a comparison."""
+    """One side of a comparison: its messages, enums and global names, and the questions rules
+    ask of them (what a root reaches, nanopb's bounds and sizes, what a broken file declares)."""
 
-    __slots__ = ("definitions", "enums", "messages", "tree")
+    __slots__ = ("_bounds", "_failed_names", "_files", "definitions", "enums", "messages", "tree")
 
     def __init__(self, tree: LoadedTree) -> None:
         self.tree = tree
         self.messages: dict[str, Message] = {}
         self.enums: dict[str, Enum] = {}
-        # Every global name a definition takes (C++ scoping: enum values beside their enum),
-        # with the kind of definition ("message", "enum", "enum value") and the definition.
-        self.definitions: dict[str, list[tuple[str, Definition]]] = {}
+        # Every global name a definition takes (C++ scoping: enum values beside their enum).
+        self.definitions: dict[str, list[Definition]] = {}
+        self._files: dict[str, _Files] = {}  # by root: what protoc resolved its types in
+        self._bounds: dict[str, Any] | None = None  # nanopb's options by field, when first asked
+        self._failed_names: frozenset[str] | None = None  # what files that failed declare
 
     @property
     def root(self) -> Path:
         return self.tree.root
 
     @property
-    def load_findings(self) -> list[tuple[str, Finding]]:
-        return self.tree.findings
+    def problems(self) -> list[LoadProblem]:
+        """What loading the tree met (files that do not compile, ambiguous imports)."""
+        return self.tree.problems
+
+    def place(self, location: Location) -> tuple[str, int]:
+        """Where ``location`` is in the tree (its path from the root, its line): the same
+        declaration in another revision, of another folder, has the same place."""
+        return relative(self.root, location.path), location.line
+
+    def declared_in_failed_file(self, name: str) -> bool:
+        """Whether a file that did not compile declares a message, enum or group with the short
+        name of ``name`` (comments and strings are not declarations): then what ``name`` is in
+        this revision is unknown, not missing."""
+        if self._failed_names is None:
+            texts = self.tree.texts
+            self._failed_names = frozenset().union(
+                *(declared_names(texts.get(file, "")) for file in self.tree.failed)
+            )
+        return name.rsplit(".", 1)[-1] in self._failed_names
+
+    def reach(self, root: str) -> Iterator[tuple[str, Field]]:
+        """Every field reachable from message ``root``, with its path (``Root.a.b``), once each,
+        nearest first."""
+        seen = {root}
+        queue = [(root, root)]
+        while queue:
+            name, path = queue.pop(0)
+            message = self.messages.get(name)
+            if message is None:
+                continue
+            for entry in sorted(message.fields.values(), key=lambda f: f.number):
+                here = f"{path}.{entry.name}"
+                yield here, entry
+                if entry.kind == "message" and entry.type not in seen:
+                    seen.add(entry.type)
+                    queue.append((entry.type, here))
+
+    def bounded(self, field: Field) -> bool:
+        """Whether nanopb gives a string or bytes field a maximum length (``max_size`` or
+        ``max_length``, from a ``.options`` file or an annotation)."""
+        if self._bounds is None:
+            files = tuple(self.tree.imported.values())
+            self._bounds = resolve_options(self.root, files).fields
+        bound = self._bounds.get(f"{field.owner}.{field.name}")
+        return bound is not None and (bound.HasField("max_size") or bound.HasField("max_length"))
+
+    def max_size(self, root: str) -> int | None:
+        """nanopb's ``<root>_size`` in this revision; ``None`` where nanopb has none (an
+        unbounded field on the way) or the tree has no such message."""
+        files = self._root_files(root)
+        if not files:
+            return None
+        try:
+            schema = Schema(self.root, root, descriptor_pb2.FileDescriptorSet(file=files.values()))
+            return Sizes(schema).max_size(root)
+        except SchemaError:
+            return None
+
+    def size_inputs(self, root: str) -> dict[tuple[str, str], object]:
+        """What nanopb computes ``root``'s size from: the descriptor of every message and enum it
+        reaches (without source locations, so comments and layout don't count) and, for each file
+        holding one, its package, syntax, edition, file options and ``.options`` text. Equal
+        inputs, equal sizes: comparing them spares two size computations."""
+        files = self._root_files(root)
+        index: dict[str, tuple[descriptor_pb2.FileDescriptorProto, Declaration]] = {}
+        for file in files.values():
+            for declared in declarations(file):
+                index.setdefault(declared.name, (file, declared))
+        found: dict[tuple[str, str], object] = {}
+        pending = [root]
+        while pending:
+            name = pending.pop()
+            if ("type", name) in found or name not in index:
+                continue
+            file, declared = index[name]
+            proto = declared.proto
+            found["type", name] = proto.SerializeToString(deterministic=True)
+            if isinstance(proto, descriptor_pb2.DescriptorProto):
+                pending.extend(f.type_name.lstrip(".") for f in proto.field if f.type_name)
+            if ("file", file.name) not in found:
+                options = self.root / Path(file.name).with_suffix(".options")
+                text = options.read_bytes() if options.is_file() else None
+                settings = file.options.SerializeToString(deterministic=True)
+                found["file", file.name] = (file.package, file.syntax, file.edition, settings, text)
+        return found
+
+    def _root_files(self, root: str) -> _Files:
+        """The file defining message ``root`` and every file it imports, each after its imports:
+        what protoc resolved the root's types in (the tree may define a name twice elsewhere)."""
+        order = self._files.get(root)
+        if order is not None:
+            return order
+        files, order = self.tree.imported, {}
+        message = self.messages.get(root)
+        # Depth first without recursion: an import chain may be thousands of files long. (protoc
+        # refuses import cycles, so a file on the stack is never imported again below itself.)
+        stack = [(message.file, iter(files[message.file].dependency))] if message else []
+        while stack:
+            name, pending = stack[-1]
+            after = next((d for d in pending if d in files and d not in order), None)
+            if after is None:
+                stack.pop()
+                order[name] = files[name]
+            else:
+                stack.append((after, iter(files[after].dependency)))
+        self._files[root] = order
+        return order
 
 
 def build(tree: LoadedTree) -> Revision:
     """The model of a loaded tree."""
     revision = Revision(tree)
     for proto in tree.files.values():
-        _File(revision, proto).add()
+        _add_file(revision, proto)
     return revision
 
 
-class _File:
-    def __init__(self, revision: Revision, proto: descriptor_pb2.FileDescriptorProto) -> None:
-        self.revision = revision
-        self.proto = proto
-        self.source = Source(str(revision.root / proto.name), proto)
-        self.package = f"{proto.package}." if proto.package else ""
+def _add_file(revision: Revision, proto: descriptor_pb2.FileDescriptorProto) -> None:
+    source = SourceIndex(str(revision.root / proto.name), proto)
+    here: dict[str, Message] = {}  # this file's messages (another file may define a name too)
+    for declaration in declarations(proto):
+        if declaration.is_message:
+            message = _message(proto.name, source, declaration, here.get(declaration.parent or ""))
+            here[message.name] = message
+            _define(revision, message.name, message)
+            revision.messages.setdefault(message.name, message)
+        else:
+            _enum(revision, proto.name, source, declaration)
 
-    def define(self, name: str, kind: str, definition: Definition) -> None:
-        self.revision.definitions.setdefault(name, []).append((kind, definition))
 
-    def add(self) -> None:
-        for i, message in enumerate(self.proto.message_type):
-            self.message(self.package + message.name, message, (_FILE_MESSAGE, i))
-        for i, enum in enumerate(self.proto.enum_type):
-            self.enum(self.package + enum.name, self.package, enum, (_FILE_ENUM, i))
+def _define(revision: Revision, name: str, definition: Definition) -> None:
+    revision.definitions.setdefault(name, []).append(definition)
 
-    def message(
-        self,
-        name: str,
-        proto: descriptor_pb2.DescriptorProto,
-        path: tuple[int, ...],
-        declared: tuple[int, ...] | None = None,
-    ) -> None:
-        """Add message ``name``; ``declared`` is the path of the map field that a map entry and
-        its key and value, which have no source of their own, are located at."""
-        model = Message(
-            name, self.proto.name, self.source, declared or path, proto.options.map_entry
+
+def _message(
+    file: str, source: SourceIndex, declaration: Declaration, parent: Message | None
+) -> Message:
+    """The model of a declared message. A map entry and its key and value have no source of their
+    own: they are located at the map field of ``parent`` that uses the entry."""
+    proto = declaration.proto
+    assert isinstance(proto, descriptor_pb2.DescriptorProto)
+    name, map_entry = declaration.name, proto.options.map_entry
+    users = [f for f in parent.fields.values() if f.type == name] if parent and map_entry else []
+    declared = users[0].at if users else None
+    model = Message(name, file, source, declared or declaration.path, map_entry)
+    oneofs = [oneof.name for oneof in proto.oneof_decl]
+    for j, f in enumerate(proto.field):
+        real_oneof = f.HasField("oneof_index") and not f.proto3_optional
+        type_, kind = type_of(f)
+        entry = Field(
+            owner=name,
+            name=f.name,
+            number=f.number,
+            type=type_,
+            kind=kind,
+            cardinality=_LABELS[f.label],
+            oneof=oneofs[f.oneof_index] if real_oneof else None,
+            source=source,
+            at=declared or declaration.member(j),
         )
-        self.define(name, "message", model)
-        self.revision.messages.setdefault(name, model)
-        oneofs = [oneof.name for oneof in proto.oneof_decl]
-        for j, f in enumerate(proto.field):
-            real_oneof = f.HasField("oneof_index") and not f.proto3_optional
-            type_, kind = type_of(f)
-            entry = Field(
-                owner=name,
-                name=f.name,
-                number=f.number,
-                type=type_,
-                kind=kind,
-                cardinality=_LABELS[f.label],
-                oneof=oneofs[f.oneof_index] if real_oneof else None,
-                source=self.source,
-                at=declared or (*path, _MESSAGE_FIELD, j),
-            )
-            model.fields.setdefault(f.number, entry)
-            model.by_name.setdefault(f.name, entry)
-        # protoc's message ranges end before ``end``; enum ranges include it
-        model.reserved.ranges.extend((r.start, r.end - 1) for r in proto.reserved_range)
-        model.reserved.names.update(proto.reserved_name)
-        for j, nested in enumerate(proto.nested_type):
-            full = f"{name}.{nested.name}"
-            users = [f for f in model.fields.values() if f.type == full]
-            declared = users[0].at if nested.options.map_entry and users else None
-            self.message(full, nested, (*path, _MESSAGE_NESTED, j), declared)
-        for j, enum in enumerate(proto.enum_type):
-            self.enum(f"{name}.{enum.name}", f"{name}.", enum, (*path, _MESSAGE_ENUM, j))
+        model.fields.setdefault(f.number, entry)
+        model.by_name.setdefault(f.name, entry)
+    # protoc's message ranges end before ``end``; enum ranges include it
+    model.reserved.ranges.extend((r.start, r.end - 1) for r in proto.reserved_range)
+    model.reserved.names.update(proto.reserved_name)
+    return model
 
-    def enum(
-        self,
-        name: str,
-        scope: str,
-        proto: descriptor_pb2.EnumDescriptorProto,
-        path: tuple[int, ...],
-    ) -> None:
-        model = Enum(name, self.proto.name, self.source, path)
-        self.define(name, "enum", model)
-        self.revision.enums.setdefault(name, model)
-        for j, value in enumerate(proto.value):
-            entry = EnumValue(name, value.name, value.number, self.source, (*path, _ENUM_VALUE, j))
-            self.define(scope + value.name, "enum value", entry)
-            model.values.setdefault(value.number, entry)
-            model.by_name.setdefault(value.name, entry)
-        model.reserved.ranges.extend((r.start, r.end) for r in proto.reserved_range)
-        model.reserved.names.update(proto.reserved_name)
+
+def _enum(revision: Revision, file: str, source: SourceIndex, declaration: Declaration) -> None:
+    """Add a declared enum; its values take global names beside it (C++ scoping)."""
+    proto = declaration.proto
+    assert isinstance(proto, descriptor_pb2.EnumDescriptorProto)
+    model = Enum(declaration.name, file, source, declaration.path)
+    _define(revision, model.name, model)
+    revision.enums.setdefault(model.name, model)
+    for j, value in enumerate(proto.value):
+        entry = EnumValue(model.name, value.name, value.number, source, declaration.member(j))
+        _define(revision, declaration.scope + value.name, entry)
+        model.values.setdefault(value.number, entry)
+        model.by_name.setdefault(value.name, entry)
+    model.reserved.ranges.extend((r.start, r.end) for r in proto.reserved_range)
+    model.reserved.names.update(proto.reserved_name)
 
 
 def type_of(f: descriptor_pb2.FieldDescriptorProto) -> tuple[str, str]:
     """A field's type as the rules name it (``float``, or a full name) and its kind."""
     kind = _KINDS.get(f.type, "scalar")
     return (f.type_name.lstrip(".") if kind != "scalar" else _SCALARS[f.type]), kind
-
-
-def walk(revision: Revision, root: str) -> Iterator[tuple[str, Field]]:
-    """Every field reachable from message ``root``, with its path (``Root.a.b``), once each."""
-    seen = {root}
-    queue = [(root, root)]
-    while queue:
-        name, path = queue.pop(0)
-        message = revision.messages.get(name)
-        if message is None:
-            continue
-        for entry in sorted(message.fields.values(), key=lambda f: f.number):
-            here = f"{path}.{entry.name}"
-            yield here, entry
-            if entry.kind == "message" and entry.type not in seen:
-                seen.add(entry.type)
-                queue.append((entry.type, here))

@@ -2,8 +2,10 @@
 
 Messages and enums pair by full name; one that is gone from NEW pairs with a new one whose body is
 identical (same fields, numbers, names and types), which makes it a rename, not a deletion. Inside
-a pair, each OLD member is seen twice in NEW: by number and by name, so a rule can tell a field
-that moved from one that was deleted while another took its number.
+a message pair, each OLD field is seen twice in NEW: by number and by name, so a rule can tell a
+field that moved from one that was deleted while another took its number. Inside an enum pair,
+each OLD number is seen once with all its names (more than one with ``allow_alias``), in OLD and
+in NEW, and where NEW put the names that left it.
 """
 
 import functools
@@ -16,9 +18,8 @@ from ._model import Enum, EnumValue, Field, Message, Revision
 if TYPE_CHECKING:
     from ._ledger import Ledger
 
-__all__ = ["Change", "MemberPair", "wire_compatible"]
+__all__ = ["Change", "FieldPair", "NumberPair", "Paired", "wire_compatible"]
 
-Member = TypeVar("Member", Field, EnumValue)
 Container = TypeVar("Container", Message, Enum)
 
 # Scalar types that share a wire encoding (wire-facts §6); string → bytes is checked apart.
@@ -30,14 +31,34 @@ _WIRE_GROUPS = [
 ]
 
 
-class MemberPair(NamedTuple, Generic[Container, Member]):
-    """One OLD member and what NEW has at its number and under its name."""
+class Paired(NamedTuple, Generic[Container]):
+    """A message or enum of OLD and the same one in NEW (by full name, or renamed)."""
 
-    old_owner: Container
-    new_owner: Container
-    old: Member
-    by_number: Member | None
-    by_name: Member | None
+    old: Container
+    new: Container
+
+
+class FieldPair(NamedTuple):
+    """One OLD field and what NEW has at its number and under its name."""
+
+    old_owner: Message
+    new_owner: Message
+    old: Field
+    by_number: Field | None
+    by_name: Field | None
+
+
+class NumberPair(NamedTuple):
+    """One number of an OLD enum and what NEW makes of it: judged once per number, whatever the
+    number of names ``allow_alias`` gives it."""
+
+    old_owner: Enum
+    new_owner: Enum
+    old: EnumValue  # the number's first value in OLD
+    by_number: EnumValue | None  # the number's first value in NEW, if it has one
+    before: list[str]  # the number's names in OLD, in declaration order
+    after: list[str]  # the number's names in NEW
+    moved: dict[str, int]  # OLD names NEW has at another number, with that number
 
 
 class Change:
@@ -53,10 +74,12 @@ class Change:
         # OLD full name → NEW full name of each renamed message or enum
         self.renamed: dict[str, str] = {}
         hints = _map_entries(old.messages, new.messages)
+        self.messages: list[Paired[Message]]
         self.messages, gone = _pair(old.messages, new.messages, self.renamed, hints)
         hints = {}  # the enums that renamed messages declare
         for before, after in self.renamed.items():
             _nest(hints, old.enums, new.enums, before, after)
+        self.enums: list[Paired[Enum]]
         self.enums, _ = _pair(old.enums, new.enums, self.renamed, hints)
         # A message whose file no longer compiles is unknown in NEW, not gone: COMPILE says so.
         self.deleted_messages = [m for m in gone if m.file not in self.new.tree.failed]
@@ -73,28 +96,32 @@ class Change:
         return {after: before for before, after in self.renamed.items()}
 
     @functools.cached_property
-    def _fields(self) -> list[MemberPair[Message, Field]]:
+    def _fields(self) -> list[FieldPair]:
         return [
-            MemberPair(old, new, entry, new.fields.get(entry.number), new.by_name.get(entry.name))
+            FieldPair(old, new, entry, new.fields.get(entry.number), new.by_name.get(entry.name))
             for old, new in self.messages
             for entry in old.fields.values()
         ]
 
     @functools.cached_property
-    def _values(self) -> list[MemberPair[Enum, EnumValue]]:
-        return [
-            MemberPair(old, new, entry, new.values.get(entry.number), new.by_name.get(entry.name))
-            for old, new in self.enums
-            for entry in old.by_name.values()
-        ]
+    def _numbers(self) -> list[NumberPair]:
+        found = []
+        for old, new in self.enums:
+            for number, first in old.values.items():
+                before = old.names(number)
+                elsewhere = [new.by_name.get(name) for name in before]
+                moved = {v.name: v.number for v in elsewhere if v and v.number != number}
+                now = new.values.get(number)
+                found.append(NumberPair(old, new, first, now, before, new.names(number), moved))
+        return found
 
-    def fields(self) -> Iterator[MemberPair[Message, Field]]:
+    def fields(self) -> Iterator[FieldPair]:
         """Every field of every paired message, seen in NEW by number and by name."""
         return iter(self._fields)
 
-    def values(self) -> Iterator[MemberPair[Enum, EnumValue]]:
-        """Every value of every paired enum, seen in NEW by number and by name."""
-        return iter(self._values)
+    def numbers(self) -> Iterator[NumberPair]:
+        """Every number of every paired enum, with its names before and after."""
+        return iter(self._numbers)
 
     def compatible(self, old: Field, new: Field) -> bool:
         """Whether NEW's field reads OLD's bytes as the same value kind."""
@@ -134,13 +161,13 @@ def _pair(
     new: dict[str, Container],
     renamed: dict[str, str],
     hints: dict[str, str],
-) -> tuple[list[tuple[Container, Container]], list[Container]]:
+) -> tuple[list[Paired[Container]], list[Container]]:
     """Pairs by full name, then renames: first those ``hints`` name (map entries; what a
     renamed message declares), then by identical body, outermost NEW elements first, so that
     a message's rename brings its nested types before any other body can claim them. A NEW
     element is the rename of one OLD element at most; renames are added to ``renamed``.
     Returns the pairs and OLD's unpaired leftovers."""
-    pairs = [(old[name], new[name]) for name in old if name in new]
+    pairs = [Paired(old[name], new[name]) for name in old if name in new]
     left = [name for name in old if name not in new]
     added = [name for name in new if name not in old]
     hints = dict(hints)
@@ -148,7 +175,7 @@ def _pair(
     taken: set[str] = set()
 
     def link(before: str, after: str) -> None:
-        pairs.append((old[before], new[after]))
+        pairs.append(Paired(old[before], new[after]))
         renamed[before] = after
         done.add(before)
         taken.add(after)

@@ -2,10 +2,15 @@
 
 Every case is a folder of ``tests/lint_cases`` holding ``old/``, ``new/`` and ``expected.txt``:
 exactly what ``erc-lint old new`` prints there. ``lint_cases/<RULE>/`` shows rule ``<RULE>``
-firing (and nothing that change does not unavoidably trigger too); ``lint_cases/safe/<name>/``
+firing (and nothing that change does not unavoidably trigger too), either as a case itself or as
+a folder of scenarios, ``lint_cases/<RULE>/<scenario>/``, each a case; ``lint_cases/safe/<name>/``
 is a change that breaks nothing, so its ``expected.txt`` is empty.
+
+``ERC_UPDATE_EXPECTED=1 pytest tests/test_lint_cases.py`` writes each case's ``expected.txt``
+from what erc-lint prints instead of comparing them, for review in the diff.
 """
 
+import os
 import re
 import subprocess
 import sys
@@ -18,8 +23,23 @@ from erc_lint import RULES
 
 CASES = Path(__file__).resolve().parent / "lint_cases"
 SAFE = CASES / "safe"
-RULE_CASES = sorted(path for path in CASES.iterdir() if path.is_dir() and path != SAFE)
-SAFE_CASES = sorted(path for path in SAFE.iterdir() if path.is_dir())
+
+
+def cases(folder: Path) -> list[Path]:
+    """``folder`` if it is a case, else each of its scenarios."""
+    if (folder / "expected.txt").exists():
+        return [folder]
+    return sorted(path for path in folder.iterdir() if path.is_dir())
+
+
+RULE_CASES = [
+    case
+    for path in sorted(CASES.iterdir())
+    if path.is_dir() and path != SAFE
+    for case in cases(path)
+]
+SAFE_CASES = cases(SAFE)
+UPDATE = os.environ.get("ERC_UPDATE_EXPECTED") == "1"
 # One finding in text format: ``path:line:col: RULE[ (warning)] message``.
 FINDING = re.compile(r"^(?P<path>[^:\s]+):\d+:\d+: (?P<rule>[A-Z_]+)(?P<warning> \(warning\))? \S")
 
@@ -48,10 +68,20 @@ def case_id(case: Path) -> str:
     return case.relative_to(CASES).as_posix()
 
 
+def rule_of(case: Path) -> str:
+    """The rule a case shows: its folder's name under ``lint_cases``."""
+    return case.relative_to(CASES).parts[0]
+
+
 @pytest.mark.parametrize("case", RULE_CASES + SAFE_CASES, ids=case_id)
 def test_case_prints_exactly_its_expected_findings(case: Path) -> None:
     assert (case / "old").is_dir(), case
     assert (case / "new").is_dir(), case
+    if UPDATE:
+        done = erc_lint(case, "old", "new")
+        assert done.returncode in (0, 1), done.stderr  # a run that failed has nothing to expect
+        (case / "expected.txt").write_text(done.stdout, encoding="utf-8")
+        return
     expected = (case / "expected.txt").read_text(encoding="utf-8")
     errors = [m for m in findings(expected) if m["warning"] is None]
     done = erc_lint(case, "old", "new")
@@ -62,10 +92,11 @@ def test_case_prints_exactly_its_expected_findings(case: Path) -> None:
 
 @pytest.mark.parametrize("case", RULE_CASES, ids=case_id)
 def test_rule_case_shows_its_rule(case: Path) -> None:
-    assert case.name in RULES, f"{case_id(case)} names no rule"
+    rule = rule_of(case)
+    assert rule in RULES, f"{case_id(case)} names no rule"
     text = (case / "expected.txt").read_text(encoding="utf-8")
-    shown = [m for m in findings(text) if m["rule"] == case.name]
-    assert shown, f"{case_id(case)}/expected.txt has no {case.name} finding"
+    shown = [m for m in findings(text) if m["rule"] == rule]
+    assert shown, f"{case_id(case)}/expected.txt has no {rule} finding"
     # Every location is in one of the case's own trees, as the working directory spells it.
     assert all(m["path"].startswith(("old/", "new/")) for m in findings(text)), text
 
@@ -76,7 +107,17 @@ def test_safe_case_expects_nothing(case: Path) -> None:
 
 
 def test_every_rule_has_a_case() -> None:
-    assert {case.name for case in RULE_CASES} == set(RULES)
+    assert {rule_of(case) for case in RULE_CASES} == set(RULES)
+
+
+def test_a_rule_folder_is_a_case_or_holds_scenarios() -> None:
+    """Never both: a scenario beside a case's own old/ and new/ would read as one of them."""
+    for folder in [path for path in CASES.iterdir() if path.is_dir()]:
+        inside = {path.name for path in folder.iterdir()}
+        if "expected.txt" in inside:
+            assert inside <= {"old", "new", "expected.txt"}, folder
+        else:
+            assert all((folder / name / "expected.txt").is_file() for name in inside), folder
 
 
 def test_the_repository_tree_against_itself_is_clean() -> None:

@@ -1,98 +1,183 @@
-"""Rules on the values of enums that exist in both revisions (or were renamed)."""
+"""Rules on the values of enums that exist in both revisions (or were renamed), one number at a
+time: with ``allow_alias`` a number has several names, and what travels is the number."""
 
-from collections.abc import Iterator
-from typing import NamedTuple
-
-from erc_codec.schema import Location
-
-from .._model import Enum, EnumValue
-from .._pairing import Change, MemberPair
-from ._registry import pair_rule
-
-Report = Iterator[tuple[Location, str, bool]]
+from .._pairing import Change, NumberPair
+from ._registry import Report, Reports, enum_number_rule
 
 
-@pair_rule("ENUM_VALUE_RENUMBERED", "An enum value kept its name but changed number.")
-def renumbered(change: Change) -> Report:
-    for p in change.values():
-        if p.by_name is not None and p.by_name.number != p.old.number:
-            yield (
-                p.by_name.location,
-                f'Enum value "{p.old.name}" on enum "{p.new_owner.name}" changed number from '
-                f'"{p.old.number}" to "{p.by_name.number}".',
-                False,
-            )
+@enum_number_rule("ENUM_VALUE_RENUMBERED", "An enum value kept its name but changed number.")
+def renumbered(number: NumberPair, change: Change) -> Reports:
+    """## What it does
+    Reports each name of an OLD enum number that NEW gives to another number.
 
+    ## Why is this bad?
+    An enum value travels as its number. Senders built from OLD keep sending the old number for
+    this value, which a receiver built from NEW reads as another value, or as an undeclared one
+    (nanopb and proto3 keep the bare number; erc_codec refuses to encode it); receivers built
+    from OLD misread new senders the same way.
 
-@pair_rule("ENUM_VALUE_REUSED", "An enum number now names another value while its old one moved.")
-def reused(change: Change) -> Report:
-    for number in _numbers(change):
-        # Judged per number: a name the number had before (an alias) still names it, or none
-        # of its names moved elsewhere (a rename), and the number means what it did.
-        taken = number.pair.by_number
-        if taken is None or set(number.after) & set(number.before) or not number.moved:
-            continue
-        now = ", ".join(f'"{name}" is now "{at}"' for name, at in number.moved.items())
-        yield (
-            taken.location,
-            f'Enum value "{taken.number}" on enum "{number.pair.new_owner.name}" changed from '
-            f"{_quoted(number.before)} to {_quoted(number.after)}, and {now}.",
-            False,
+    ## Example
+    Before:
+    ```proto
+    enum DriveMode {
+      DRIVE_MODE_IDLE = 0;
+      DRIVE_MODE_RUN = 1;
+    }
+    ```
+    After:
+    ```proto
+    enum DriveMode {
+      DRIVE_MODE_IDLE = 0;
+      DRIVE_MODE_RUN = 2;
+    }
+    ```
+
+    ## Use instead
+    Keep the number (`DRIVE_MODE_RUN = 1;`); a value that needs another number is a new value
+    with a new name.
+    """
+    for name, now in number.moved.items():
+        yield Report(
+            number.new_owner.by_name[name].location,
+            f'Enum value "{name}" on enum "{number.new_owner.name}" changed number from '
+            f'"{number.old.number}" to "{now}".',
         )
 
 
-@pair_rule("ENUM_VALUE_DELETED", "An enum number disappeared without being reserved.")
-def deleted(change: Change) -> Report:
-    for number in _numbers(change):
-        p = number.pair
-        moved = any(name in p.new_owner.by_name for name in number.before)
-        if p.by_number is None and not moved and not p.new_owner.reserved.covers(p.old.number):
-            yield (
-                p.old.location,
-                f'Previously present enum value "{p.old.number}" with {_names(number.before)} on '
-                f'enum "{p.new_owner.name}" was deleted without reserving its number.',
-                True,
-            )
+@enum_number_rule(
+    "ENUM_VALUE_REUSED", "An enum number now names another value while its old one moved."
+)
+def reused(number: NumberPair, change: Change) -> Reports:
+    """## What it does
+    Reports an enum number that NEW gives to another value while the names it had in OLD moved
+    to other numbers (or some moved and the rest are gone): the number means something else now.
+
+    ## Why is this bad?
+    Senders built from OLD still send the number for the old value, and a receiver built from
+    NEW acts on it as the new value (a "run" read as "stop"), with nothing on the wire to tell
+    the two apart.
+
+    ## Example
+    Before:
+    ```proto
+    enum DriveMode {
+      DRIVE_MODE_IDLE = 0;
+      DRIVE_MODE_RUN = 1;
+    }
+    ```
+    After:
+    ```proto
+    enum DriveMode {
+      DRIVE_MODE_IDLE = 0;
+      DRIVE_MODE_STOP = 1;
+      DRIVE_MODE_RUN = 2;
+    }
+    ```
+
+    ## Use instead
+    Keep every old value at its number and give the new one a number never used:
+    `DRIVE_MODE_RUN = 1; DRIVE_MODE_STOP = 2;`.
+    """
+    # Judged per number: a name the number had before (an alias) still names it, or none of its
+    # names moved elsewhere (a rename), and the number means what it did.
+    taken = number.by_number
+    if taken is None or set(number.after) & set(number.before) or not number.moved:
+        return
+    now = ", ".join(f'"{name}" is now "{at}"' for name, at in number.moved.items())
+    yield Report(
+        taken.location,
+        f'Enum value "{taken.number}" on enum "{number.new_owner.name}" changed from '
+        f"{_quoted(number.before)} to {_quoted(number.after)}, and {now}.",
+    )
 
 
-@pair_rule(
+@enum_number_rule("ENUM_VALUE_DELETED", "An enum number disappeared without being reserved.")
+def deleted(number: NumberPair, change: Change) -> Reports:
+    """## What it does
+    Reports an enum number that NEW no longer has, none of whose names moved to another number,
+    while NEW does not reserve it.
+
+    ## Why is this bad?
+    Boards built from OLD keep sending the number, which receivers built from NEW hold as an
+    undeclared value that no code handles (and erc_codec refuses to send). Once the number is
+    free, the next change may give it to another value, and receivers then read those boards'
+    number as that value.
+
+    ## Example
+    Before:
+    ```proto
+    enum DriveMode {
+      DRIVE_MODE_IDLE = 0;
+      DRIVE_MODE_RUN = 1;
+    }
+    ```
+    After:
+    ```proto
+    enum DriveMode {
+      DRIVE_MODE_IDLE = 0;
+    }
+    ```
+
+    ## Use instead
+    Reserve the number and its names: `reserved 1; reserved "DRIVE_MODE_RUN";`, or restore the
+    value.
+    """
+    new = number.new_owner
+    moved = any(name in new.by_name for name in number.before)
+    if number.by_number is None and not moved and not new.reserved.covers(number.old.number):
+        yield Report(
+            number.old.location,
+            f'Previously present enum value "{number.old.number}" with {_names(number.before)} '
+            f'on enum "{new.name}" was deleted without reserving its number.',
+            in_old=True,
+        )
+
+
+@enum_number_rule(
     "ENUM_VALUE_RENAMED",
     "An enum number kept its meaning under a new name: harmless on the wire, breaks code.",
     severity="warning",
 )
-def renamed(change: Change) -> Report:
-    for number in _numbers(change):
-        taken, by_name = number.pair.by_number, number.pair.new_owner.by_name
-        if taken is None or all(name in by_name for name in number.before):
-            continue  # gone (ENUM_VALUE_DELETED), or every name is still there
-        if number.moved and not set(number.after) & set(number.before):
-            continue  # another value took the number: ENUM_VALUE_REUSED
-        yield (
-            taken.location,
-            f'Enum value "{taken.number}" on enum "{number.pair.new_owner.name}" changed name '
-            f"from {_quoted(number.before)} to {_quoted(number.after)}.",
-            False,
-        )
+def renamed(number: NumberPair, change: Change) -> Reports:
+    """## What it does
+    Reports an enum number that kept its meaning while one or more of its OLD names are gone
+    (renamed, or an alias dropped).
 
+    ## Why is this bad?
+    The binary wire is unchanged, so this is a warning. But protobuf JSON sends enum values by
+    name, so a JSON reader built from one revision rejects the other's name, and every program
+    and generated header that uses the old name stops compiling.
 
-class _Number(NamedTuple):
-    """One number of a paired enum: its first OLD value's pair, its names in OLD and in NEW (more
-    than one with ``allow_alias``), and its OLD names that NEW has at another number."""
+    ## Example
+    Before:
+    ```proto
+    enum DriveMode {
+      DRIVE_MODE_IDLE = 0;
+      DRIVE_MODE_RUN = 1;
+    }
+    ```
+    After:
+    ```proto
+    enum DriveMode {
+      DRIVE_MODE_IDLE = 0;
+      DRIVE_MODE_DRIVE = 1;
+    }
+    ```
 
-    pair: MemberPair[Enum, EnumValue]
-    before: list[str]
-    after: list[str]
-    moved: dict[str, int]
-
-
-def _numbers(change: Change) -> Iterator[_Number]:
-    for p in change.values():
-        if p.old != p.old_owner.values[p.old.number]:
-            continue  # an alias: its number is judged once, with its first name
-        before = p.old_owner.names(p.old.number)
-        elsewhere = [p.new_owner.by_name.get(name) for name in before]
-        moved = {v.name: v.number for v in elsewhere if v is not None and v.number != p.old.number}
-        yield _Number(p, before, p.new_owner.names(p.old.number), moved)
+    ## Use instead
+    Keep the old name beside the new one as an alias:
+    `option allow_alias = true; DRIVE_MODE_RUN = 1; DRIVE_MODE_DRIVE = 1;`.
+    """
+    taken, by_name = number.by_number, number.new_owner.by_name
+    if taken is None or all(name in by_name for name in number.before):
+        return  # gone (ENUM_VALUE_DELETED), or every name is still there
+    if number.moved and not set(number.after) & set(number.before):
+        return  # another value took the number: ENUM_VALUE_REUSED
+    yield Report(
+        taken.location,
+        f'Enum value "{taken.number}" on enum "{number.new_owner.name}" changed name from '
+        f"{_quoted(number.before)} to {_quoted(number.after)}.",
+    )
 
 
 def _quoted(names: list[str]) -> str:

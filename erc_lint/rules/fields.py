@@ -1,123 +1,313 @@
-"""Rules on the fields of messages that exist in both revisions (or were renamed)."""
+"""Rules on the fields of messages that exist in both revisions (or were renamed), one field
+pair at a time: the OLD field and what NEW has at its number and under its name."""
 
-from collections.abc import Iterator
-
-from erc_codec.schema import Location
-
-from .._pairing import Change
-from ._registry import pair_rule
-
-Report = Iterator[tuple[Location, str, bool]]
+from .._pairing import Change, FieldPair
+from ._registry import Report, Reports, field_rule
 
 
-@pair_rule("FIELD_RENUMBERED", "A field kept its name but changed number.")
-def renumbered(change: Change) -> Report:
-    for p in change.fields():
-        if p.by_name is not None and p.by_name.number != p.old.number:
-            yield (
-                p.by_name.location,
-                f'Field "{p.old.name}" on message "{p.new_owner.name}" changed number from '
-                f'"{p.old.number}" to "{p.by_name.number}".',
-                False,
-            )
+@field_rule("FIELD_RENUMBERED", "A field kept its name but changed number.")
+def renumbered(pair: FieldPair, change: Change) -> Reports:
+    """## What it does
+    Reports a field whose name is still there in NEW, under another number.
 
+    ## Why is this bad?
+    On the wire a field is its number; its name never travels. Senders built from OLD keep
+    writing the value under the old number, which a receiver built from NEW does not know (it
+    skips it and reads the field as its default, 0), and a receiver built from OLD skips what
+    new senders write under the new number.
 
-@pair_rule(
-    "FIELD_NUMBER_REUSED",
-    "A field number now carries another field: other name and type, or its old field moved.",
-)
-def number_reused(change: Change) -> Report:
-    for p in change.fields():
-        taken = p.by_number
-        if taken is None or taken.name == p.old.name:
-            continue
-        if p.by_name is not None or not change.compatible(p.old, taken):
-            yield (
-                taken.location,
-                f'Field "{p.old.number}" on message "{p.new_owner.name}" changed from '
-                f'"{p.old.name}" ("{p.old.type}") to "{taken.name}" ("{taken.type}").',
-                False,
-            )
+    ## Example
+    Before:
+    ```proto
+    message MotorCommand {
+      float speed = 1;
+    }
+    ```
+    After:
+    ```proto
+    message MotorCommand {
+      float speed = 2;
+    }
+    ```
 
-
-@pair_rule("FIELD_TYPE_CHANGED", "A field kept its number and name but not a wire-compatible type.")
-def type_changed(change: Change) -> Report:
-    for p in change.fields():
-        taken = p.by_number
-        if taken is not None and taken.name == p.old.name and not change.compatible(p.old, taken):
-            yield (
-                taken.location,
-                f'Field "{p.old.number}" with name "{p.old.name}" on message "{p.new_owner.name}" '
-                f'changed type from "{p.old.type}" to "{taken.type}".',
-                False,
-            )
-
-
-@pair_rule("FIELD_DELETED", "A field number disappeared without being reserved.")
-def deleted(change: Change) -> Report:
-    for p in change.fields():
-        gone = p.by_number is None and p.by_name is None
-        if gone and not p.new_owner.reserved.covers(p.old.number):
-            yield (
-                p.old.location,
-                f'Previously present field "{p.old.number}" with name "{p.old.name}" on '
-                f'message "{p.new_owner.name}" was deleted without reserving its number.',
-                True,
-            )
-
-
-@pair_rule("FIELD_CARDINALITY_CHANGED", "A field changed between singular, repeated and required.")
-def cardinality_changed(change: Change) -> Report:
-    for p in change.fields():
-        taken = p.by_number
-        if taken is None or not change.compatible(p.old, taken):
-            continue
-        if taken.cardinality != p.old.cardinality:
-            yield (
-                taken.location,
-                f'Field "{p.old.number}" with name "{taken.name}" on message "{p.new_owner.name}" '
-                f'changed cardinality from "{p.old.cardinality}" to "{taken.cardinality}".',
-                False,
-            )
-
-
-@pair_rule("FIELD_ONEOF_CHANGED", "A field moved into, out of, or between oneofs.")
-def oneof_changed(change: Change) -> Report:
-    for p in change.fields():
-        taken = p.by_number
-        if taken is None or not change.compatible(p.old, taken) or taken.oneof == p.old.oneof:
-            continue
-        old_members, new_members = p.old_owner.oneof(p.old.oneof), p.new_owner.oneof(taken.oneof)
-        if old_members and old_members == new_members:
-            continue  # the oneof was renamed: same members, same wire
-        if p.old.oneof is None:
-            move = f'moved into oneof "{taken.oneof}"'
-        elif taken.oneof is None:
-            move = f'moved out of oneof "{p.old.oneof}"'
-        else:
-            move = f'moved from oneof "{p.old.oneof}" to oneof "{taken.oneof}"'
-        yield (
-            taken.location,
-            f'Field "{p.old.number}" with name "{taken.name}" on message "{p.new_owner.name}" '
-            f"{move}.",
-            False,
+    ## Use instead
+    Keep the number (`float speed = 1;`). A field that needs another number is a new field:
+    give it a new name too, and reserve the old number and name (`reserved 1; reserved "speed";`).
+    """
+    now = pair.by_name
+    if now is not None and now.number != pair.old.number:
+        yield Report(
+            now.location,
+            f'Field "{pair.old.name}" on message "{pair.new_owner.name}" changed number from '
+            f'"{pair.old.number}" to "{now.number}".',
         )
 
 
-@pair_rule(
+@field_rule(
+    "FIELD_NUMBER_REUSED",
+    "A field number now carries another field: other name and type, or its old field moved.",
+)
+def number_reused(pair: FieldPair, change: Change) -> Reports:
+    """## What it does
+    Reports a field number that NEW gives to another field: one with another name and a type
+    that reads other bytes, or any other field while the old one moved to a number of its own.
+
+    ## Why is this bad?
+    Senders built from OLD still write the old field under that number, and a receiver built
+    from NEW reads those bytes as the new field: a wrong value where the wire types agree; where
+    they do not, nanopb fails to decode the whole message ("wrong wire type") and Google protobuf
+    drops the field. Receivers built from OLD misread new senders the same way.
+
+    ## Example
+    Before:
+    ```proto
+    message Diagnostics {
+      float temperature = 2;
+    }
+    ```
+    After:
+    ```proto
+    message Diagnostics {
+      uint32 error_count = 2;
+    }
+    ```
+
+    ## Use instead
+    Give the new field a number never used before, and reserve the old one:
+    `reserved 2; reserved "temperature"; uint32 error_count = 3;`.
+    """
+    taken = pair.by_number
+    if taken is None or taken.name == pair.old.name:
+        return
+    if pair.by_name is not None or not change.compatible(pair.old, taken):
+        yield Report(
+            taken.location,
+            f'Field "{pair.old.number}" on message "{pair.new_owner.name}" changed from '
+            f'"{pair.old.name}" ("{pair.old.type}") to "{taken.name}" ("{taken.type}").',
+        )
+
+
+@field_rule(
+    "FIELD_TYPE_CHANGED", "A field kept its number and name but not a wire-compatible type."
+)
+def type_changed(pair: FieldPair, change: Change) -> Reports:
+    """## What it does
+    Reports a field that kept its number and name but changed to a type that does not read the
+    bytes of the old one as the same kind of value.
+
+    ## Why is this bad?
+    Both sides decode the number with their own type. A `float` is four fixed bytes, an `sint32`
+    a zigzag varint: between different wire types nanopb fails to decode the whole message
+    ("wrong wire type") and Google protobuf drops the field; between varints of different
+    encodings (`int32` and `sint32`) every value is silently misread (1 reads as -1). A message
+    or enum type is compatible only with itself (or its rename).
+
+    ## Example
+    Before:
+    ```proto
+    message Wheel {
+      float rpm = 1;
+    }
+    ```
+    After:
+    ```proto
+    message Wheel {
+      sint32 rpm = 1;
+    }
+    ```
+
+    ## Use instead
+    Keep the type, or change it within a group that shares a wire encoding: `int32`, `int64`,
+    `uint32`, `uint64`, `bool`; `sint32`, `sint64`; `fixed32`, `sfixed32`; `fixed64`, `sfixed64`;
+    `string` to `bytes`. Another type is a new field: `reserved 1; reserved "rpm";
+    sint32 rpm_count = 2;`.
+    """
+    taken = pair.by_number
+    if taken is not None and taken.name == pair.old.name and not change.compatible(pair.old, taken):
+        yield Report(
+            taken.location,
+            f'Field "{pair.old.number}" with name "{pair.old.name}" on message '
+            f'"{pair.new_owner.name}" changed type from "{pair.old.type}" to "{taken.type}".',
+        )
+
+
+@field_rule("FIELD_DELETED", "A field number disappeared without being reserved.")
+def deleted(pair: FieldPair, change: Change) -> Reports:
+    """## What it does
+    Reports a field that is gone from NEW, by number and by name, while NEW does not reserve its
+    number.
+
+    ## Why is this bad?
+    Receivers built from OLD read the missing field as its default (a speed of 0, a brake
+    released), and boards still running OLD keep sending it. Worse, nothing stops the next
+    change from giving the free number to another field, which would then read those boards'
+    bytes as its own value (`FIELD_NUMBER_REUSED`, across revisions `LEDGER_NUMBER_REUSED`).
+
+    ## Example
+    Before:
+    ```proto
+    message GPSInfo {
+      double latitude = 1;
+      uint32 satellites = 3;
+    }
+    ```
+    After:
+    ```proto
+    message GPSInfo {
+      double latitude = 1;
+    }
+    ```
+
+    ## Use instead
+    Reserve the number and the name: `reserved 3; reserved "satellites";`, or restore the field.
+    """
+    gone = pair.by_number is None and pair.by_name is None
+    if gone and not pair.new_owner.reserved.covers(pair.old.number):
+        yield Report(
+            pair.old.location,
+            f'Previously present field "{pair.old.number}" with name "{pair.old.name}" on '
+            f'message "{pair.new_owner.name}" was deleted without reserving its number.',
+            in_old=True,
+        )
+
+
+@field_rule("FIELD_CARDINALITY_CHANGED", "A field changed between singular, repeated and required.")
+def cardinality_changed(pair: FieldPair, change: Change) -> Reports:
+    """## What it does
+    Reports a field that kept its number and a compatible type but changed between singular
+    (`optional` or proto3's implicit presence), `repeated` and proto2's `required`.
+
+    ## Why is this bad?
+    Senders and receivers disagree on how many values the number carries. A repeated scalar of
+    proto3 is sent packed, one length-delimited record, which a receiver built with the singular
+    field cannot read (a wrong wire type: nanopb fails the whole message, Google protobuf drops
+    the field); several values where one is expected keep only the last; and a proto2 reader
+    rejects a message that lacks a field it holds `required`.
+
+    ## Example
+    Before:
+    ```proto
+    message ArmJoints {
+      float angle = 1;
+    }
+    ```
+    After:
+    ```proto
+    message ArmJoints {
+      repeated float angle = 1;
+    }
+    ```
+
+    ## Use instead
+    Keep the cardinality. A list is a new field: `reserved 1; reserved "angle";
+    repeated float angles = 2;`.
+    """
+    taken = pair.by_number
+    if taken is None or not change.compatible(pair.old, taken):
+        return
+    if taken.cardinality != pair.old.cardinality:
+        yield Report(
+            taken.location,
+            f'Field "{pair.old.number}" with name "{taken.name}" on message '
+            f'"{pair.new_owner.name}" changed cardinality from "{pair.old.cardinality}" to '
+            f'"{taken.cardinality}".',
+        )
+
+
+@field_rule("FIELD_ONEOF_CHANGED", "A field moved into, out of, or between oneofs.")
+def oneof_changed(pair: FieldPair, change: Change) -> Reports:
+    """## What it does
+    Reports a field that kept its number and a compatible type but moved into a oneof, out of
+    one, or from one oneof to another (renaming a oneof whose members stay the same is fine).
+
+    ## Why is this bad?
+    The bytes stay the same; what a receiver keeps of them does not. The members of a oneof
+    share one slot (a C union in nanopb, with its `which_` tag), so a receiver that holds the
+    field in a oneof keeps only the last member to arrive, while a sender that holds the fields
+    apart may set several at once: whichever way the field moved, values a sender set together
+    are lost in the receiver.
+
+    ## Example
+    Before:
+    ```proto
+    message Setpoint {
+      int32 steps = 1;
+      float angle = 2;
+    }
+    ```
+    After:
+    ```proto
+    message Setpoint {
+      oneof target {
+        int32 steps = 1;
+        float angle = 2;
+      }
+    }
+    ```
+
+    ## Use instead
+    Leave the field where it was. To group fields in a oneof, add the oneof with new fields and
+    numbers, and reserve the old ones (`reserved 1, 2;`).
+    """
+    taken = pair.by_number
+    old = pair.old
+    if taken is None or not change.compatible(old, taken) or taken.oneof == old.oneof:
+        return
+    old_members, new_members = pair.old_owner.oneof(old.oneof), pair.new_owner.oneof(taken.oneof)
+    if old_members and old_members == new_members:
+        return  # the oneof was renamed: same members, same wire
+    if old.oneof is None:
+        move = f'moved into oneof "{taken.oneof}"'
+    elif taken.oneof is None:
+        move = f'moved out of oneof "{old.oneof}"'
+    else:
+        move = f'moved from oneof "{old.oneof}" to oneof "{taken.oneof}"'
+    yield Report(
+        taken.location,
+        f'Field "{old.number}" with name "{taken.name}" on message "{pair.new_owner.name}" {move}.',
+    )
+
+
+@field_rule(
     "FIELD_RENAMED",
     "A field kept its number and type under a new name: fine on the wire, breaks JSON and code.",
     severity="warning",
 )
-def renamed(change: Change) -> Report:
-    for p in change.fields():
-        taken = p.by_number
-        if taken is None or taken.name == p.old.name or p.by_name is not None:
-            continue
-        if change.compatible(p.old, taken):
-            yield (
-                taken.location,
-                f'Field "{p.old.number}" on message "{p.new_owner.name}" changed name from '
-                f'"{p.old.name}" to "{taken.name}".',
-                False,
-            )
+def renamed(pair: FieldPair, change: Change) -> Reports:
+    """## What it does
+    Reports a field that kept its number and a compatible type under a new name, while the old
+    name is gone.
+
+    ## Why is this bad?
+    The binary wire is unchanged, so this is a warning. But the name is everywhere else: it is
+    the key of the field in protobuf JSON, the member of nanopb's C struct and of every
+    generated class, and the pattern a nanopb `.options` line matches (`Msg.name max_size:32`
+    stops applying, and the message's size changes with it).
+
+    ## Example
+    Before:
+    ```proto
+    message BatteryInfo {
+      float voltage = 1;
+    }
+    ```
+    After:
+    ```proto
+    message BatteryInfo {
+      float volts = 1;
+    }
+    ```
+
+    ## Use instead
+    Keep the name, or rename it everywhere it is used at once: code, JSON readers and `.options`
+    files. Add `FIELD_RENAMED` to `ignore` if names do not matter to any user of the tree.
+    """
+    taken = pair.by_number
+    if taken is None or taken.name == pair.old.name or pair.by_name is not None:
+        return
+    if change.compatible(pair.old, taken):
+        yield Report(
+            taken.location,
+            f'Field "{pair.old.number}" on message "{pair.new_owner.name}" changed name from '
+            f'"{pair.old.name}" to "{taken.name}".',
+        )

@@ -1,62 +1,124 @@
 """Rules over one revision: what the tree holds, graded by whether OLD held it too (and, with
-a ledger, what the tree's history held)."""
+a ledger, what the tree's history held). Each is handed one revision, OLD and then NEW, and names
+every piece of damage by a key: a key OLD reports too is old damage (a warning), not new."""
 
-import re
-from collections.abc import Iterator
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
-from erc_codec.schema import Location, resolve_options
+from erc_codec.schema import Location
 
-from .._loader import relative
-from .._model import Revision, walk
+from .._model import EnumValue, Field, Revision
 from .._pairing import Change, wire_compatible
-from ._registry import tree_rule
+from ._registry import Report, Reports, tree_rule
 
 if TYPE_CHECKING:
     from .._ledger import Entry, Key, Ledger
 
-Report = Iterator[tuple[str, Location, str]]
-
 
 @tree_rule("COMPILE", "A file does not compile (protoc's own diagnostic); the rest still load.")
-def compile_errors(revision: Revision, change: Change) -> Report:
-    for key, finding in revision.load_findings:
-        if finding.rule == "COMPILE":
-            yield key, _location(finding), finding.message
+def compile_errors(revision: Revision, change: Change) -> Reports:
+    """## What it does
+    Reports each of protoc's diagnostics for a file that does not compile, at protoc's own
+    location and in its words (an error inside an imported file once, naming the importer).
+    Every other file is still loaded and checked. A file of OLD that does not compile while
+    NEW's does is a warning too: its messages could not be compared.
+
+    ## Why is this bad?
+    Nothing in the file can be checked, and every build that runs protoc on it fails: nanopb's
+    generator for the boards, the base station's code generation, erc_codec's schema.
+
+    ## Example
+    Before:
+    ```proto
+    message Diagnostics { float temperature = 1; }
+    ```
+    After:
+    ```proto
+    message Diagnostics { float temperature = 1 }
+    ```
+
+    ## Use instead
+    Fix what protoc says (here: `Expected ";".`), or `exclude` a draft file in `[tool.erc-lint]`.
+    """
+    for problem in revision.problems:
+        if problem.kind == "COMPILE":
+            yield Report(problem.location, problem.text, key=problem.key)
 
 
 @tree_rule("IMPORT_AMBIGUOUS", "An import's spelling matches more than one file of the tree.")
-def import_ambiguous(revision: Revision, change: Change) -> Report:
-    for key, finding in revision.load_findings:
-        if finding.rule == "IMPORT_AMBIGUOUS":
-            yield key, _location(finding), finding.message
+def import_ambiguous(revision: Revision, change: Change) -> Reports:
+    """## What it does
+    Reports an import whose spelling names no file as it stands and matches several once
+    resolved the ways trees in the field spell imports (a bare file name found in two folders,
+    a prefixed path whose tail is two files).
+
+    ## Why is this bad?
+    Which file protoc reads then depends on the include folders each build passes: the boards'
+    firmware and the base station may compile different definitions from the same import, and
+    send each other bytes the other side reads by another schema.
+
+    ## Example
+    Before: `a/shape.proto` and `b/shape.proto` both exist, and
+    ```proto
+    import "a/shape.proto";
+    ```
+    After:
+    ```proto
+    import "shape.proto";
+    ```
+
+    ## Use instead
+    Spell the import from the tree's root: `import "a/shape.proto";`.
+    """
+    for problem in revision.problems:
+        if problem.kind == "IMPORT_AMBIGUOUS":
+            yield Report(problem.location, problem.text, key=problem.key)
 
 
 @tree_rule(
     "NAME_COLLISION",
     "Two definitions (message, enum or enum value) share a global name anywhere in the tree.",
 )
-def name_collision(revision: Revision, change: Change) -> Report:
+def name_collision(revision: Revision, change: Change) -> Reports:
+    """## What it does
+    Reports a global name that two or more definitions take anywhere in the tree, even in files
+    never compiled together, with every location. Without a `package`, messages, enums and enum
+    values share one namespace, and an enum value is a sibling of its enum (C++ scoping).
+
+    ## Why is this bad?
+    nanopb compiles one file at a time and never notices, so the collision waits for the first
+    build that includes both files: protoc refuses the second definition ("already defined"),
+    a Python descriptor pool raises "duplicate symbol", C code gets two structs of one name.
+    Until then, two boards may mean different things by one name.
+
+    ## Example
+    Before:
+    ```proto
+    // gps.proto
+    message SensorBoardGPSInfo { double latitude = 1; }
+    ```
+    After, beside it:
+    ```proto
+    // leftover/message_types.proto
+    enum PBMessageType { SensorBoardGPSInfo = 0; }
+    ```
+
+    ## Use instead
+    Rename one of them, with its component's prefix (`PB_MESSAGE_TYPE_GPS_INFO = 0;`), or delete
+    the leftover file.
+    """
+    other = change.old if revision is change.new else change.new
     for name, definitions in sorted(revision.definitions.items()):
         if len(definitions) < 2:
             continue
-        places = sorted(((kind, d.location) for kind, d in definitions), key=lambda p: p[1])
+        places = sorted(((d.kind, d.location) for d in definitions), key=lambda p: p[1])
         listed = " and ".join(f"{kind} at {where}" for kind, where in places)
         # Point at a definition the other revision lacks, if any: that is the one to look at.
-        other = change.old if revision is change.new else change.new
-        known = {
-            (relative(other.root, d.location.path), d.location.line)
-            for _, d in other.definitions.get(name, [])
-        }
-        fresh = [
-            where
-            for _, where in places
-            if (relative(revision.root, where.path), where.line) not in known
-        ]
-        yield (
-            name,
+        known = {other.place(d.location) for d in other.definitions.get(name, [])}
+        fresh = [where for _, where in places if revision.place(where) not in known]
+        yield Report(
             (fresh or [places[-1][1]])[-1],
             f'Name "{name}" is defined {len(places)} times: {listed}.',
+            key=name,
         )
 
 
@@ -64,21 +126,41 @@ def name_collision(revision: Revision, change: Change) -> Report:
     "EMBEDDED_ROOT_MISSING",
     "A configured embedded root is not a message of the tree, so nothing is checked for it.",
 )
-def embedded_root_missing(revision: Revision, change: Change) -> Report:
+def embedded_root_missing(revision: Revision, change: Change) -> Reports:
+    """## What it does
+    Reports an embedded root named in `[tool.erc-lint] roots` that is no message of the tree
+    (nor declared in a file that does not compile, which `COMPILE` reports), located at the
+    configuration's `roots` line.
+
+    ## Why is this bad?
+    The embedded rules (`EMBEDDED_REPEATED`, `EMBEDDED_UNBOUNDED`, `ENVELOPE_SIZE_GROWN`) start
+    from the roots: a root that names nothing, a typo or a message renamed since, turns them off
+    in silence, and an unbounded field or a grown envelope then reaches the boards unseen.
+
+    ## Example
+    Before: `roots = ["RoverEnvelope"]`, and
+    ```proto
+    message RoverEnvelope { oneof payload { PHInfo ph_info = 1; } }
+    ```
+    After, with the same configuration:
+    ```proto
+    message PBEnvelope { oneof payload { PHInfo ph_info = 1; } }
+    ```
+
+    ## Use instead
+    Name the message as the tree does: `roots = ["PBEnvelope"]`.
+    """
     config = change.config
     if not config.roots_chosen or not revision.tree.files:
         return
     where = Location(config.source or str(revision.root), max(config.roots_line, 1), 1)
-    broken = [revision.tree.texts.get(name, "") for name in revision.tree.failed]
     for root in config.roots:
-        defined = re.compile(rf"\bmessage\s+{re.escape(root.rsplit('.', 1)[-1])}\b")
-        hidden = any(defined.search(text) for text in broken)  # in a file that failed?
-        if root not in revision.messages and not hidden:
-            yield (
-                root,
+        if root not in revision.messages and not revision.declared_in_failed_file(root):
+            yield Report(
                 where,
                 f'Embedded root "{root}" is not a message of the tree: no fixed-size rule or '
                 "size check covers what it was meant to reach.",
+                key=root,
             )
 
 
@@ -86,15 +168,42 @@ def embedded_root_missing(revision: Revision, change: Change) -> Report:
     "EMBEDDED_REPEATED",
     "A repeated field in a message an embedded root reaches: embedded boards need fixed sizes.",
 )
-def embedded_repeated(revision: Revision, change: Change) -> Report:
+def embedded_repeated(revision: Revision, change: Change) -> Reports:
+    """## What it does
+    Reports a `repeated` field (a map too) of any message an embedded root reaches, with the
+    path from the root (`PBEnvelope.status.readings`).
+
+    ## Why is this bad?
+    The boards decode into fixed-size C structs and drop datagrams longer than the root's
+    `<Root>_size`. nanopb gives a repeated field without `max_count` no storage but a callback,
+    and the root no size at all; with `max_count` it is an array and a count, and every buffer
+    is sized for the full array. The fleet's contract is that nothing an embedded root reaches
+    is repeated, so that `PBEnvelope_size` stays a small constant.
+
+    ## Example
+    Before:
+    ```proto
+    message PBEnvelope { oneof payload { ArmStatus arm_status = 1; } }
+    message ArmStatus { float angle = 1; }
+    ```
+    After:
+    ```proto
+    message PBEnvelope { oneof payload { ArmStatus arm_status = 1; } }
+    message ArmStatus { repeated float angles = 1; }
+    ```
+
+    ## Use instead
+    A fixed set of singular fields (`float shoulder = 1; float elbow = 2;`), or the list in a
+    message no embedded root reaches.
+    """
     for root in change.config.roots:
-        for path, field in walk(revision, root):
+        for path, field in revision.reach(root):
             if field.cardinality == "repeated":
-                yield (
-                    f"{root}:{change.old_name(revision, field.owner)}.{field.name}",
+                yield Report(
                     field.location,
                     f'Field "{field.number}" with name "{field.name}" on message "{field.owner}" '
                     f'is repeated, and embedded root "{root}" reaches it as {path}.',
+                    key=_reached(revision, change, root, field),
                 )
 
 
@@ -102,69 +211,127 @@ def embedded_repeated(revision: Revision, change: Change) -> Report:
     "EMBEDDED_UNBOUNDED",
     "A string or bytes field without nanopb max_size in a message an embedded root reaches.",
 )
-def embedded_unbounded(revision: Revision, change: Change) -> Report:
-    options: Any = None
+def embedded_unbounded(revision: Revision, change: Change) -> Reports:
+    """## What it does
+    Reports a `string` or `bytes` field without nanopb's `max_size` (or `max_length`), from a
+    `.options` file or an annotation, in any message an embedded root reaches.
+
+    ## Why is this bad?
+    nanopb turns an unbounded string or bytes field into a callback with no storage, and every
+    message that holds it, up to the root, loses its `<Name>_size` ("depends on runtime
+    parameters"): the boards can no longer size their buffers, and erc_codec refuses to load
+    the schema for that root.
+
+    ## Example
+    Before:
+    ```proto
+    message PBEnvelope { oneof payload { Reading reading = 1; } }
+    message Reading { uint32 code = 1; }
+    ```
+    After:
+    ```proto
+    message PBEnvelope { oneof payload { Reading reading = 1; } }
+    message Reading { uint32 code = 1; string label = 2; }
+    ```
+
+    ## Use instead
+    Bound it: a line `Reading.label max_size:16` in the `.options` file beside the `.proto`, or
+    `string label = 2 [(nanopb).max_size = 16];`.
+    """
     for root in change.config.roots:
-        for path, field in walk(revision, root):
-            if field.type not in ("string", "bytes"):
+        for path, field in revision.reach(root):
+            if field.type not in ("string", "bytes") or revision.bounded(field):
                 continue
-            if options is None:
-                options = resolve_options(
-                    revision.root, tuple(revision.tree.imported.values())
-                ).fields
-            bound = options.get(f"{field.owner}.{field.name}")
-            if bound is not None and (bound.HasField("max_size") or bound.HasField("max_length")):
-                continue
-            yield (
-                f"{root}:{change.old_name(revision, field.owner)}.{field.name}",
+            yield Report(
                 field.location,
                 f'Field "{field.number}" with name "{field.name}" on message "{field.owner}" is '
                 f'{field.type} without nanopb max_size, and embedded root "{root}" reaches it as '
                 f"{path}.",
+                key=_reached(revision, change, root, field),
             )
+
+
+def _reached(revision: Revision, change: Change, root: str, field: Field) -> str:
+    """The key of damage a root reaches: by the names OLD used, so a rename keeps it old."""
+    return f"{root}:{change.old_name(revision, field.owner)}.{field.name}"
 
 
 @tree_rule(
     "LEDGER_NUMBER_REUSED",
     "A number the ledger says once carried another name or an incompatible type is used again.",
 )
-def ledger_number_reused(revision: Revision, change: Change) -> Report:
+def ledger_number_reused(revision: Revision, change: Change) -> Reports:
+    """## What it does
+    With a ledger (`erc-lint.lock`), reports a field or enum number that the ledger says once
+    carried another name, or a type that reads other bytes, naming that first use's revision
+    and ledger line. Reserving the number, or an `ack` on the new use's ledger line, silences it.
+
+    ## Why is this bad?
+    It is `FIELD_NUMBER_REUSED` across the whole history: a board still running firmware from
+    the revision that first used the number sends the old field under it, and a receiver built
+    from NEW reads those bytes as the new one (a wrong value; with another wire type, a message
+    nanopb cannot decode). Two revisions cannot show it once the old field is a few changes back.
+
+    ## Example
+    Ledger: `message Diagnostics 2 temperature float 8b460ccd5c8c`, and now:
+    ```proto
+    message Diagnostics {
+      uint32 error_count = 2;
+    }
+    ```
+
+    ## Use instead
+    Give the field a number the ledger does not know and reserve the old one (`reserved 2;`). A
+    deliberate reuse, when no board sends the old field any more, ends the new use's ledger line
+    with `ack  # why`.
+    """
     ledger = change.ledger
     if ledger is None:
         return
-    from .._ledger import Key  # loaded already: the ledger was read
+    for message in revision.messages.values():
+        for field in message.fields.values():
+            yield from _field_reuse(change, ledger, field)
+    for enum in revision.enums.values():
+        for value in enum.values.values():
+            live = sorted(v.name for v in enum.by_name.values() if v.number == value.number)
+            yield from _value_reuse(change, ledger, value, live)
 
-    for message in sorted(revision.messages.values(), key=lambda m: m.name):
-        for entry in sorted(message.fields.values(), key=lambda f: f.number):
-            key = Key("message", message.name, entry.number, entry.name, entry.type)
-            clashes = [
-                past
-                for past in ledger.at("message", message.name, entry.number)
-                if past.key.name != entry.name or not _same_kind(change, past.key.type, entry.type)
-            ]
-            if clashes and not _acknowledged(change, ledger, key):
-                yield (
-                    _id(key),
-                    entry.location,
-                    f'Field "{entry.number}" with name "{entry.name}" on message "{message.name}" '
-                    f"reuses a number that carried {_history(ledger, clashes)}.",
-                )
-    for enum in sorted(revision.enums.values(), key=lambda e: e.name):
-        for value in sorted(enum.values.values(), key=lambda v: v.number):
-            live = {v.name for v in enum.by_name.values() if v.number == value.number}
-            keys = [Key("enum", enum.name, value.number, name, "-") for name in sorted(live)]
-            clashes = [
-                past
-                for past in ledger.at("enum", enum.name, value.number)
-                if past.key.name not in live
-            ]
-            if clashes and not any(_acknowledged(change, ledger, key) for key in keys):
-                yield (
-                    _id(keys[0]),
-                    value.location,
-                    f'Enum value "{value.number}" with name "{value.name}" on enum "{enum.name}" '
-                    f"reuses a number that carried {_history(ledger, clashes)}.",
-                )
+
+def _field_reuse(change: Change, ledger: "Ledger", field: Field) -> Reports:
+    # Loaded already (the ledger was read): linting without a ledger does not import it, for
+    # bench_lint's 30-file ratio (its dataclasses cost about 9 ms of start-up).
+    from .._ledger import Key
+
+    key = Key("message", field.owner, field.number, field.name, field.type)
+    clashes = [
+        past
+        for past in ledger.at("message", field.owner, field.number)
+        if past.key.name != field.name or not _same_kind(change, past.key.type, field.type)
+    ]
+    if clashes and not _acknowledged(change, ledger, key):
+        yield Report(
+            field.location,
+            f'Field "{field.number}" with name "{field.name}" on message "{field.owner}" '
+            f"reuses a number that carried {_history(ledger, clashes)}.",
+            key=_id(key),
+        )
+
+
+def _value_reuse(change: Change, ledger: "Ledger", value: EnumValue, live: list[str]) -> Reports:
+    """``value``, the first name of its number, with ``live``, every name of the number."""
+    from .._ledger import Key  # loaded already: see _field_reuse
+
+    keys = [Key("enum", value.owner, value.number, name, "-") for name in live]
+    clashes = [
+        past for past in ledger.at("enum", value.owner, value.number) if past.key.name not in live
+    ]
+    if clashes and not any(_acknowledged(change, ledger, key) for key in keys):
+        yield Report(
+            value.location,
+            f'Enum value "{value.number}" with name "{value.name}" on enum "{value.owner}" '
+            f"reuses a number that carried {_history(ledger, clashes)}.",
+            key=_id(keys[0]),
+        )
 
 
 def _same_kind(change: Change, past: str, now: str) -> bool:
@@ -194,7 +361,3 @@ def _history(ledger: "Ledger", clashes: "list[Entry]") -> str:
 
 def _id(key: "Key") -> str:
     return f"{key.kind}:{key.container}:{key.number}:{key.name}:{key.type}"
-
-
-def _location(finding: Any) -> Location:
-    return Location(finding.path, finding.line, finding.column)

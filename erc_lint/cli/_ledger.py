@@ -7,16 +7,18 @@ from pathlib import Path
 
 import click
 
-from ._cli import _FILE, _common, _Failure, _guard, _settings, main
-from ._config import LEDGER
-from ._git import Repository
-from ._history import History, keys
-from ._inputs import GitInput, locate, parse
-from ._ledger import Entry, Ledger
-from ._loader import load_tree
+from .._config import LEDGER
+from .._git import Repository
+from .._history import History, keys
+from .._inputs import GitInput, locate, parse
+from .._ledger import Entry, Ledger
+from .._loader import load_tree
+from ._shared import FILE, Failure, common_options, guard, settings
+
+__all__ = ["ledger"]
 
 
-@main.group()
+@click.group()
 def ledger() -> None:
     """Keep the number ledger (erc-lint.lock) up to date."""
 
@@ -29,13 +31,13 @@ def ledger() -> None:
     help="Add every revision reachable from TREE's git ref, oldest first (TREE must be "
     "GITDIR#ref=REF[,subdir=PATH]).",
 )
-@click.option("--ledger", "path", type=_FILE, help="Default: erc-lint.lock beside TREE's protos.")
+@click.option("--ledger", "path", type=FILE, help="Default: erc-lint.lock beside TREE's protos.")
 @click.option(
     "--check",
     is_flag=True,
     help="Change nothing; print the entries the ledger lacks and exit 1 if there are any.",
 )
-@_common
+@common_options
 def update(
     tree: str,
     history: bool,
@@ -45,31 +47,31 @@ def update(
     config: Path | None,
 ) -> None:
     """Record every number TREE's messages and enums use (a folder or GITDIR#ref=REF)."""
-    with _guard():
+    with guard():
         spec = parse(tree)
         if isinstance(spec, GitInput):
             with Repository(spec.folder) as repository:
                 shown = locate(spec, repository)[1]
                 if shown is None and path is None:
-                    raise _Failure(
+                    raise Failure(
                         f"{tree}: a bare repository has no folder for the ledger; "
                         "give --ledger FILE"
                     )
                 target = path or (shown or spec.shown) / LEDGER
                 book = _open(target)
-                settings = _settings(config, shown)
+                exclude = settings(config, shown).exclude
                 commits = repository.history(spec.ref) if history else [repository.commit(spec.ref)]
-                walker = History(repository, spec, includes, settings.exclude)
+                walker = History(repository, spec, includes, exclude)
                 added = walker.update(book, commits)
             source = f"{len(commits)} revision{'s' * (len(commits) != 1)}"
         elif history:
-            raise _Failure(f"{tree}: --history needs a git input, GITDIR#ref=REF[,subdir=PATH]")
+            raise Failure(f"{tree}: --history needs a git input, GITDIR#ref=REF[,subdir=PATH]")
         elif not spec.is_dir():
-            raise _Failure(f"{tree}: not a folder holding a proto tree")
+            raise Failure(f"{tree}: not a folder holding a proto tree")
         else:
             target = path or spec / LEDGER
             book = _open(target)
-            loaded = load_tree(spec, [Path(p) for p in includes], _settings(config, spec).exclude)
+            loaded = load_tree(spec, [Path(p) for p in includes], settings(config, spec).exclude)
             for name in sorted(loaded.failed):
                 click.echo(f"{spec / name}: does not compile; nothing of it recorded", err=True)
             added = book.add(keys(loaded.files.values()), "-")

@@ -1,0 +1,47 @@
+"""The ``erc-lint`` group: ``erc-lint OLD NEW`` means ``erc-lint diff OLD NEW``; every command
+group of the command line added to it."""
+
+import click
+
+from erc_codec.cli import OneLineGroup
+
+from ._diff import check, diff
+from ._rules import list_rules
+
+__all__ = ["main"]
+
+_OPTIONS = ("-h", "--help", "--version")
+
+
+class _LintGroup(OneLineGroup):
+    """A group whose default command is ``diff``. ``ledger`` loads on first use, so linting does
+    not pay for the history walker's imports."""
+
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        if args and args[0] not in self.list_commands(ctx) and args[0] not in _OPTIONS:
+            args = ["diff", *args]
+        return super().parse_args(ctx, args)
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted({*super().list_commands(ctx), "ledger"})
+
+    def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
+        if name == "ledger" and name not in self.commands:
+            from ._ledger import ledger
+
+            self.add_command(ledger)
+        return super().get_command(ctx, name)
+
+
+@click.group(cls=_LintGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="erc-codec")
+def main() -> None:
+    """Wire-compatibility linter for proto trees: erc-lint OLD NEW.
+
+    A tree is a folder, or a git revision in buf's spelling, GITDIR#ref=REF[,subdir=PATH],
+    read from the repository's objects without a checkout.
+    """
+
+
+for _command in (diff, check, list_rules):
+    main.add_command(_command)

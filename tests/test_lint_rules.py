@@ -1,0 +1,284 @@
+"""erc_lint's rules: each is handed one pair and explains itself; what the fixtures of
+tests/lint_cases/ (each rule firing, through the command line) do not show."""
+
+import inspect
+import re
+from pathlib import Path
+
+import pytest
+from lint_support import READING, tree
+
+import erc_lint
+from erc_lint import RULES, Config, Rule
+from erc_lint.rules._registry import PAIRS
+
+SECTIONS = ["## What it does", "## Why is this bad?", "## Example", "## Use instead"]
+
+
+@pytest.mark.parametrize("rule", RULES.values(), ids=list(RULES))
+def test_every_rule_explains_itself(rule: Rule) -> None:
+    """ruff's rule docs: what it does, why that breaks the wire, an example, the fix; the
+    docstring is what ``erc-lint rules --explain`` will print."""
+    doc = inspect.cleandoc(rule.check.__doc__ or "")
+    headings = [line for line in doc.splitlines() if line.startswith("## ")]
+    assert headings == SECTIONS, rule.id
+    example = doc.split("## Example", 1)[1].split("## Use instead", 1)[0]
+    assert "```proto" in example, rule.id
+    assert example.count("```") % 2 == 0, rule.id
+    assert all(len(line) <= 96 for line in doc.splitlines()), rule.id
+    assert rule.purpose.endswith("."), rule.id  # one line, as `erc-lint rules` lists it
+
+
+@pytest.mark.parametrize("rule", RULES.values(), ids=list(RULES))
+def test_every_rule_is_handed_one_pair_and_the_change(rule: Rule) -> None:
+    assert rule.pairs in PAIRS or rule.pairs == "tree"
+    assert list(inspect.signature(rule.check).parameters)[1:] == ["change"]
+    assert re.fullmatch(r"[A-Z]+(_[A-Z]+)*", rule.id)
+    assert rule.severity in ("error", "warning")
+    assert rule.pairs != "tree" or rule.severity == "error"  # graded by OLD instead
+
+
+# Examples that need more than one file of each revision: a configuration, a ledger, a second file.
+SETUP = {
+    "EMBEDDED_ROOT_MISSING",
+    "IMPORT_AMBIGUOUS",
+    "LEDGER_NUMBER_REUSED",
+    "MESSAGE_DELETED",
+    "NAME_COLLISION",
+}
+FENCED = re.compile(r"^(Before|After)\b[^\n]*\n```proto\n(.*?)```", re.DOTALL | re.MULTILINE)
+
+
+@pytest.mark.parametrize(
+    "rule", [r for r in RULES.values() if r.id not in SETUP], ids=lambda r: r.id
+)
+def test_every_rules_example_shows_the_rule(rule: Rule, tmp_path: Path) -> None:
+    """The example a rule explains itself with is true: linted, before against after, it fires."""
+    doc = inspect.cleandoc(rule.check.__doc__ or "")
+    blocks = dict(FENCED.findall(doc.split("## Example", 1)[1]))
+    assert set(blocks) == {"Before", "After"}, rule.id
+    for side, text in blocks.items():
+        (tmp_path / side).mkdir()
+        (tmp_path / side / "example.proto").write_text(f'syntax = "proto3";\n{text}')
+    found = erc_lint.lint(tmp_path / "Before", tmp_path / "After")
+    assert rule.id in {finding.rule for finding in found}, found
+
+
+@pytest.mark.parametrize(
+    ("envelope", "missing"),
+    [
+        ("message PBEnvelope { oneof p { Ph ph = 1 } }\n", False),  # declared, file broken
+        ("// message PBEnvelope { oneof p { Ph ph = 1; } }\nmessage Env { Ph ph = 1 }\n", True),
+        ('message Env { string s = 1 [json_name = "message PBEnvelope"] }\n', True),
+    ],
+    ids=["declared", "commented-out", "in-a-string"],
+)
+def test_a_root_declared_in_a_file_that_does_not_compile_is_not_missing(
+    tmp_path: Path, envelope: str, missing: bool
+) -> None:
+    """What a broken file declares is unknown, not missing (COMPILE says why); a declaration in
+    a comment or a string is no declaration."""
+    root = tmp_path / "t"
+    root.mkdir()
+    (root / "ph.proto").write_text('syntax = "proto3";\nmessage Ph { float ph = 1; }\n')
+    (root / "env.proto").write_text(f'syntax = "proto3";\nimport "ph.proto";\n{envelope}')
+    config = Config(roots=("PBEnvelope",), roots_line=1)
+    found = {finding.rule for finding in erc_lint.check(root, config)}
+    assert found == ({"COMPILE", "EMBEDDED_ROOT_MISSING"} if missing else {"COMPILE"})
+
+
+def test_collisions_between_files_never_compiled_together(tmp_path: Path) -> None:
+    root = tree(
+        tmp_path / "t",
+        {
+            "gps.proto": "message SensorBoardGPSInfo { double latitude = 1; }\n",
+            "leftover/message_types.proto": "enum PBMessageType { SensorBoardGPSInfo = 0; }\n",
+        },
+    )
+    (collision,) = erc_lint.lint(tmp_path / "t", root)
+    assert collision.rule == "NAME_COLLISION"
+    assert str(root / "gps.proto") in collision.message
+    assert str(root / "leftover/message_types.proto") in collision.message
+
+
+def test_old_damage_in_an_imported_file_stays_old_when_its_importer_is_renamed(
+    tmp_path: Path,
+) -> None:
+    broken = {"b.proto": "message B { float x = 1 }\n"}
+    users = 'import "b.proto";\nmessage {name} {{ B b = 1; }}\n'
+    old = tree(tmp_path / "old", {**broken, "a.proto": users.format(name="A")})
+    new = tree(tmp_path / "new", {**broken, "aa.proto": users.format(name="A")})
+    (in_b,) = [f for f in erc_lint.lint(old, new) if f.path == str(new / "b.proto")]
+    assert (in_b.rule, in_b.severity) == ("COMPILE", "warning")
+    assert in_b.message == 'Expected ";". (imported by aa.proto)'
+
+
+def test_a_file_old_could_not_compile_is_not_passed_over_in_silence(tmp_path: Path) -> None:
+    old = tree(tmp_path / "old", {"a.proto": "message A { int32 x = 1; Missing m = 2; }\n"})
+    new = tree(tmp_path / "new", {"a.proto": "message A { int32 x = 2; }\n"})
+    findings = erc_lint.lint(old, new)
+    assert [(f.rule, f.severity, f.in_old) for f in findings] == [("COMPILE", "warning", True)]
+    assert "a.proto does not compile, so its messages were not compared" in findings[0].message
+
+
+ALIASED = (
+    "enum Mode {\n  option allow_alias = true;\n  MODE_IDLE = 0;\n  MODE_RUN = 1;\n"
+    "  MODE_RUNNING = 1;\n}\n"
+)
+
+
+@pytest.mark.parametrize(
+    ("new", "expected"),
+    [
+        (  # an alias dropped: the number keeps its meaning, one name is gone
+            "enum Mode {\n  MODE_IDLE = 0;\n  MODE_RUN = 1;\n}\n",
+            [
+                (
+                    "ENUM_VALUE_RENAMED",
+                    'Enum value "1" on enum "Mode" changed name from "MODE_RUN", '
+                    '"MODE_RUNNING" to "MODE_RUN".',
+                )
+            ],
+        ),
+        (  # an alias moved to a number of its own: renumbered, and 1 is not reused
+            "enum Mode {\n  MODE_IDLE = 0;\n  MODE_RUN = 1;\n  MODE_RUNNING = 2;\n}\n",
+            [
+                (
+                    "ENUM_VALUE_RENUMBERED",
+                    'Enum value "MODE_RUNNING" on enum "Mode" changed number from "1" to "2".',
+                )
+            ],
+        ),
+        (  # the number and both its names gone: one deletion
+            "enum Mode {\n  MODE_IDLE = 0;\n}\n",
+            [
+                (
+                    "ENUM_VALUE_DELETED",
+                    'Previously present enum value "1" with names "MODE_RUN", "MODE_RUNNING" '
+                    'on enum "Mode" was deleted without reserving its number.',
+                )
+            ],
+        ),
+        (  # both names renamed at once
+            "enum Mode {\n  MODE_IDLE = 0;\n  MODE_ACTIVE = 1;\n}\n",
+            [
+                (
+                    "ENUM_VALUE_RENAMED",
+                    'Enum value "1" on enum "Mode" changed name from "MODE_RUN", '
+                    '"MODE_RUNNING" to "MODE_ACTIVE".',
+                )
+            ],
+        ),
+        (ALIASED.replace("  MODE_RUNNING = 1;\n", "  MODE_RUNNING = 1;\n  MODE_BUSY = 1;\n"), []),
+        (
+            ALIASED.replace(
+                "  MODE_RUN = 1;\n  MODE_RUNNING = 1;\n", "  MODE_RUNNING = 1;\n  MODE_RUN = 1;\n"
+            ),
+            [],
+        ),
+        (  # both names moved to 2, and 1 given to another value: one reuse, not one per alias
+            "enum Mode {\n  option allow_alias = true;\n  MODE_IDLE = 0;\n  MODE_STOP = 1;\n"
+            "  MODE_RUN = 2;\n  MODE_RUNNING = 2;\n}\n",
+            [
+                (
+                    "ENUM_VALUE_REUSED",
+                    'Enum value "1" on enum "Mode" changed from "MODE_RUN", "MODE_RUNNING" to '
+                    '"MODE_STOP", and "MODE_RUN" is now "2", "MODE_RUNNING" is now "2".',
+                ),
+                (
+                    "ENUM_VALUE_RENUMBERED",
+                    'Enum value "MODE_RUN" on enum "Mode" changed number from "1" to "2".',
+                ),
+                (
+                    "ENUM_VALUE_RENUMBERED",
+                    'Enum value "MODE_RUNNING" on enum "Mode" changed number from "1" to "2".',
+                ),
+            ],
+        ),
+        (  # one name moved, the other gone, 1 given to another value: a reuse, not a rename
+            "enum Mode {\n  MODE_IDLE = 0;\n  MODE_STOP = 1;\n  MODE_RUN = 2;\n}\n",
+            [
+                (
+                    "ENUM_VALUE_REUSED",
+                    'Enum value "1" on enum "Mode" changed from "MODE_RUN", "MODE_RUNNING" to '
+                    '"MODE_STOP", and "MODE_RUN" is now "2".',
+                ),
+                (
+                    "ENUM_VALUE_RENUMBERED",
+                    'Enum value "MODE_RUN" on enum "Mode" changed number from "1" to "2".',
+                ),
+            ],
+        ),
+    ],
+    ids=[
+        "alias-dropped",
+        "alias-moved",
+        "number-deleted",
+        "both-renamed",
+        "alias-added",
+        "reordered",
+        "both-moved-number-reused",
+        "one-moved-one-gone-number-reused",
+    ],
+)
+def test_enum_aliases_are_judged_per_number(
+    tmp_path: Path, new: str, expected: list[tuple[str, str]]
+) -> None:
+    old_tree = tree(tmp_path / "old", {"a.proto": ALIASED})
+    new_tree = tree(tmp_path / "new", {"a.proto": new})
+    findings = erc_lint.lint(old_tree, new_tree)
+    assert [(f.rule, f.message) for f in findings] == expected
+
+
+@pytest.mark.parametrize(
+    ("edit", "grown"),
+    [
+        (("reading.options", "16", "32"), "from 26 to 42"),  # only the .options file changed
+        (("reading.proto", "MODE_RUN = 1;", "MODE_RUN = 1; MODE_BACK = -1;"), "from 26 to 35"),
+        (("reading.proto", " [(nanopb).int_size = IS_8]", ""), "from 26 to 29"),  # nested type
+        (("reading.proto", "MODE_IDLE = 0;", "MODE_IDLE = 0; // idle\n"), None),  # comment only
+    ],
+)
+def test_the_envelope_size_follows_every_input_nanopb_sizes_it_from(
+    tmp_path: Path, edit: tuple[str, str, str], grown: str | None
+) -> None:
+    """Whatever nanopb reads to size the root, in another file, an enum, a nested message or a
+    .options file, is compared; comments are not."""
+    old = tree(tmp_path / "old", READING)
+    (old / "reading.options").write_text(READING["reading.options"])
+    name, before, after = edit
+    changed = {**READING, name: READING[name].replace(before, after)}
+    new = tree(tmp_path / "new", changed)
+    (new / "reading.options").write_text(changed["reading.options"])
+    messages = [f.message for f in erc_lint.lint(old, new) if f.rule == "ENVELOPE_SIZE_GROWN"]
+    assert len(messages) == (grown is not None), messages
+    assert all(grown in message for message in messages if grown is not None)
+
+
+def test_the_envelope_size_follows_the_types_the_root_imports(tmp_path: Path) -> None:
+    """A name defined twice in the tree (no package, so a collision) is the definition the root's
+    own imports bring: its growth is the root's."""
+    files = {
+        "a.proto": "message Sub { int32 z = 1; }\n",
+        "b.proto": "message Sub { fixed32 x = 1; }\n",
+        "env.proto": 'import "b.proto";\nmessage PBEnvelope { oneof payload { Sub sub = 1; } }\n',
+    }
+    old = tree(tmp_path / "old", files)
+    grown = {**files, "b.proto": "message Sub { fixed32 x = 1; fixed64 y = 2; }\n"}
+    new = tree(tmp_path / "new", grown)
+    messages = [f.message for f in erc_lint.lint(old, new) if f.rule == "ENVELOPE_SIZE_GROWN"]
+    assert messages == [
+        'Maximum size of message "PBEnvelope" grew from 7 to 16 bytes: receivers built with the '
+        "old PBEnvelope_size drop the longer datagrams."
+    ]
+
+
+def test_a_packaged_roots_size_is_named_as_nanopb_names_it(tmp_path: Path) -> None:
+    text = "package acme.io;\nmessage A { fixed32 x = 1; }\nmessage Env { oneof p { A a = 1; } }\n"
+    old = tree(tmp_path / "old", {"env.proto": text})
+    new = tree(tmp_path / "new", {"env.proto": text.replace("x = 1;", "x = 1; fixed32 y = 2;")})
+    (finding,) = erc_lint.lint(old, new, Config(roots=("acme.io.Env",)))
+    assert finding.message == (
+        'Maximum size of message "acme.io.Env" grew from 7 to 12 bytes: receivers built with '
+        "the old acme_io_Env_size drop the longer datagrams."
+    )
