@@ -1,0 +1,168 @@
+"""The house's shape, read from the code's own imports (AST only: nothing is imported or run).
+
+Data flows one way: the schema layer (``erc_codec.schema``) → the codec's core → its command line;
+the linter builds on the codec's public names only, never the other way round; no module imports
+a private name of another; no two modules import each other, however indirectly.
+"""
+
+import ast
+from collections.abc import Iterator
+from pathlib import Path
+
+from conftest import REPO
+
+PACKAGES = ("erc_codec", "erc_lint")
+
+
+def modules() -> dict[str, Path]:
+    """Dotted module name → file, for every module of both packages."""
+    found = {}
+    for package in PACKAGES:
+        for path in sorted((REPO / package).rglob("*.py")):
+            parts = path.relative_to(REPO).with_suffix("").parts
+            found[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    return found
+
+
+MODULES = modules()
+
+
+def is_package(name: str) -> bool:
+    return MODULES[name].name == "__init__.py"
+
+
+def imports(name: str) -> Iterator[tuple[int, str, str | None]]:
+    """``(line, module, imported name or None)`` of every import statement in a module,
+    relative imports resolved, the ones inside functions included."""
+    tree = ast.parse(MODULES[name].read_text(encoding="utf-8"))
+    here = name.split(".") if is_package(name) else name.split(".")[:-1]
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                yield node.lineno, alias.name, None
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = here[: len(here) - (node.level - 1)]
+                target = ".".join([*base, *([node.module] if node.module else [])])
+            else:
+                target = node.module or ""
+            for alias in node.names:
+                yield node.lineno, target, alias.name
+
+
+def edges() -> dict[str, set[str]]:
+    """Module → the modules of both packages it imports (a name that is a module counts as it)."""
+    graph: dict[str, set[str]] = {name: set() for name in MODULES}
+    for name in MODULES:
+        for _, target, imported in imports(name):
+            full = f"{target}.{imported}" if imported else target
+            dest = full if full in MODULES else target
+            if dest in MODULES and dest != name:
+                graph[name].add(dest)
+    return graph
+
+
+def test_no_module_imports_a_private_name_of_another() -> None:
+    crossing = []
+    for name in MODULES:
+        for line, target, imported in imports(name):
+            if imported is None or f"{target}.{imported}" in MODULES or target == name:
+                continue
+            if imported.startswith("_") and not imported.startswith("__"):
+                crossing.append(f"{MODULES[name].relative_to(REPO)}:{line}: {imported}")
+    assert crossing == []
+
+
+def test_the_linter_uses_only_public_names_of_the_codec() -> None:
+    reaching = []
+    for name in MODULES:
+        if not name.startswith("erc_lint"):
+            continue
+        for line, target, imported in imports(name):
+            parts = [*target.split("."), *([imported] if imported else [])]
+            if parts[0] == "erc_codec" and any(p.startswith("_") for p in parts[1:]):
+                reaching.append(f"{MODULES[name].relative_to(REPO)}:{line}: {'.'.join(parts)}")
+    assert reaching == []
+
+
+def test_the_codec_never_depends_on_its_linter() -> None:
+    graph = edges()
+    assert [
+        (n, d)
+        for n in MODULES
+        if n.startswith("erc_codec")
+        for d in graph[n]
+        if d.startswith("erc_lint")
+    ] == []
+
+
+def test_the_schema_layer_stands_on_its_own() -> None:
+    """erc_codec.schema imports nothing of erc_codec but itself and the package's errors."""
+    graph = edges()
+    inside = [name for name in MODULES if name.startswith("erc_codec.schema")]
+    allowed = {*inside, "erc_codec._errors"}
+    assert [
+        (n, d) for n in inside for d in graph[n] if d.startswith("erc_codec") and d not in allowed
+    ] == []
+
+
+def test_the_core_never_imports_the_command_line() -> None:
+    shell = (".cli", ".__main__")
+    core = [n for n in MODULES if n.startswith("erc_codec") and not any(s in n for s in shell)]
+    graph = edges()
+    assert [(name, d) for name in core for d in graph[name] if ".cli" in d] == []
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components of more than one module (a package's __init__, which may
+    import its own modules, does not count as one), by Tarjan's algorithm without recursion."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+    for start in sorted(graph):
+        if start in index:
+            continue
+        work = [(start, iter(sorted(graph[start])))]
+        index[start] = low[start] = len(index)
+        stack.append(start)
+        on_stack.add(start)
+        while work:
+            node, pending = work[-1]
+            step = next(pending, None)
+            if step is not None:
+                if step not in index:
+                    index[step] = low[step] = len(index)
+                    stack.append(step)
+                    on_stack.add(step)
+                    work.append((step, iter(sorted(graph[step]))))
+                elif step in on_stack:
+                    low[node] = min(low[node], index[step])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                component = []
+                while True:
+                    member = stack.pop()
+                    on_stack.discard(member)
+                    component.append(member)
+                    if member == node:
+                        break
+                if len([m for m in component if not is_package(m)]) > 1:
+                    found.append(sorted(component))
+    return found
+
+
+def test_no_import_cycles() -> None:
+    assert cycles(edges()) == []
+
+
+def test_the_cycle_finder_finds_cycles() -> None:
+    """The check above proves something only if it can fail."""
+    graph = {"erc_codec._codec": {"erc_codec._envelope"}, "erc_codec._envelope": set()}
+    assert cycles(graph) == []
+    graph["erc_codec._envelope"].add("erc_codec._codec")
+    assert cycles(graph) == [["erc_codec._codec", "erc_codec._envelope"]]
