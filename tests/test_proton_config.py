@@ -110,7 +110,7 @@ def test_a_configuration_error_is_a_codec_error_on_one_line() -> None:
             19,
             "signals[2].value",
             "'foo' is 3 bytes of UTF-8 and its NUL, over capacity 2 (Proton's generator sizes a "
-            "default by its 3 characters): give it capacity: 4 or more",
+            "default by its characters: 3): give it capacity: 4 or more",
         ),
         (
             "value: [1, 2], capacity: 4",

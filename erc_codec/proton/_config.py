@@ -543,7 +543,8 @@ class _Reader:
             raise self.fail(
                 field,
                 f"the default {given!r} is {size} bytes of UTF-8 and its NUL, over capacity "
-                f"{capacity} (Proton's generator sizes a default by its {len(given)} characters): "
+                f"{capacity} (Proton's generator sizes a default by its characters: "
+                f"{len(given)}): "
                 f"give it capacity: {size + 1} or more",
             )
 
