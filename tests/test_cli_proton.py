@@ -2,17 +2,22 @@
 
 import json
 import socket
+import struct
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from google.protobuf import json_format, wrappers_pb2
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from proton_values import HERE, TYPES_1_0, TYPES_2_0
 from test_cli_codec import ETHERNET, one_line_error, records, run, udp4, write_capture
+from test_proton_codec import LARGE, bundle2, field, signal2
 
 import erc_codec
 from erc_codec.cli._proton import json_value
-from erc_codec.proton import BundleCodec
+from erc_codec.proton import BundleCodec, parse_config
 
 V2 = BundleCodec(TYPES_2_0)
 V1 = BundleCodec(TYPES_1_0, "1.0")
@@ -44,6 +49,25 @@ def test_values_as_protobufs_json_mapping_writes_them() -> None:
     assert json_value("bytes", b"\xff\x00") == "/wA="
     assert json_value("list_uint64", [1, 2]) == ["1", "2"]
     assert json_value("list_bytes", [b"\x01"]) == ["AQ=="]
+    tenth = V2.decode(V2.encode("floats", {"a_float": 0.1})).signals["a_float"]
+    assert tenth == 0.10000000149011612  # the C float's value, as a Python float
+    assert json.dumps(json_value("float", tenth)) == "0.1"  # as protobuf prints it
+    assert json_value("list_float", [tenth]) == [0.1]
+    assert json.dumps(json_value("double", tenth)) == "0.10000000149011612"  # a double's own
+
+
+@given(value=st.floats(width=32))
+@settings(max_examples=300, deadline=None)
+def test_a_float_prints_as_protobufs_json_mapping_prints_it(value: float) -> None:
+    """The fewest digits that read back as the same 32-bit float: protobuf's own JSON printer
+    (json_format, a FloatValue) is the reference."""
+    theirs = json_format.MessageToDict(wrappers_pb2.FloatValue(value=value))
+    ours = json_value("float", value)
+    if isinstance(theirs, str):  # NaN and the infinities
+        assert ours == theirs
+    else:
+        assert json.dumps(ours) == json.dumps(theirs)
+        assert struct.pack("<f", json.loads(json.dumps(ours))) == struct.pack("<f", value)
 
 
 def test_protocol_1_0_with_its_lists() -> None:
@@ -76,6 +100,24 @@ def test_framed_serial_stream_and_raw_stdin() -> None:
     )
     raw = run("proton", "decode", *CONFIG, stdin=COMMAND)
     assert [r["bundle"] for r in records(raw.out)] == ["command"]
+
+
+def test_a_frame_the_stream_cuts_off_is_reported_as_erc_codec_decode_reports_it() -> None:
+    """The Deframer's flush() counts it; the exit status is erc-codec decode --framed's: the
+    summary shows it, every complete message decoded is 0 (both helps say so)."""
+    stream = erc_codec.frame(BEAT) + erc_codec.frame(COMMAND)[:-3]
+    done = run("proton", "decode", *CONFIG, "--framed", stdin=stream)
+    assert [r["bundle"] for r in records(done.out)] == ["heartbeat"]
+    assert done.err == (
+        f"1 frame, 0 undecodable, {len(erc_codec.frame(COMMAND)) - 3} bytes left in an "
+        "unfinished frame\n"
+    )
+    main = run("decode", "--framed", stdin=stream)
+    assert (done.code, main.code) == (0, 0)
+    helped = " ".join(run("proton", "decode", "--help").out.split())
+    assert "a cut-off last frame show in the summary only, as for erc-codec decode --framed" in (
+        helped
+    )
 
 
 def test_a_udp_header_is_read_and_shown() -> None:
@@ -111,7 +153,8 @@ def test_pcap_decodes_every_udp_payload(tmp_path: Path) -> None:
         (
             ["--config", str(HERE / "types_1_0.yaml"), "00"],
             2,
-            "types_1_0.yaml:29: signal 'doubles': list_double is a Proton 1.0 type",
+            "types_1_0.yaml:29: signals[10].type: list_double (signal 'doubles') is a Proton 1.0 "
+            "type",
         ),
         ([*CONFIG, "zz"], 2, "Invalid value for HEX: 'z' at column 1 is not a hex digit"),
         ([*CONFIG, "--pcap", "x.pcap", "00"], 2, "--pcap reads the capture only"),
@@ -141,7 +184,73 @@ def test_a_bad_configuration_names_its_line(tmp_path: Path) -> None:
     broken = tmp_path / "broken.yaml"
     broken.write_text((HERE / "types.yaml").read_text().replace("type: double}", "type: real}", 1))
     error = one_line_error(run("proton", "decode", "--config", str(broken), "00"), 2)
-    assert f"{broken}:20: signals[0].type: 'real' is not a Proton signal type" in error
+    assert f"{broken}:21: signals[0].type: 'real' is not a Proton signal type" in error
+
+
+@pytest.mark.parametrize(
+    ("change", "text"),
+    [
+        ("id: 0x10, type: double}", "id: !foo 0x10, type: double}"),
+        ("id: 0x10, type: double}", "id: !!python/int 16, type: double}"),
+        ("type: double}", "type: double, value: 2001-02-30}"),
+    ],
+)
+def test_a_configuration_yaml_cannot_build_is_one_line_and_status_2(
+    tmp_path: Path, change: str, text: str
+) -> None:
+    """Not a traceback and status 1: the reviewer's ConstructorError and ValueError."""
+    broken = tmp_path / "broken.yaml"
+    broken.write_text((HERE / "types.yaml").read_text().replace(change, text, 1))
+    error = one_line_error(run("proton", "decode", "--config", str(broken), "00"), 2)
+    assert f"{broken}:21: signals[0]." in error
+    assert "cannot be read" in error
+
+
+def test_a_configuration_with_merge_keys_loads(tmp_path: Path) -> None:
+    """yaml.safe_load (Proton's generator) reads merge keys: so does erc-codec."""
+    merged = tmp_path / "merge.yaml"
+    merged.write_text(
+        """\
+nodes:
+  - {name: pc, id: 0, endpoints: [{id: 0, type: udp4, ip: 127.0.0.1, port: 11416}]}
+  - {name: mcu, id: 1, endpoints: [{id: 0, type: udp4, ip: 127.0.0.1, port: 11417}]}
+connections:
+  - first: {node: pc, id: 0}
+    second: {node: mcu, id: 0}
+signals:
+  - {name: a, id: 1, type: uint32}
+bundles:
+  - &x {name: b, id: 2, producers: [pc], consumers: [mcu], signals: [1]}
+  - {<<: *x, name: c, id: 3}
+"""
+    )
+    message = "0a09 0803 1205 2807 980101"
+    done = run("proton", "decode", "--config", str(merged), message)
+    assert done.code == 0, done.err
+    assert records(done.out)[0]["bundle"] == "c"
+
+
+def test_the_scratch_buffer_a_board_is_built_with(tmp_path: Path) -> None:
+    large = tmp_path / "large.yaml"
+    large.write_text(LARGE)
+    error = one_line_error(run("proton", "decode", "--config", str(large), "00"), 2)
+    assert "signals[0].capacity: capacity 600 (signal 'text')" in error
+    codec = BundleCodec(parse_config(LARGE), scratch_buffer_size=1024)
+    message = codec.encode("long", {"text": "x" * 599, "blob": bytes(513)})
+    done = run(
+        "proton", "decode", "--config", str(large), "--scratch-buffer-size", "1024", message.hex()
+    )
+    assert done.code == 0, done.err
+    assert records(done.out)[0]["signals"]["text"] == "x" * 599
+
+
+def test_fields_proton_does_not_define_are_shown() -> None:
+    message = bundle2(0x106, signal2(field(7, 0, b"\x01") + field(20, 0, b"\x01"), 0x16))
+    done = run("proton", "decode", *CONFIG, message.hex())
+    assert done.code == 0, done.err
+    (record,) = records(done.out)
+    assert record["signals"] == {"a_bool": True}
+    assert record["unknown_fields"] == [{"message": "Signal", "number": 20, "offset": 9}]
 
 
 def test_listen_prints_what_arrives() -> None:
@@ -177,3 +286,29 @@ def test_listen_prints_what_arrives() -> None:
         "bundles": {"heartbeat": 1, "command": 1},
         "undecodable": {"corrupt": 1},
     }
+
+
+def test_listen_into_a_closed_pipe_ends_quietly_with_status_1() -> None:
+    """| head -1: the reader goes away. One quiet exit with status 1, as the command group ends
+    any command whose reader left, not a traceback per datagram and a listener running on."""
+    listener = subprocess.Popen(
+        [
+            *(sys.executable, "-m", "erc_codec", "proton", "listen", *CONFIG, "127.0.0.1:0"),
+            *("--seconds", "30"),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert listener.stderr is not None
+    assert listener.stdout is not None
+    first = listener.stderr.readline()
+    port = int(first.rsplit(":", 1)[1])
+    listener.stdout.close()  # the reader is gone before anything is written
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as board:
+        for _ in range(5):
+            board.sendto(BEAT, ("127.0.0.1", port))
+    with listener.stderr:
+        err = listener.stderr.read()
+    assert listener.wait(timeout=30) == 1
+    assert err == ""

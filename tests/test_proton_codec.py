@@ -6,9 +6,10 @@ test_protons_own_proto_files_read_the_same_bytes below against Google protobuf w
 .proto files.
 """
 
+import contextlib
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import pytest
 from google.protobuf import descriptor_pool, message_factory
@@ -18,8 +19,15 @@ from hypothesis import strategies as st
 from proton_values import TYPES_1_0, TYPES_2_0, same, values
 
 import erc_codec
-from erc_codec.proton import Bundle, BundleCodec, ProtonConfigError
-from erc_codec.schema import compile_files, encode_varint
+from erc_codec.proton import (
+    Bundle,
+    BundleCodec,
+    ProtonConfigError,
+    UnknownField,
+    Value,
+    parse_config,
+)
+from erc_codec.schema import compile_files, encode_varint, next_field
 
 V2 = BundleCodec(TYPES_2_0)
 V1 = BundleCodec(TYPES_1_0, "1.0")
@@ -113,92 +121,317 @@ def test_decode_accepts_any_order_and_packed_lists() -> None:
     assert decoded.signals["floats"] == [0.0] * 4
 
 
+# -- what decode accepts and refuses, and what Proton's C library does with the same bytes ------
+#
+# Each case records what Proton's C library does with the message, as the drivers of
+# tests/test_proton_interop.py report it (a fresh peer, its registry at the configuration's
+# defaults): a refusal ("ERR 5", the driver's answer; "" where it crashes), or the bundle and the
+# values it reads instead (over the bundle's defaults), a misreading. test_proton_interop.py asks
+# the C libraries and checks every one; here erc_codec's side.
+
+
+class Refused(NamedTuple):
+    data: bytes
+    reason: str
+    problem: str
+    c: str | tuple[str, dict[str, object]]
+    before: bytes = b""  # a message the C library decodes first, in the same registry
+
+
+class Accepted(NamedTuple):
+    data: bytes
+    bundle: str
+    signals: dict[str, Value]
+    unknown: tuple[UnknownField, ...] = ()
+
+
 HEARTBEAT = signal2(field(5, 0, b"\x05"), 0x1D)
+A_BOOL = signal2(field(7, 0, b"\x01"), 0x16)
+TEXT_1, TEXT_300 = signal2(field(8, 2, b"\0"), 0x17), signal2(field(8, 2, b"\0"), 0x19)
 
 
-@pytest.mark.parametrize(
-    ("data", "reason", "problem"),
-    [
-        (b"", "empty", "no bytes"),
-        (field(2, 2, b""), "unsupported_operation", "field 2 at offset 0 is an operation"),
-        (bundle2(0x999), "unknown_bundle", "bundle id 0x999 is not in"),
-        (bundle2(0) + bundle2(0), "corrupt", "a second bundle at offset 2"),
-        (bundle2(0), "corrupt", "bundle 'heartbeat' (0x0): lacks 'beat'"),
-        (bundle2(0, HEARTBEAT, HEARTBEAT), "corrupt", "signal 'beat' again at offset 9"),
-        (
-            bundle2(0, signal2(field(3, 0, b"\x05"), 0x1D)),
-            "corrupt",
-            "signal 'beat' at offset 2 is sent as int32; the configuration says uint32",
+def text_8(content: bytes) -> bytes:
+    """The strings bundle (0x107), text_8 carrying ``content``: its signal at offset 13."""
+    return bundle2(0x107, TEXT_1, signal2(content, 0x18), TEXT_300)
+
+
+REFUSED_2_0 = [
+    Refused(b"", "empty", "no bytes", "ERR 15"),
+    Refused(field(2, 2, b""), "unsupported_operation", "field 2 at offset 0 is an op", "ERR 15"),
+    Refused(bundle2(0x999), "unknown_bundle", "bundle id 0x999 is not in", "ERR 1"),
+    Refused(
+        bundle2(0),
+        "corrupt",
+        "bundle 'heartbeat' (0x0): lacks 'beat'",
+        ("heartbeat", {"beat": 5}),  # the last message's value again
+        before=bundle2(0, HEARTBEAT),
+    ),
+    Refused(bundle2(0), "corrupt", "lacks 'beat'", "ERR 1"),
+    Refused(
+        bundle2(0, HEARTBEAT, signal2(field(5, 0, b"\x07"), 0x1D)),
+        "corrupt",
+        "signal 'beat' again at offset 9",
+        ("heartbeat", {"beat": 7}),  # the last; protobuf holds two
+    ),
+    Refused(
+        bundle2(0x106, A_BOOL) + bundle2(0x106, signal2(field(7, 0, b"\x00"), 0x16)),
+        "corrupt",
+        "signal 'a_bool' again at offset 17",  # two Proton.bundle fields merge
+        ("bools", {"a_bool": False}),
+    ),
+    Refused(
+        bundle2(0, signal2(field(3, 0, b"\x05"), 0x1D)),
+        "corrupt",
+        "signal 'beat' at offset 2 is sent as int32; the configuration says uint32",
+        "ERR 1",
+    ),
+    Refused(
+        bundle2(0, signal2(field(5, 0, b"\x05"), 0x1E)),
+        "corrupt",
+        "signal id 0x1e at offset 2 is not in it",
+        "ERR 5",
+    ),
+    Refused(
+        bundle2(
+            0x106, field(2, 2, field(19, 0, b"\x16") + field(7, 0, b"\x01") + field(19, 0, b"\x10"))
         ),
-        (
-            bundle2(0, signal2(field(5, 0, b"\x05"), 0x1E)),
-            "corrupt",
-            "signal id 0x1e at offset 2 is not in it",
+        "corrupt",
+        "signal id 0x10 at offset 5 is not in it",  # the last id given counts
+        "ERR 5",
+    ),
+    Refused(
+        bundle2(0, signal2(field(5, 0, b"\x80\x80\x80\x80\x10"), 0x1D)),
+        "corrupt",
+        "its value is 4294967296, out of uint32's range",
+        "ERR 5",
+    ),
+    Refused(
+        bundle2(0x105, signal2(field(6, 0, b"\xff" * 9 + b"\x03"), 0x15)),
+        "corrupt",
+        "its value (36893488147419103231) does not fit 64 bits",
+        "ERR 5",
+    ),
+    Refused(
+        bundle2(0x106, signal2(field(7, 0, b"\x80\x80\x80\x80\x10"), 0x16)),
+        "corrupt",
+        "its value (4294967296) has bits past 32: Proton's C library reads a bool with "
+        "pb_decode_varint32, which refuses it",
+        "ERR 5",
+    ),
+    Refused(
+        bundle2(0, signal2(field(5, 0, b"\x05") + field(6, 0, b"\x05"), 0x1D)),
+        "corrupt",
+        "signal 'beat' at offset 2 is sent as uint64",  # the last value counts
+        "ERR 1",
+    ),
+    Refused(
+        text_8(field(8, 2, b"ab\0") + field(8, 2, b"cd\0")),
+        "corrupt",
+        "signal 'text_8' at offset 13 carries two values (fields 8 and 8): Proton's C library "
+        "reads a string only as a signal's first value",
+        "ERR 5",
+    ),
+    Refused(
+        text_8(field(1, 1, bytes(8)) + field(8, 2, b"cd\0")),
+        "corrupt",
+        "carries two values (fields 1 and 8)",
+        "ERR 5",
+    ),
+    Refused(
+        bundle2(0, signal2(b"", 0x1D)), "corrupt", "signal at offset 2 carries no value", "ERR 1"
+    ),
+    Refused(
+        bundle2(0, signal2(field(10, 2, b""), 0x1D)),
+        "corrupt",
+        "carries no value (field 10, 1.0's list_double, is not 2.0's)",
+        "ERR 1",
+    ),
+    Refused(
+        bundle2(0, signal2(field(5, 2, b"\x05"), 0x1D)),
+        "corrupt",
+        "its uint32 has wire type LEN, not VARINT",
+        "ERR 5",
+    ),
+    Refused(bundle2(0, HEARTBEAT)[:-1], "corrupt", "not protobuf", "ERR 5"),
+    Refused(bundle2(0, HEARTBEAT) + b"\x00", "corrupt", "not protobuf: field number 0", "ERR 5"),
+    Refused(
+        field(1, 2, field(2, 2, b"\x28")), "corrupt", "not protobuf: varint at offset 5", "ERR 5"
+    ),
+    Refused(
+        field(1, 0, b"\x01"), "corrupt", "the bundle at offset 0 has wire type VARINT", "ERR 5"
+    ),
+    Refused(
+        field(1, 2, field(1, 0, b"\x86\x02") + field(2, 0, b"\x01")),
+        "corrupt",
+        "the signal at offset 5 has wire type VARINT, not LEN",
+        "ERR 5",
+    ),
+    Refused(
+        field(1, 2, field(1, 0, b"\x80\x80\x80\x80\x10") + A_BOOL),
+        "corrupt",
+        "the bundle id at offset 2 is 4294967296, out of uint32's range",
+        "ERR 5",
+    ),
+    Refused(
+        field(1, 2, A_BOOL + field(1, 0, b"\x86\x02")),
+        "corrupt",
+        "the signal at offset 2 comes before bundle id 0x106 (at offset 9): Proton's C core reads "
+        "a signal against the bundle id given before it (0x0)",
+        "ERR 5",
+    ),
+    Refused(
+        field(1, 2, field(1, 0, b"\x86\x02") + A_BOOL + field(1, 0, b"\x87\x02")),
+        "corrupt",
+        "the signal at offset 5 comes before bundle id 0x107",
+        "ERR 1",
+    ),
+    Refused(
+        bundle2(0x106, A_BOOL) + bundle2(0x107),
+        "corrupt",
+        "the signal at offset 5 comes before bundle id 0x107 (at offset 14)",
+        "ERR 1",
+    ),
+    Refused(
+        bundle2(
+            0x107,
+            signal2(field(8, 2, b""), 0x17),
+            signal2(field(8, 2, b"\0"), 0x18),
+            TEXT_300,
         ),
-        (
-            bundle2(0, signal2(field(5, 0, b"\x80\x80\x80\x80\x10"), 0x1D)),
-            "corrupt",
-            "its value is 4294967296, out of uint32's range",
-        ),
-        (
-            bundle2(0x106, signal2(field(7, 0, b"\x02"), 0x16)),
-            "corrupt",
-            "its value is 2, out of bool's range 0..1",
-        ),
-        (
-            bundle2(0, signal2(field(5, 0, b"\x05") + field(6, 0, b"\x05"), 0x1D)),
-            "corrupt",
-            "carries two values (fields 5 and 6)",
-        ),
-        (bundle2(0, signal2(b"", 0x1D)), "corrupt", "the signal at offset 2 carries no value"),
-        (
-            bundle2(0, signal2(field(10, 2, b""), 0x1D)),
-            "corrupt",
-            "field 10 at offset 4 is Proton 1.0's list_double, reserved in 2.0",
-        ),
-        (
-            bundle2(0, signal2(field(5, 2, b"\x05"), 0x1D)),
-            "corrupt",
-            "its uint32 has wire type LEN, not VARINT",
-        ),
-        (bundle2(0, signal2(field(20, 0, b"\x01"), 0x1D)), "corrupt", "not a field of Signal"),
-        (bundle2(0, HEARTBEAT)[:-1], "corrupt", "not protobuf"),
-        (bundle2(0, HEARTBEAT) + b"\x00", "corrupt", "not protobuf: field number 0"),
-        (
-            bundle2(0x107, signal2(field(8, 2, b""), 0x17)),
-            "corrupt",
-            "signal 'text_1' at offset 5: lacks its terminating NUL",
-        ),
-        (bundle2(0x107, signal2(field(8, 2, b"ab"), 0x18)), "corrupt", "lacks its terminating NUL"),
-        (
-            bundle2(0x107, signal2(field(8, 2, b"a\0b\0"), 0x18)),
-            "corrupt",
-            "holds bytes after its terminating NUL at offset 10",
-        ),
-        (
-            bundle2(0x107, signal2(field(8, 2, b"abcdefgh\0"), 0x18)),
-            "corrupt",
-            "is 9 bytes with its NUL, over its capacity of 8",
-        ),
-        (
-            bundle2(0x107, signal2(field(8, 2, b"\xff\0"), 0x18)),
-            "corrupt",
-            "is not UTF-8 at offset 9",
-        ),
-        (
-            bundle2(0x108, signal2(field(9, 2, b"ab"), 0x1A)),
-            "corrupt",
-            "is 2 bytes; its capacity takes at most 1",
-        ),
-    ],
-)
-def test_what_proton_would_refuse_or_misread_is_a_decode_error(
-    data: bytes, reason: str, problem: str
-) -> None:
+        "corrupt",
+        "signal 'text_1' at offset 5: lacks its terminating NUL",
+        ("strings", {"text_1": ""}),  # held as 0 bytes: no NUL, sent back so
+    ),
+    Refused(
+        text_8(field(8, 2, b"ab")),
+        "corrupt",
+        "signal 'text_8' at offset 13: lacks its terminating NUL",
+        ("strings", {"text_8": "ab"}),  # held unterminated
+    ),
+    Refused(
+        text_8(field(8, 2, b"a\0b\0")),
+        "corrupt",
+        "holds bytes after its terminating NUL at offset 18",
+        ("strings", {"text_8": "a"}),  # as a C string; protobuf reads "a\0b\0"
+    ),
+    Refused(
+        text_8(field(8, 2, b"abcdefgh\0")),
+        "corrupt",
+        "is 9 bytes with its NUL, over its capacity of 8",
+        "ERR 5",
+    ),
+    Refused(
+        text_8(field(8, 2, b"\xff\0")),
+        "corrupt",
+        "is not UTF-8 at offset 17",
+        ("strings", {"text_8": b"\xff"}),  # protobuf refuses it: a string is UTF-8
+    ),
+    Refused(
+        bundle2(0x108, signal2(field(9, 2, b"ab"), 0x1A), signal2(field(9, 2, b""), 0x1B)),
+        "corrupt",
+        "signal 'blob_1' at offset 5: is 2 bytes; its capacity takes at most 1",
+        "ERR 5",
+    ),
+]
+
+ACCEPTED_2_0 = [
+    Accepted(
+        bundle2(0x102, signal2(field(3, 0, b"\xff\xff\xff\xff\x0f"), 0x12)),
+        "int32s",
+        {"an_int32": -1},
+    ),
+    Accepted(  # bits past 32 in an int32: both keep the low 32
+        bundle2(0x102, signal2(field(3, 0, b"\x85\x80\x80\x80\x10"), 0x12)),
+        "int32s",
+        {"an_int32": 5},
+    ),
+    Accepted(bundle2(0x106, signal2(field(7, 0, b"\x02"), 0x16)), "bools", {"a_bool": True}),
+    Accepted(
+        bundle2(0x106, signal2(field(7, 0, b"\xff" * 9 + b"\x01"), 0x16)), "bools", {"a_bool": True}
+    ),
+    Accepted(
+        bundle2(0x106, signal2(field(7, 0, b"\xff\xff\xff\xff\x7f"), 0x16)),
+        "bools",
+        {"a_bool": True},
+    ),
+    Accepted(bundle2(0x106, signal2(field(7, 0, b"\x80\x00"), 0x16)), "bools", {"a_bool": False}),
+    Accepted(
+        bundle2(0x104, signal2(field(5, 0, b"\x85\x80\x80\x80\x80\x00"), 0x14)),
+        "uint32s",
+        {"a_uint32": 5},
+    ),
+    Accepted(  # the signal's id given twice: the last
+        bundle2(0x106, signal2(field(7, 0, b"\x01") + field(19, 0, b"\x10"), 0x16)),
+        "bools",
+        {"a_bool": True},
+    ),
+    Accepted(  # the bundle's id given twice, before its signals: the last
+        field(1, 2, field(1, 0, b"\x80\x02") + field(1, 0, b"\x86\x02") + A_BOOL),
+        "bools",
+        {"a_bool": True},
+    ),
+    Accepted(bundle2(0x106, A_BOOL) + field(1, 2, b""), "bools", {"a_bool": True}),  # merged
+    Accepted(  # a value field given twice: the last
+        bundle2(0x104, signal2(field(5, 0, b"\x05") + field(5, 0, b"\x07"), 0x14)),
+        "uint32s",
+        {"a_uint32": 7},
+    ),
+    Accepted(
+        bundle2(0x104, signal2(field(6, 0, b"\x05") + field(5, 0, b"\x07"), 0x14)),
+        "uint32s",
+        {"a_uint32": 7},
+    ),
+    Accepted(
+        bundle2(0x104, signal2(field(8, 2, b"ab\0") + field(5, 0, b"\x07"), 0x14)),
+        "uint32s",
+        {"a_uint32": 7},
+    ),
+    Accepted(field(1, 2, field(1, 0, b"\x00") + HEARTBEAT), "heartbeat", {"beat": 5}),
+    Accepted(
+        field(1, 2, field(2, 2, field(19, 0, b"\x1d") + field(5, 0, b"\x07"))),
+        "heartbeat",
+        {"beat": 7},
+    ),
+    Accepted(
+        bundle2(0x106, signal2(field(20, 0, b"\x01") + field(7, 0, b"\x01"), 0x16)),
+        "bools",
+        {"a_bool": True},
+        (UnknownField("Signal", 20, 7),),
+    ),
+    Accepted(
+        bundle2(0x106, signal2(field(10, 2, b"") + field(7, 0, b"\x01"), 0x16)),
+        "bools",
+        {"a_bool": True},
+        (UnknownField("Signal", 10, 7),),  # 1.0's list_double: not a field of 2.0's Signal
+    ),
+    Accepted(
+        field(1, 2, field(1, 0, b"\x86\x02") + field(3, 2, b"xy") + A_BOOL),
+        "bools",
+        {"a_bool": True},
+        (UnknownField("Bundle", 3, 5),),
+    ),
+    Accepted(
+        bundle2(0x106, A_BOOL) + field(3, 5, b"abcd"),
+        "bools",
+        {"a_bool": True},
+        (UnknownField("Proton", 3, 12),),
+    ),
+]
+
+
+@pytest.mark.parametrize("case", REFUSED_2_0)
+def test_what_proton_2_0_would_refuse_or_misread_is_a_decode_error(case: Refused) -> None:
     with pytest.raises(erc_codec.DecodeError) as caught:
-        V2.decode(data)
-    assert caught.value.reason == reason
-    assert problem in str(caught.value), str(caught.value)
+        V2.decode(case.data)
+    assert caught.value.reason == case.reason
+    assert case.problem in str(caught.value), str(caught.value)
+
+
+@pytest.mark.parametrize("case", ACCEPTED_2_0)
+def test_what_protobuf_and_proton_2_0_read_alike_decodes(case: Accepted) -> None:
+    assert V2.decode(case.data) == Bundle(
+        case.bundle, TYPES_2_0.bundle(case.bundle).id, case.signals, case.unknown
+    )
 
 
 def test_floats_keep_their_bits_but_a_signalling_nan() -> None:
@@ -220,44 +453,235 @@ def test_a_string_padded_with_nuls_reads_as_the_c_registry_reads_it() -> None:
     assert decoded.signals["text_8"] == "foo"
 
 
-@pytest.mark.parametrize(
-    ("data", "problem"),
-    [
-        (field(2, 2, field(5, 0, b"\x05")) * 2, "2 signals; Proton 1.0 tells them by position"),
-        (field(2, 2, field(8, 2, b"a")) + field(1, 0, b"\x99\x01"), "bundle id 0x99"),
-        (
-            field(1, 0, b"\x82\x02")
-            + field(2, 2, field(17, 2, field(1, 2, b"a")))
-            + field(2, 2, field(1, 1, bytes(8)))
-            + field(2, 2, field(18, 2, b"")),
-            "its list holds 1 items, not its length 3",
-        ),
-        (
-            field(1, 0, b"\x82\x02")
-            + field(2, 2, field(17, 2, field(1, 2, b"a\0") * 3))
-            + field(2, 2, field(1, 1, bytes(8)))
-            + field(2, 2, field(18, 2, b"")),
-            "holds a NUL at offset",
-        ),
-        (
-            field(1, 0, b"\x82\x02")
-            + field(2, 2, field(17, 2, field(1, 2, b"a") * 3))
-            + field(2, 2, field(1, 1, bytes(8)))
-            + field(2, 2, field(18, 2, field(1, 2, b"ab") * 2)),
-            "is 2 bytes; its capacity takes exactly 4",
-        ),
-    ],
-)
-def test_protocol_1_0_refuses_what_protonc_would_misread(data: bytes, problem: str) -> None:
+def bundle1(bundle: str, replaced: dict[str, bytes], first: bytes | None = None) -> bytes:
+    """A 1.0 bundle of types_1_0.yaml at its defaults, some signals' fields ``replaced``;
+    ``first``: what comes before its signals (its id, unless given)."""
+    config = TYPES_1_0.bundle(bundle)
+    encoded = V1.encode(bundle, _defaults(V1, bundle))
+    contents, pos = [], 0
+    while pos < len(encoded):
+        span = next_field(encoded, pos)
+        if span.number == 2:  # Bundle.signals
+            contents.append(encoded[span.value : span.end])
+        pos = span.end
+    body = field(1, 0, encode_varint(config.id)) if first is None else first
+    for name, content in zip(config.signals, contents, strict=True):
+        body += field(2, 2, replaced.get(name, content))
+    return body
+
+
+def ints(number: int, *varints: bytes) -> bytes:
+    """A 1.0 list type's field: items as varints, one tag each."""
+    return field(number, 2, b"".join(field(1, 0, item) for item in varints))
+
+
+REFUSED_1_0 = [
+    Refused(
+        field(2, 2, field(5, 0, b"\x05")) + field(2, 2, field(5, 0, b"\x07")),
+        "corrupt",
+        "2 signals; Proton 1.0 tells them by position and the bundle has 1",
+        ("heartbeat", {"beat": 7}),  # one over the other
+    ),
+    Refused(
+        field(2, 2, field(8, 2, b"a")) + field(1, 0, b"\x99\x01"),
+        "corrupt",
+        "the bundle id at offset 5 is not the message's first field",
+        "ERR decode",  # PROTON_DecodeId finds no id: decoded as the heartbeat's bundle
+    ),
+    Refused(
+        field(3, 0, b"\x01") + bundle1("scalars", {}),
+        "corrupt",
+        "the bundle id at offset 2 is not the message's first field",
+        "ERR decode",
+    ),
+    Refused(
+        bundle1("scalars", {}) + field(1, 0, encode_varint(0x101)),
+        "corrupt",
+        "the bundle id is 0x100, then 0x101 at offset 57: protonc decodes into the first one's "
+        "bundle, protobuf reads the last",
+        ("scalars", {}),
+    ),
+    Refused(
+        bundle1("mixed", {"texts": field(17, 2, field(1, 2, b"a"))}),
+        "corrupt",
+        "its list holds 1 items, not its length 3",
+        ("mixed", {"texts": ["a", "", ""]}),  # the rest: what the list held before
+    ),
+    Refused(
+        bundle1("mixed", {"texts": field(17, 2, field(1, 2, b"a\0") * 3)}),
+        "corrupt",
+        "holds a NUL at offset",
+        ("mixed", {"texts": ["a", "a", "a"]}),
+    ),
+    Refused(
+        bundle1("mixed", {"blobs": field(18, 2, field(1, 2, b"ab") * 2)}),
+        "corrupt",
+        "is 2 bytes; its capacity takes exactly 4",
+        ("mixed", {"blobs": [b"ab\0\0", b"ab\0\0"]}),  # the rest of each: what it held before
+    ),
+    Refused(
+        bundle1("lists", {"bools": ints(16, *[b"\x01"] * 5) + ints(16, *[b"\x00"] * 5)}),
+        "corrupt",
+        "carries two values (fields 16 and 16)",
+        ("lists", {}),  # the second list over the first; protobuf merges them into ten
+    ),
+    Refused(
+        bundle1("scalars", {"an_int32": field(8, 2, b"ab") + field(3, 0, b"\x07")}),
+        "corrupt",
+        "signal 'an_int32' at offset 21 carries a string value: protonc decodes one only into a "
+        "string signal's buffer",
+        "ERR decode",
+    ),
+    Refused(
+        bundle1("scalars", {"text_8": field(3, 0, b"\x07") + field(8, 2, b"ab")}),
+        "corrupt",
+        "carries two values (fields 3 and 8)",
+        "",  # the string's buffer pointer overwritten by the number
+    ),
+    Refused(
+        bundle1("lists", {"int32s": ints(12, b"\x85\x80\x80\x80\x10", b"\x01")}),
+        "corrupt",
+        "(4294967301) has bits past 32: Proton's C library reads a int32 item with "
+        "pb_decode_varint32",
+        "ERR decode",
+    ),
+    Refused(
+        bundle1("lists", {"uint32s": ints(14, *[b"\x80\x80\x80\x80\x10"] * 3)}),
+        "corrupt",
+        "(4294967296) has bits past 32",
+        "ERR decode",
+    ),
+    Refused(
+        bundle1("scalars", {"a_bool": field(7, 0, b"\x80\x80\x80\x80\x10")}),
+        "corrupt",
+        "has bits past 32: Proton's C library reads a bool with pb_decode_varint32",
+        "ERR decode",
+    ),
+    Refused(
+        bundle1("scalars", {"a_uint32": field(5, 0, b"\x80\x80\x80\x80\x10")}),
+        "corrupt",
+        "its value is 4294967296, out of uint32's range",
+        "ERR decode",
+    ),
+]
+
+ACCEPTED_1_0 = [
+    Accepted(
+        bundle1("scalars", {"an_int32": field(3, 0, b"\xff\xff\xff\xff\x0f")}),
+        "scalars",
+        {"an_int32": -1},
+    ),
+    Accepted(
+        bundle1("scalars", {"an_int32": field(3, 0, b"\x85\x80\x80\x80\x10")}),
+        "scalars",
+        {"an_int32": 5},
+    ),
+    Accepted(bundle1("scalars", {"a_bool": field(7, 0, b"\x02")}), "scalars", {"a_bool": True}),
+    Accepted(
+        bundle1("lists", {"int32s": ints(12, b"\xff\xff\xff\xff\x0f", b"\x01")}),
+        "lists",
+        {"int32s": [-1, 1]},
+    ),
+    Accepted(
+        bundle1("lists", {"int32s": ints(12, b"\xff" * 9 + b"\x01", b"\x01")}),
+        "lists",
+        {"int32s": [-1, 1]},
+    ),
+    Accepted(
+        bundle1("lists", {"int32s": field(12, 2, field(1, 2, b"\xff\xff\xff\xff\x0f\x01"))}),
+        "lists",
+        {"int32s": [-1, 1]},  # packed
+    ),
+    Accepted(  # a sign extension pb_decode_varint32 takes, and protobuf truncates alike
+        bundle1("lists", {"uint32s": ints(14, *[b"\xff" * 9 + b"\x01"] * 3)}),
+        "lists",
+        {"uint32s": [0xFFFFFFFF] * 3},
+    ),
+    Accepted(
+        bundle1("lists", {"bools": ints(16, b"\x02", *[b"\x00"] * 4)}),
+        "lists",
+        {"bools": [True, False, False, False, False]},
+    ),
+    Accepted(
+        bundle1("lists", {"bools": field(16, 2, field(1, 2, b"\x02\x00\x00\x00\x07"))}),
+        "lists",
+        {"bools": [True, False, False, False, True]},
+    ),
+    Accepted(
+        bundle1("scalars", {"an_int32": field(3, 0, b"\x05") + field(3, 0, b"\x07")}),
+        "scalars",
+        {"an_int32": 7},
+    ),
+    Accepted(
+        bundle1("scalars", {"a_bool": field(7, 0, b"\x01") + field(19, 0, b"\x05")}),
+        "scalars",
+        {"a_bool": True},
+        (UnknownField("Signal", 19, 41),),  # 2.0's signal id: not a field of 1.0's Signal
+    ),
+    Accepted(
+        bundle1("scalars", {}) + field(3, 0, b"\x01"),
+        "scalars",
+        {},
+        (UnknownField("Bundle", 3, 57),),
+    ),
+    Accepted(bundle1("scalars", {}) + field(1, 0, encode_varint(0x100)), "scalars", {}),
+    Accepted(field(1, 0, b"\x00") + field(2, 2, field(5, 0, b"\x07")), "heartbeat", {"beat": 7}),
+]
+
+
+def _with_defaults(codec: BundleCodec, bundle: str, values_: dict[str, Value]) -> dict[str, Value]:
+    """The bundle's signals at their configured defaults, but ``values_``."""
+    config = codec.config
+    signals = config.bundle(bundle).signals
+    return {name: values_.get(name, config.signal(name).default) for name in signals}
+
+
+@pytest.mark.parametrize("case", REFUSED_1_0)
+def test_what_protonc_would_refuse_or_misread_is_a_decode_error(case: Refused) -> None:
     with pytest.raises(erc_codec.DecodeError) as caught:
-        V1.decode(data)
-    assert problem in str(caught.value), str(caught.value)
+        V1.decode(case.data)
+    assert caught.value.reason == case.reason
+    assert case.problem in str(caught.value), str(caught.value)
+
+
+@pytest.mark.parametrize("case", ACCEPTED_1_0)
+def test_what_protobuf_and_protonc_read_alike_decodes(case: Accepted) -> None:
+    signals = _with_defaults(V1, case.bundle, case.signals)
+    assert V1.decode(case.data) == Bundle(
+        case.bundle, TYPES_1_0.bundle(case.bundle).id, signals, case.unknown
+    )
+
+
+def test_decode_raises_nothing_but_decode_errors() -> None:
+    """Whatever the bytes: a DecodeError, never another exception (a cut-off varint inside a
+    signal escaped as the wire layer's own error)."""
+
+    @given(data=st.binary(max_size=64) | st.sampled_from(_mutations()))
+    @settings(max_examples=500, deadline=None)
+    def decodes_or_refuses(data: bytes) -> None:
+        for codec in (V2, V1):
+            with contextlib.suppress(erc_codec.DecodeError):
+                codec.decode(data)
+
+    decodes_or_refuses()
+
+
+def _mutations() -> list[bytes]:
+    """Every cut and every one-byte change of a few real messages."""
+    messages = [V2.encode("heartbeat", {"beat": 300}), V1.encode("lists", _defaults(V1, "lists"))]
+    messages.append(V2.encode("strings", {"text_1": "", "text_8": "abc", "text_300": "x"}))
+    found = []
+    for message in messages:
+        for i in range(len(message)):
+            found.append(message[:i])
+            for byte in (0x00, 0x01, 0x7F, 0x80, 0xFF):
+                found.append(message[:i] + bytes([byte]) + message[i + 1 :])
+    return found
 
 
 @pytest.mark.parametrize(
     ("codec", "bundle", "values_", "problem"),
     [
-        (V2, "nowhere", {}, "no bundle is called 'nowhere'"),
         (V2, "heartbeat", {}, "bundle 'heartbeat' needs a value for beat"),
         (V2, "heartbeat", {"beat": 1, "extra": 2}, "signal 'extra' is not in bundle 'heartbeat'"),
         (V2, "heartbeat", {"beat": -1}, "signal 'beat' (uint32): -1 is out of uint32's range"),
@@ -312,10 +736,71 @@ def test_what_cannot_be_sent_unchanged_is_an_encode_error(
 
 
 def test_list_types_are_protocol_1_0_only() -> None:
-    with pytest.raises(ProtonConfigError, match=r"types_1_0\.yaml:29: signal 'doubles': "):
+    with pytest.raises(
+        ProtonConfigError,
+        match=r"types_1_0\.yaml:29: signals\[10\]\.type: list_double \(signal 'doubles'\) is a "
+        r"Proton 1\.0 type",
+    ):
         BundleCodec(TYPES_1_0)
     with pytest.raises(ValueError, match="version must be"):
         BundleCodec(TYPES_2_0, "3.0")  # type: ignore[arg-type]
+
+
+def test_a_name_the_configuration_does_not_have_is_a_key_error() -> None:
+    with pytest.raises(KeyError, match="no bundle is called 'nowhere'"):
+        V2.encode("nowhere", {})
+    with pytest.raises(KeyError, match="no signal is called 'nowhere'"):
+        V2.check("nowhere", 1)
+
+
+LARGE = """\
+nodes:
+  - {name: pc, id: 0, endpoints: [{id: 0, type: udp4, ip: 127.0.0.1, port: 11416}]}
+  - {name: mcu, id: 1, endpoints: [{id: 0, type: udp4, ip: 127.0.0.1, port: 11417}]}
+connections:
+  - {first: {node: pc, id: 0}, second: {node: mcu, id: 0}}
+signals:
+  - {name: text, id: 1, type: string, capacity: 600}
+  - {name: blob, id: 2, type: bytes, capacity: 513}
+bundles:
+  - {name: long, id: 1, producers: [pc], consumers: [mcu], signals: [1, 2]}
+"""
+
+
+def test_capacities_protons_c_core_cannot_decode_are_refused_for_2_0() -> None:
+    """Proton 2.0's core decodes every string and bytes value through its 512-byte scratch
+    buffer (PROTON_SCRATCH_BUFFER_SIZE): a string of 512 bytes with its NUL, bytes over 512, are
+    refused whatever the signal's capacity (tests/test_proton_interop.py shows it)."""
+    config = parse_config(LARGE, "large.yaml")
+    with pytest.raises(ProtonConfigError) as caught:
+        BundleCodec(config)
+    assert str(caught.value).startswith(
+        "large.yaml:7: signals[0].capacity: capacity 600 (signal 'text'): Proton 2.0's C core "
+        "decodes a string value through its 512-byte scratch buffer (PROTON_SCRATCH_BUFFER_SIZE) "
+        "and refuses one over 511 bytes with its NUL: give capacity 511 or less, or the scratch "
+        "buffer size the board's core is built with"
+    )
+    with pytest.raises(ProtonConfigError, match=r"large\.yaml:8: signals\[1\]\.capacity: .* 512 b"):
+        BundleCodec(parse_config(LARGE.replace("capacity: 600", "capacity: 511"), "large.yaml"))
+    bigger = BundleCodec(config, scratch_buffer_size=1024)  # a board built with a larger one
+    message = bigger.encode("long", {"text": "x" * 599, "blob": bytes(513)})
+    assert bigger.decode(message).signals["text"] == "x" * 599
+    assert BundleCodec(config, "1.0").version == "1.0"  # 1.0 decodes into each signal's buffer
+    for wrong in (0, 65536, True, 512.0):
+        with pytest.raises(ValueError, match=r"scratch_buffer_size must be 1\.\.65535"):
+            BundleCodec(config, scratch_buffer_size=wrong)  # type: ignore[arg-type]
+
+
+def test_protocol_1_0_reserves_bundle_0_for_the_heartbeat() -> None:
+    text = LARGE.replace("600", "6").replace("513", "5").replace("id: 1, p", "id: 0, p")
+    config = parse_config(text, "zero.yaml")
+    assert BundleCodec(config).version == "2.0"  # 2.0 reserves no bundle id
+    with pytest.raises(
+        ProtonConfigError,
+        match=r"zero\.yaml:10: bundles\[0\]\.id: bundle 'long': Proton 1\.0 reserves bundle id 0 "
+        "for the heartbeat, exactly one uint32 signal",
+    ):
+        BundleCodec(config, "1.0")
 
 
 # -- Proton's own .proto files, read by Google protobuf ----------------------------------------

@@ -18,9 +18,14 @@ For every bundle of those configurations (every signal type: 2.0's nine, 1.0's n
 types), hypothesis draws values (full integer ranges, ±0, NaN, ±inf, subnormals, empty and full
 strings and bytes, multi-byte UTF-8 to the last byte of a capacity); the C peer sets them through
 its own accessors and encodes: its bytes must be erc_codec's, exactly, and decode in Python to the
-same values; erc_codec's bytes must decode in C to the same values. Serial frames made by each
-library's helpers must deframe in the other. And ``erc_codec.proton.Node`` must send what 2.0's
-node manager (``proton_node_update``) sends, in its order, polled at the same times.
+same values; erc_codec's bytes must decode in C to the same values (the C registry set to other
+values first, so a signal C did not apply cannot pass). Serial frames made by each library's
+helpers must deframe in the other. ``erc_codec.proton.Node`` must send what 2.0's node manager
+(``proton_node_update``) sends, in its order, polled at the same times. Every message of
+tests/test_proton_codec.py's decode tables goes to a fresh C peer: what erc_codec decodes, C reads
+as the same values; what erc_codec refuses, C refuses or misreads as recorded there. And the 2.0
+core, built for a configuration with larger capacities with its own 512-byte scratch buffer and
+with a larger one, shows the limit ``BundleCodec``'s ``scratch_buffer_size`` stands for.
 
 Without ``../shared``, gcc or jinja2 the tests skip, saying why, except when ERC_REQUIRE_INTEROP=1
 (CI), where they fail.
@@ -32,16 +37,25 @@ import shutil
 import struct
 import subprocess
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from proton_values import HERE, TYPES_1_0, TYPES_2_0, same, values
+from test_proton_codec import (
+    ACCEPTED_1_0,
+    ACCEPTED_2_0,
+    LARGE,
+    REFUSED_1_0,
+    REFUSED_2_0,
+    Accepted,
+    Refused,
+)
 
 import erc_codec
-from erc_codec.proton import BundleCodec, Node, SignalConfig, Value
+from erc_codec.proton import BundleCodec, Config, Node, SignalConfig, Value, parse_config
 
 pytestmark = pytest.mark.interop
 
@@ -100,25 +114,25 @@ def _gcc(*args: str | Path) -> None:
     assert done.returncode == 0, done.stderr
 
 
-@pytest.fixture(scope="session")
-def programs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
-    """The two drivers, built once per session."""
+def _needed() -> None:
     missing = _missing()
     if missing:
         reason = f"Proton interop tests need {missing}"
         if os.environ.get("ERC_REQUIRE_INTEROP") == "1":
             pytest.fail(f"ERC_REQUIRE_INTEROP=1 but {reason}")
         pytest.skip(reason)
-    build = tmp_path_factory.mktemp("proton")
+
+
+def _driver2(config: Path, build: Path, name: str, *defines: str) -> Path:
+    """tests/proton/driver2.c with Proton 2.0's core and the registry its generator writes for
+    node mcu of ``config``."""
     nanopb = CORE / "external" / "nanopb"
-    runtime = sorted(nanopb.glob("pb_*.c"))
-    # 2.0: the registry for node mcu, as Proton's generator writes it, and the core around it.
-    generated = build / "mcu"
+    generated = build / f"{name}-mcu"
     subprocess.run(
         [
             sys.executable,
             str(CORE / "generator_scripts" / "generator.py"),
-            *("-c", str(HERE / "types.yaml"), "-t", "mcu", "-d", str(generated)),
+            *("-c", str(config), "-t", "mcu", "-d", str(generated)),
         ],
         check=True,
         capture_output=True,
@@ -130,10 +144,24 @@ def programs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     ]
     include = CORE / "core" / "include"
     _gcc(
+        *defines,
         *("-std=c11", "-I", include, "-I", include / "proton" / "generated", "-I", nanopb),
-        *("-I", generated, "-o", build / "driver2", HERE / "driver2.c"),
-        *(generated / "target_registry.c", generated / "target_node.c", *core, *runtime),
+        *("-I", generated, "-o", build / name, HERE / "driver2.c"),
+        *(generated / "target_registry.c", generated / "target_node.c", *core),
+        *sorted(nanopb.glob("pb_*.c")),
     )
+    return build / name
+
+
+@pytest.fixture(scope="session")
+def programs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """The two drivers, built once per session."""
+    _needed()
+    build = tmp_path_factory.mktemp("proton")
+    nanopb = CORE / "external" / "nanopb"
+    runtime = sorted(nanopb.glob("pb_*.c"))
+    # 2.0: the registry for node mcu, as Proton's generator writes it, and the core around it.
+    _driver2(HERE / "types.yaml", build, "driver2")
     # 1.0: protonc, with nanopb's sources for 1.0's own .proto and .options.
     headers = build / "protonc-generated"
     (headers / "protonc").mkdir(parents=True)
@@ -228,19 +256,46 @@ def test_bundles_byte_for_byte_with_protons_c_core(
     sent = _values(V2, bundle, data)
     ours = V2.encode(bundle, sent)
     signals = [TYPES_2_0.signal(name) for name in config.signals]
-    *set_, encoded, decoded = core.ask(
-        [f"S {s.id} {c_value(s, sent[s.name])}" for s in signals]
-        + [f"E {config.id}", f"D {ours.hex()}"]
+    *set_, encoded = core.ask(
+        [f"S {s.id} {c_value(s, sent[s.name])}" for s in signals] + [f"E {config.id}"]
     )
     assert set_ == ["OK"] * len(signals)
     # 1. The C core's encoding of these values is erc_codec's, byte for byte.
     assert encoded == f"OK {ours.hex()}"
     # 2. erc_codec decodes the C core's bytes to the values it was given.
     assert _same_values(V2.decode(bytes.fromhex(encoded[3:])).signals, sent)
-    # 3. The C core decodes erc_codec's bytes to the same values, read back through its getters.
+    # 3. The C core decodes erc_codec's bytes to the same values, read back through its getters:
+    # its registry set to other values first, so a signal it did not apply cannot pass.
+    *reset, decoded = core.ask(
+        [f"S {s.id} {c_value(s, _other(s, sent[s.name]))}" for s in signals] + [f"D {ours.hex()}"]
+    )
+    assert reset == ["OK"] * len(signals)
     assert decoded == decoded_line(
         config.id, [f"{s.id}={c_value(s, sent[s.name])}" for s in signals]
     )
+
+
+def _other(signal: SignalConfig, value: Value) -> Value:
+    """A value of ``signal`` other than ``value`` (but for a string of capacity 1: only "")."""
+    if isinstance(value, bool):
+        return not value
+    if isinstance(value, float):
+        return 2.0 if same(value, 1.0) else 1.0
+    if isinstance(value, int):
+        return 2 if value == 1 else 1
+    if isinstance(value, str):
+        return "" if value or signal.capacity == 1 else "x"
+    assert isinstance(value, bytes)
+    return b"" if value else b"\x01"
+
+
+def test_other_values_differ() -> None:
+    """_other never hands back the value it was given, but where a type allows one value only."""
+    for signal in TYPES_2_0.signals:
+        for value in (signal.default, V2.check(signal.name, signal.default)):
+            if signal.type == "string" and signal.capacity == 1:
+                continue
+            assert not same(_other(signal, value), value), signal.name
 
 
 def test_the_c_registry_starts_where_the_configuration_says(programs: tuple[Path, Path]) -> None:
@@ -257,6 +312,7 @@ def test_the_c_registry_starts_where_the_configuration_says(programs: tuple[Path
         defaults = {name: TYPES_2_0.signal(name).default for name in bundle.signals}
         assert _same_values(decoded.signals, defaults), bundle.name
     assert "text_300" in TYPES_2_0.bundle("strings").signals  # whose 300 bytes were mostly NULs
+    assert TYPES_2_0.signal("text_511").capacity == 511  # the most the C core decodes
 
 
 def test_node_sends_what_protons_node_manager_sends_when_it_does(
@@ -347,3 +403,110 @@ def test_a_bad_crc_is_refused_by_both(core: Peer, protonc: Peer) -> None:
     assert core.ask([f"U {broken.hex()}"]) == [f"ERR {11}"]  # PROTON_CRC16_ERROR
     assert protonc.ask([f"U {broken.hex()}"]) == ["ERR crc"]
     assert erc_codec.Deframer(max_length=16).feed(bytes(broken)) == []
+
+
+# -- what erc_codec refuses, Proton's C libraries refuse or misread -----------------------------
+
+
+def _verdict(program: Path, requests: list[str]) -> list[str]:
+    """A fresh driver's answers to ``requests``: fewer than asked where it crashed."""
+    done = subprocess.run(
+        [str(program)], input="".join(f"{r}\n" for r in requests), capture_output=True, text=True
+    )
+    return [line for line in done.stdout.splitlines() if not line.startswith("Error: ")]
+
+
+def _c_line(config: Config, version: str, bundle: str, values_: Mapping[str, object]) -> str:
+    """What a driver prints for ``bundle`` holding its defaults but ``values_``."""
+    found = config.bundle(bundle)
+    items = []
+    for name in found.signals:
+        signal = config.signal(name)
+        value = values_.get(name, signal.default)
+        shown = c_value(signal, value)  # type: ignore[arg-type]
+        items.append(f"{signal.id}={shown}" if version == "2.0" else shown)
+    return decoded_line(found.id, items)
+
+
+def _described() -> list[str]:
+    return [f"B {bundle.id} {_specs(bundle.signals)}" for bundle in TYPES_1_0.bundles]
+
+
+@pytest.mark.parametrize("case", REFUSED_2_0)
+def test_what_erc_codec_refuses_the_c_core_refuses_or_misreads(
+    programs: tuple[Path, Path], case: Refused
+) -> None:
+    requests = [f"D {case.before.hex()}"] if case.before else []
+    *_, answer = _verdict(programs[0], [*requests, f"D {case.data.hex() or '-'}"])
+    if isinstance(case.c, str):
+        assert answer == case.c
+    else:
+        bundle, read = case.c
+        assert answer == _c_line(TYPES_2_0, "2.0", bundle, read)
+
+
+@pytest.mark.parametrize("case", ACCEPTED_2_0)
+def test_what_erc_codec_decodes_the_c_core_reads_the_same(
+    programs: tuple[Path, Path], case: Accepted
+) -> None:
+    (answer,) = _verdict(programs[0], [f"D {case.data.hex()}"])
+    assert answer == _c_line(TYPES_2_0, "2.0", case.bundle, case.signals)
+
+
+@pytest.mark.parametrize("case", REFUSED_1_0)
+def test_what_erc_codec_refuses_protonc_refuses_or_misreads(
+    programs: tuple[Path, Path], case: Refused
+) -> None:
+    described = _described()
+    answers = _verdict(programs[1], [*described, f"D {case.data.hex()}"])
+    assert answers[: len(described)] == ["OK"] * len(described)
+    answer = answers[len(described)] if len(answers) > len(described) else ""  # "": it crashed
+    if isinstance(case.c, str):
+        assert answer == case.c
+    else:
+        bundle, read = case.c
+        assert answer == _c_line(TYPES_1_0, "1.0", bundle, read)
+
+
+@pytest.mark.parametrize("case", ACCEPTED_1_0)
+def test_what_erc_codec_decodes_protonc_reads_the_same(
+    programs: tuple[Path, Path], case: Accepted
+) -> None:
+    described = _described()
+    *_, answer = _verdict(programs[1], [*described, f"D {case.data.hex()}"])
+    assert answer == _c_line(TYPES_1_0, "1.0", case.bundle, case.signals)
+
+
+# -- the scratch buffer ---------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="session")
+def large(tmp_path_factory: pytest.TempPathFactory) -> tuple[Config, Path, Path]:
+    """A configuration with a string of capacity 600 and bytes of 513, and Proton's core built
+    for it twice: with its own scratch buffer (512 bytes) and with one of 1024."""
+    _needed()
+    build = tmp_path_factory.mktemp("proton-large")
+    (build / "large.yaml").write_text(LARGE)
+    default = _driver2(build / "large.yaml", build, "default")
+    bigger = _driver2(build / "large.yaml", build, "bigger", "-DPROTON_SCRATCH_BUFFER_SIZE=1024")
+    return parse_config(LARGE, "large.yaml"), default, bigger
+
+
+def test_the_c_core_decodes_no_more_than_its_scratch_buffer_whatever_the_capacity(
+    large: tuple[Config, Path, Path],
+) -> None:
+    """Why BundleCodec refuses such a configuration for 2.0 unless told the board's size."""
+    config, default, bigger = large
+    codec = BundleCodec(config, scratch_buffer_size=1024)
+    for text, blob, fits in (
+        ("x" * 510, bytes(512), True),  # 511 bytes with the NUL, and 512: the most 512 takes
+        ("x" * 511, bytes(512), False),
+        ("x" * 510, bytes(513), False),
+    ):
+        message = codec.encode("long", {"text": text, "blob": blob})
+        (answer,) = _verdict(default, [f"D {message.hex()}"])
+        assert answer.startswith("OK") is fits, (len(text), len(blob), answer)
+        (answer,) = _verdict(bigger, [f"D {message.hex()}"])
+        assert answer == f"OK 1 1={text.encode().hex()} 2={blob.hex()}"
+    full = codec.encode("long", {"text": "x" * 599, "blob": bytes(513)})
+    assert _verdict(bigger, [f"D {full.hex()}"]) == [f"OK 1 1={'78' * 599} 2={'00' * 513}"]

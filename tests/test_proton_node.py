@@ -2,6 +2,8 @@
 sending follows period_ms and Proton's node manager's priorities; heartbeats count and are
 watched; received bundles reach the registry and their handlers."""
 
+from typing import cast
+
 import pytest
 from proton_values import TYPES_1_0, TYPES_2_0
 
@@ -18,6 +20,8 @@ nodes:
 connections:
   - first: {node: producer, id: 0}
     second: {node: consumer, id: 0}
+  - first: {node: producer, id: 0}
+    second: {node: bystander, id: 0}
 signals:
   - {name: value, id: 0x1000, type: double}
   - {name: beat, id: 0x1001, type: uint32}
@@ -101,7 +105,8 @@ def test_what_is_sent_is_the_registry_encoded_for_its_consumers() -> None:
     by_name = {sent.bundle: sent for sent in node.poll(0.12)}
     codec = BundleCodec(PERIODIC)
     assert by_name["fast"] == Sent("fast", codec.encode("fast", {"value": 2.5}), ("consumer",))
-    assert by_name["slow"].peers == ("consumer",)  # bystander is a consumer, not a connection
+    assert by_name["slow"].peers == ("consumer", "bystander")  # its consumers, connected
+    assert by_name["heartbeat"].peers == ("consumer",)  # bystander does not consume it
     assert codec.decode(by_name["heartbeat"].data).signals == {"beat": 1}
     assert node.get("value") == 2.5
 
@@ -147,7 +152,7 @@ def test_a_node_keeps_counting_its_own_heartbeats() -> None:
 
 def test_heartbeat_timeout_and_peers_without_heartbeats() -> None:
     config = TYPES_2_0
-    pc = Node(config, "pc", heartbeat_timeout=0.2)
+    pc = Node(config, "pc", peer_timeout=0.2)
     mcu = Node(config, "mcu")
     mcu.poll(0.0)
     (beat,) = [s for s in mcu.poll(0.05) if s.bundle == "heartbeat"]
@@ -156,7 +161,7 @@ def test_heartbeat_timeout_and_peers_without_heartbeats() -> None:
     assert pc.peer_state("mcu") is Liveness.ACTIVE
     pc.poll(0.26)
     assert pc.peer_state("mcu") is Liveness.INACTIVE
-    assert mcu.peer_state("pc") is Liveness.UNCONFIGURED  # pc sends no heartbeat
+    assert mcu.peer_state("pc") is Liveness.UNCONFIGURED  # pc sends only triggered bundles
     with pytest.raises(KeyError, match="'robot' is not a peer of node 'mcu'"):
         mcu.peer_state("robot")
 
@@ -201,22 +206,28 @@ def test_what_does_not_decode_or_is_not_consumed_changes_nothing() -> None:
 
 
 def test_misuse_is_a_typed_error_naming_what() -> None:
+    """One kind of error per kind of mistake: a name the configuration (or the node's part in
+    it) does not have is a KeyError, a value that cannot be sent an EncodeError."""
     node = Node(TYPES_2_0, "pc")
-    with pytest.raises(erc_codec.EncodeError, match="no signal is called 'speed'"):
+    with pytest.raises(KeyError, match="no signal is called 'speed'"):
         node.set("speed", 1.0)
+    with pytest.raises(KeyError, match="no signal is called 'speed'"):
+        node.get("speed")
+    with pytest.raises(KeyError, match="'command' is in no bundle node 'bystander' produces or"):
+        Node(PERIODIC, "bystander").get("command")
     with pytest.raises(erc_codec.EncodeError, match=r"signal 'set_speed' \(double\): 'x'"):
         node.set("set_speed", "x")
-    with pytest.raises(
-        erc_codec.EncodeError, match="bundle 'doubles' is not produced by node 'pc'"
-    ):
+    with pytest.raises(KeyError, match="node 'pc' produces no bundle 'doubles'"):
         node.trigger("doubles")
-    with pytest.raises(erc_codec.EncodeError, match="no bundle is called 'orders'"):
+    with pytest.raises(KeyError, match="no bundle is called 'orders'"):
         node.trigger("orders")
-    with pytest.raises(ProtonConfigError, match=r"types\.yaml:\d+: bundle 'command': is not co"):
+    with pytest.raises(KeyError, match="node 'pc' consumes no bundle 'command'"):
         node.register("command", print)
-    with pytest.raises(ProtonConfigError, match=r"no node is called .base. \(pc, mcu\)"):
+    with pytest.raises(KeyError, match="no bundle is called 'orders'"):
+        node.register("orders", print)
+    with pytest.raises(KeyError, match="no node is called 'base'"):
         Node(TYPES_2_0, "base")
-    with pytest.raises(ProtonConfigError, match=r"list_double is a Proton 1\.0 type"):
+    with pytest.raises(ProtonConfigError, match=r"list_double \(signal 'doubles'\) is a Proton 1"):
         Node(TYPES_1_0, "pc")
     values = Node(TYPES_1_0, "mcu", "1.0")
     lists = values.get("floats")
@@ -233,3 +244,111 @@ def test_protocol_1_0_heartbeat_is_bundle_0_with_one_counter() -> None:
     assert [s.data.hex() for s in beats] == ["12022801", "12022802", "12022803"]
     assert pc.receive(beats[0].data, 0.0) == Bundle("heartbeat", 0, {"beat": 1})
     assert pc.peer_state("mcu") is Liveness.ACTIVE
+
+
+def test_a_clock_that_is_not_a_finite_number_is_refused_and_changes_nothing() -> None:
+    """A NaN stamped on a peer's last heartbeat would make every timeout comparison false: the
+    peer would stay ACTIVE forever. Infinity would make every schedule overdue forever."""
+    producer, consumer = Node(PERIODIC, "producer"), Node(PERIODIC, "consumer")
+    producer.poll(0.0)
+    (beat,) = [s for s in producer.poll(0.05) if s.bundle == "heartbeat"]
+    for now in (float("nan"), float("inf"), -float("inf"), True, "1", None):
+        with pytest.raises(ValueError, match=r"now must be a finite number of seconds, not "):
+            consumer.receive(beat.data, now)  # type: ignore[arg-type]
+        with pytest.raises(ValueError, match="now must be a finite number"):
+            producer.poll(now)  # type: ignore[arg-type]
+    assert consumer.peer_state("producer") is Liveness.INACTIVE  # nothing was heard
+    assert consumer.get("beat") == 0
+    consumer.receive(beat.data, 0.05)
+    assert consumer.peer_state("producer") is Liveness.ACTIVE
+    consumer.poll(1.0)
+    assert consumer.peer_state("producer") is Liveness.INACTIVE  # the timeout still works
+    assert [s.bundle for s in producer.poll(0.1)] == ["fast", "heartbeat"]  # schedules intact
+    assert [s.bundle for s in Node(PERIODIC, "producer").poll(-5.0)] == []  # any origin
+
+
+def test_a_received_bundle_is_the_callers_and_the_registry_its_own() -> None:
+    """A handler changing the lists of the bundle it is given changes nothing in the node."""
+    pc, mcu = Node(TYPES_1_0, "pc", "1.0"), Node(TYPES_1_0, "mcu", "1.0")
+
+    @mcu.on("mixed")
+    def tamper(bundle: Bundle) -> None:
+        texts = cast("list[str]", bundle.signals["texts"])
+        texts.append("extra")
+
+    pc.set("texts", ["a", "b", "c"])
+    pc.trigger("mixed")
+    (sent,) = pc.poll(0.0)
+    received = mcu.receive(sent.data, 0.0)
+    assert received.signals["texts"] == ["a", "b", "c", "extra"]  # the handler's to change
+    assert mcu.get("texts") == ["a", "b", "c"]
+    mcu.poll(0.0)
+    mcu.trigger("lists")
+    assert next(s.bundle for s in mcu.poll(10.0)) == "lists"  # every due bundle still encodes
+
+
+ONE_LIST_TEXT = """\
+nodes:
+  - {name: pc, id: 0, endpoints: [{id: 0, type: udp4, ip: 127.0.0.1, port: 11416}]}
+  - {name: mcu, id: 1, endpoints: [{id: 0, type: udp4, ip: 127.0.0.1, port: 11417}]}
+connections:
+  - {first: {node: pc, id: 0}, second: {node: mcu, id: 0}}
+signals:
+  - {name: temps, id: 1, type: list_float, length: 2}
+  - {name: beat, id: 2, type: uint32}
+bundles:
+  - {name: heartbeat, id: 0, producers: [mcu], consumers: [pc], signals: [2], period_ms: 50}
+  - {name: temperatures, id: 1, producers: [mcu], consumers: [pc], signals: [1], period_ms: 100}
+"""
+ONE_LIST = parse_config(ONE_LIST_TEXT)
+
+
+def test_a_poll_that_cannot_encode_changes_nothing() -> None:
+    """Every due bundle is encoded before any schedule or the heartbeat counter moves: a poll
+    returns them all, or raises and leaves the node as it was. (A value cannot go bad through
+    the node; a configuration's default changed after loading can.)"""
+    config = ONE_LIST._replace(
+        signals=tuple(
+            s._replace(default=[0.0]) if s.name == "temps" else s for s in ONE_LIST.signals
+        )
+    )
+    mcu = Node(config, "mcu", "1.0")
+    mcu.poll(0.0)
+    with pytest.raises(
+        erc_codec.EncodeError, match="a list_float of length 2 is sent as exactly 2"
+    ):
+        mcu.poll(0.1)  # the heartbeat (encoded first: 50 ms overdue) and temperatures
+    assert mcu.get("beat") == 0  # not counted: nothing was sent
+    mcu.set("temps", [1.5, 2.5])
+    sent = mcu.poll(0.1)
+    assert [s.bundle for s in sent] == ["heartbeat", "temperatures"]  # both still due
+    assert BundleCodec(config, "1.0").decode(sent[0].data).signals == {"beat": 1}
+
+
+def test_any_bundle_from_a_watched_peer_proves_it_alive() -> None:
+    """A peer sending periodic bundles but no heartbeat is watched by its fastest one; any
+    bundle it produces counts. A peer sending only triggered bundles is UNCONFIGURED: nothing
+    says when to expect it."""
+    changes: list[tuple[str, Liveness]] = []
+    config = parse_config(
+        ONE_LIST_TEXT.replace("heartbeat, id: 0", "status, id: 0x10").replace(
+            "signals: [2], period_ms: 50", "signals: [2], period_ms: 0"
+        )
+    )
+    pc = Node(config, "pc", "1.0", on_peer=lambda peer, state: changes.append((peer, state)))
+    mcu = Node(config, "mcu", "1.0")
+    assert pc.peer_state("mcu") is Liveness.INACTIVE  # watched by temperatures' 100 ms
+    assert mcu.peer_state("pc") is Liveness.UNCONFIGURED  # pc sends mcu nothing
+    mcu.poll(0.0)
+    for ms in range(0, 301, 10):
+        for sent in mcu.poll(ms / 1000):
+            pc.receive(sent.data, ms / 1000)
+        pc.poll(ms / 1000)
+    assert pc.peer_state("mcu") is Liveness.ACTIVE
+    mcu.trigger("status")
+    (status,) = mcu.poll(0.35)  # temperatures went at 0.3: not due until 0.4
+    pc.receive(status.data, 0.35)  # a triggered bundle counts too
+    pc.poll(0.64)
+    assert pc.peer_state("mcu") is Liveness.ACTIVE  # 290 ms since status: within 300
+    pc.poll(0.66)
+    assert changes == [("mcu", Liveness.ACTIVE), ("mcu", Liveness.INACTIVE)]

@@ -3,26 +3,28 @@ configuration, as JSON lines.
 
 Both read Proton messages as ``erc_codec.proton.BundleCodec`` does (``--protocol`` 2.0 or 1.0) and
 print one JSON object per message: the bundle's name and id and its signals by name, valued as
-protobuf's JSON mapping values them (64-bit integers as strings, bytes as base64, NaN and the
-infinities as "NaN", "Infinity", "-Infinity"; a 1.0 list type as a list of those). A message that
-does not decode is an ``error`` object with its reason, and the rest go on.
+protobuf's JSON mapping values them (64-bit integers as strings, bytes as base64, a ``float`` in
+the fewest digits that read back as the same 32-bit float, NaN and the infinities as "NaN",
+"Infinity", "-Infinity"; a 1.0 list type as a list of those), and the fields the message carried
+that Proton does not define, if any. A message that does not decode is an ``error`` object with
+its reason, and the rest go on.
 """
 
 import base64
 import contextlib
 import json
 import math
+import struct
 import sys
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import click
 
 from .._errors import CodecError, DecodeError
 from .._framing import Deframer
 from ..proton import BundleCodec, Value, load_config, split_udp_header
-from ..proton._transport import ProtonUdp, open_datagrams
 from ._input import hex_lines, read_stdin
 from ._net import parse_address, resolve, shown
 from ._pcap import Capture
@@ -31,6 +33,7 @@ from ._shared import Fatal, emit, one_line, plural, unhex
 __all__ = ["proton"]
 
 _MAX_FRAME = 0xFFFF
+_FLOAT32 = struct.Struct("<f")
 
 
 @click.group()
@@ -53,12 +56,22 @@ _PROTOCOL = click.option(
     show_default=True,
     help="Proton's protocol version: 2.0 (signal ids) or 1.0 (the seed's, with list types).",
 )
+_SCRATCH = click.option(
+    "--scratch-buffer-size",
+    "scratch",
+    type=click.IntRange(1, 0xFFFF),
+    default=512,
+    show_default=True,
+    metavar="BYTES",
+    help="2.0: the PROTON_SCRATCH_BUFFER_SIZE the peers' C core is built with; a string or "
+    "bytes capacity it cannot decode makes the configuration one that does not load.",
+)
 
 
-def _codec(path: Path, protocol: str) -> BundleCodec:
+def _codec(path: Path, protocol: str, scratch: int) -> BundleCodec:
     """The codec ``--config`` and ``--protocol`` name (one that does not load: exit 2)."""
     try:
-        return BundleCodec(load_config(path), "1.0" if protocol == "1.0" else "2.0")
+        return BundleCodec(load_config(path), "1.0" if protocol == "1.0" else "2.0", scratch)
     except ModuleNotFoundError as error:
         package = "pyyaml" if error.name == "yaml" else error.name
         raise Fatal(
@@ -77,8 +90,21 @@ def json_value(type_name: str, value: Value) -> Any:
         return base64.b64encode(value).decode("ascii")
     if isinstance(value, float) and not math.isfinite(value):
         return "NaN" if math.isnan(value) else "Infinity" if value > 0 else "-Infinity"
+    if type_name == "float":
+        return _shortest_float32(cast(float, value))
     if type_name in ("int64", "uint64"):
         return str(value)
+    return value
+
+
+def _shortest_float32(value: float) -> float:
+    """The float with the fewest significant digits (6 at least) that is the same 32-bit float:
+    what protobuf's JSON mapping prints for a ``float`` (``type_checkers.ToShortestFloat``), so a
+    C ``float`` 0.1 prints as 0.1, not as the double it widens to (0.10000000149011612)."""
+    for digits in range(6, 10):  # 9 significant digits tell every 32-bit float apart
+        shortest = float(f"{value:.{digits}g}")
+        if _FLOAT32.unpack(_FLOAT32.pack(shortest))[0] == value:
+            return shortest
     return value
 
 
@@ -115,15 +141,10 @@ class _Printer:
             name: json_value(self.codec.config.signal(name).type, value)
             for name, value in bundle.signals.items()
         }
-        emit(
-            {
-                **record,
-                "bundle": bundle.name,
-                "id": bundle.id,
-                "length": len(data),
-                "signals": signals,
-            }
-        )
+        record |= {"bundle": bundle.name, "id": bundle.id, "length": len(data), "signals": signals}
+        if bundle.unknown_fields:
+            record["unknown_fields"] = [field._asdict() for field in bundle.unknown_fields]
+        emit(record)
 
     def not_hex(self, line: int, problem: str) -> None:
         self.bad_lines += 1
@@ -141,6 +162,7 @@ class _Printer:
 @click.argument("data", nargs=-1, metavar="[HEX... | -]")
 @_CONFIG
 @_PROTOCOL
+@_SCRATCH
 @click.option(
     "--pcap",
     "capture",
@@ -154,7 +176,12 @@ class _Printer:
     help="The input is a serial byte stream of Proton frames: decode each frame's payload.",
 )
 def decode(
-    data: tuple[str, ...], config_path: Path, protocol: str, capture: Path | None, framed: bool
+    data: tuple[str, ...],
+    config_path: Path,
+    protocol: str,
+    scratch: int,
+    capture: Path | None,
+    framed: bool,
 ) -> None:
     """Decode Proton messages to JSON: one object per message, one per line, on stdout.
 
@@ -173,15 +200,18 @@ def decode(
       {"bundle": "status", "id": 256, "length": 31, "signals": {...}}
       {"error": "...", "reason": "unknown_bundle", "length": 5}
     (reasons: empty, corrupt, unknown_bundle, unsupported_operation; not_hex,
-    with "line", for a line of standard input that is not hex). With --pcap
-    every object starts with "time", "src" and "dst"; --pcap and --framed end
-    with a summary line on stderr.
+    with "line", for a line of standard input that is not hex). A message
+    with fields Proton does not define decodes without them, listed in
+    "unknown_fields". With --pcap every object starts with "time", "src" and
+    "dst"; --pcap and --framed end with a summary line on stderr (--framed:
+    bytes discarded between frames, and a frame the stream cut off).
 
     \b
-    Exit status: 0 every message decoded; 1 at least one did not, or a line
-    was not hex; 2 usage error, a configuration that does not load (one line
-    naming its file, line and key), unreadable or damaged capture, or --pcap
-    without dpkt.
+    Exit status: 0 every message decoded (discarded bytes and a cut-off last
+    frame show in the summary only, as for erc-codec decode --framed); 1 at
+    least one did not, or a line was not hex; 2 usage error, a configuration
+    that does not load (one line naming its file, line and key), unreadable
+    or damaged capture, or --pcap without dpkt.
     """
     if capture is not None and (data or framed):
         raise click.UsageError("--pcap reads the capture only: give no HEX, '-' or --framed")
@@ -193,7 +223,7 @@ def decode(
             given = unhex(" ".join(data))
         except ValueError as error:
             raise click.BadParameter(str(error), param_hint="HEX") from None
-    codec = _codec(config_path, protocol)
+    codec = _codec(config_path, protocol, scratch)
     printer = _Printer(codec)
     summary: str | None = None
     if capture is not None:
@@ -222,13 +252,13 @@ def _deframe(printer: _Printer, chunks: Iterable[bytes]) -> str:
     for chunk in chunks:
         for payload in deframer.feed(chunk):
             printer.message(payload, udp=False)
-    stats = deframer.stats()
+    stats = deframer.stats()  # before flush: what the stream itself threw away
     parts = [plural(stats.frames, "frame"), f"{printer.failed} undecodable"]
     if stats.discarded_bytes:
         reasons = ", ".join(f"{why} {n}" for why, n in sorted(stats.discarded_bytes.items()))
         parts.append(f"{plural(sum(stats.discarded_bytes.values()), 'byte')} discarded ({reasons})")
-    if deframer.buffered():
-        parts.append(f"{plural(deframer.buffered(), 'byte')} left in an unfinished frame")
+    if unfinished := len(deframer.flush()):
+        parts.append(f"{plural(unfinished, 'byte')} left in an unfinished frame")
     if printer.bad_lines:
         parts.append(f"{plural(printer.bad_lines, 'line')} not hex")
     return ", ".join(parts)
@@ -254,25 +284,32 @@ def _from_capture(printer: _Printer, capture: Capture) -> str:
 @click.argument("address", metavar="[HOST:]PORT")
 @_CONFIG
 @_PROTOCOL
+@_SCRATCH
 @click.option("--count", type=click.IntRange(min=1), help="Stop after this many datagrams.")
 @click.option(
     "--seconds", type=click.FloatRange(min=0, min_open=True), help="Stop after this long."
 )
 def listen(
-    address: str, config_path: Path, protocol: str, count: int | None, seconds: float | None
+    address: str,
+    config_path: Path,
+    protocol: str,
+    scratch: int,
+    count: int | None,
+    seconds: float | None,
 ) -> None:
     """Print the Proton datagrams arriving on [HOST:]PORT (host 127.0.0.1 unless given).
 
     One JSON line per datagram, as decode prints them, each with "from"
     (address:port). Port 0 takes any free port; the address actually bound is
     the first line on stderr. It stops after --count datagrams, --seconds, or
-    Ctrl-C, and prints its counters on stderr. Exit status 0; 2 for a usage
-    error, a configuration that does not load or an address it cannot bind.
+    Ctrl-C, and prints its counters on stderr. Exit status 0; 1 when standard
+    output goes away (| head); 2 for a usage error, a configuration that does
+    not load, an address it cannot bind or output it cannot write.
     """
     import asyncio
 
     host, port = parse_address(address, default_host="127.0.0.1")
-    printer = _Printer(_codec(config_path, protocol))
+    printer = _Printer(_codec(config_path, protocol, scratch))
     _, local = resolve(host, port)
     with contextlib.suppress(KeyboardInterrupt):  # Ctrl-C ends it as --count would
         asyncio.run(_listen(printer, local, count, seconds))
@@ -287,24 +324,53 @@ def listen(
 async def _listen(
     printer: _Printer, local: tuple[Any, ...], count: int | None, seconds: float | None
 ) -> None:
+    """Print what arrives until --count or --seconds; output that cannot be written (a reader
+    gone away, a full disk) ends it, raised here for the command group to report."""
     import asyncio
 
-    finished = asyncio.get_running_loop().create_future()
-    endpoint: ProtonUdp | None = None
+    loop = asyncio.get_running_loop()
+    finished = loop.create_future()
 
     def heard(data: bytes, sender: Any) -> None:
         if finished.done():
-            return  # already read when --count was reached
-        printer.message(data, {"from": shown(sender)})
+            return  # already read when --count was reached, or output failed
+        try:
+            printer.message(data, {"from": shown(sender)})
+        except OSError as error:  # stdout: a broken pipe, a full disk
+            finished.set_exception(error)
+            return
         if count is not None and printer.messages >= count:
             finished.set_result(None)
 
     try:
-        endpoint = await open_datagrams(heard, local[0], local[1])
+        transport, _ = await loop.create_datagram_endpoint(
+            lambda: cast("asyncio.DatagramProtocol", _Datagrams(heard)), local_addr=local
+        )
     except OSError as error:
         raise Fatal(f"cannot listen on {shown(local)}: {error}") from None
-    click.echo(f"listening on {shown(endpoint.address)}", err=True)
+    click.echo(f"listening on {shown(transport.get_extra_info('sockname'))}", err=True)
     try:
         await asyncio.wait([finished], timeout=seconds)
     finally:
-        endpoint.close()
+        transport.close()
+    if finished.done():
+        finished.result()  # raises what stopped the output
+
+
+class _Datagrams:
+    """asyncio's datagram protocol, each datagram to ``heard(data, sender)``."""
+
+    def __init__(self, heard: Callable[[bytes, Any], None]) -> None:
+        self.heard = heard
+
+    def connection_made(self, transport: object) -> None:
+        """The socket is bound."""
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        """The socket is closed."""
+
+    def datagram_received(self, data: bytes, addr: Any) -> None:
+        self.heard(data, addr)
+
+    def error_received(self, exc: Exception) -> None:
+        """An ICMP error for a send: a listener sends nothing."""

@@ -4,21 +4,27 @@ own C libraries, in protocol 2.0 and in 1.0 (the one Proton's documentation desc
 - configurations: ``load_config``/``parse_config`` (Proton's YAML, read as its generator reads it)
   into ``Config`` records; a mistake is a ``ProtonConfigError`` naming the file, line and key;
 - bundles: ``BundleCodec(config, version)`` encodes a bundle's values and decodes a message to a
-  ``Bundle``;
+  ``Bundle``, with every ``UnknownField`` it skipped;
 - a node: ``Node`` (sans-IO, an injected clock) holds the registry, says what is due (``Sent``),
-  applies what arrives, sends and watches heartbeats (peers as ``erc_codec.Liveness``);
+  applies what arrives, counts heartbeats and watches its peers (as ``erc_codec.Liveness``);
 - links: ``open_proton_udp`` and ``run_proton_serial`` (asyncio, loaded only inside a loop),
   ``split_udp_header`` for a 2.0 sender's UDP header.
+
+Mistakes, one kind each: a configuration that cannot be used is a ``ProtonConfigError``; a name
+it (or a node's part in it) does not have a ``KeyError``; a value that cannot be sent an
+``EncodeError``; a message that cannot be read a ``DecodeError``; any other bad argument (a
+version, a clock reading, a tick) a ``ValueError``.
 
 Reading a configuration needs the ``proton`` extra (pyyaml); nothing else here does.
 """
 
-from ._codec import Bundle, BundleCodec
+from ._codec import Bundle, BundleCodec, UnknownField
 from ._config import (
     BundleConfig,
     Config,
     ConnectionConfig,
     EndpointConfig,
+    EndpointType,
     NodeConfig,
     ProtonConfigError,
     SignalConfig,
@@ -27,7 +33,7 @@ from ._config import (
 )
 from ._node import Node, Sent
 from ._transport import LinkStats, ProtonUdp, open_proton_udp, run_proton_serial
-from ._types import Value, Version
+from ._types import SignalType, Value, Version
 from ._udp_header import UdpHeader, split_udp_header
 
 __all__ = [
@@ -37,6 +43,7 @@ __all__ = [
     "Config",
     "ConnectionConfig",
     "EndpointConfig",
+    "EndpointType",
     "LinkStats",
     "Node",
     "NodeConfig",
@@ -44,7 +51,9 @@ __all__ = [
     "ProtonUdp",
     "Sent",
     "SignalConfig",
+    "SignalType",
     "UdpHeader",
+    "UnknownField",
     "Value",
     "Version",
     "load_config",

@@ -1,41 +1,52 @@
 """A sans-IO Proton node: its registry of signal values, the bundles it owes its peers, the
 bundles and heartbeats it receives.
 
-Guarantees: the clock is the caller's (``now`` in seconds, any origin, kept to the microsecond);
-nothing here reads time, sleeps, starts a thread or touches a socket. ``poll(now)`` returns every
-bundle due at ``now``, encoded, in the order Proton's node manager (``proton_node_update``, called
-until it has nothing left) sends them: triggered bundles first, then periodic ones; within each,
-the most overdue first, the higher id first among equals (the C node picks the last of its
-id-sorted table). The first ``poll`` is the node's boot, as uptime 0 is the C node's: every bundle
-counts as sent then, so a periodic bundle first goes out ``period_ms`` after it, and then whenever
-``period_ms`` has passed since it was last sent (when triggered too). A late poll delays what
-follows, as in C (the period counts from the actual send). A clock that steps back never makes a
-bundle due early (the C node's unsigned uptime would make every bundle due at once).
+Guarantees: the clock is the caller's (``now`` in seconds, any origin, kept to the microsecond;
+anything but a finite number is a ``ValueError`` naming ``now``, so no NaN ever reaches a
+schedule or a peer's last arrival); nothing here reads time, sleeps, starts a thread or touches a
+socket. ``poll(now)`` returns every bundle due at ``now``, encoded, in the order Proton's node
+manager (``proton_node_update``, called until it has nothing left) sends them: triggered bundles
+first, then periodic ones; within each, the most overdue first, the higher id first among equals
+(the C node picks the last of its id-sorted table). The first ``poll`` is the node's boot, as
+uptime 0 is the C node's: every bundle counts as sent then, so a periodic bundle first goes out
+``period_ms`` after it, and then whenever ``period_ms`` has passed since it was last sent (when
+triggered too). A late poll delays what follows, as in C (the period counts from the actual send).
+A clock that steps back never makes a bundle due early (the C node's unsigned uptime would make
+every bundle due at once). ``poll`` encodes every due bundle before it changes any schedule or
+counter: it either returns them all or, raising, changes nothing.
 
 The registry holds the signals of the bundles the node produces or consumes (those Proton's
 generator puts in its registry), starting at their configured defaults; ``set`` refuses, with an
 ``EncodeError``, what a signal cannot send unchanged, so every due bundle encodes. ``receive``
 decodes one message, applies its values and calls the bundle's handler; anything undecodable, or a
-bundle this node does not consume, is a ``DecodeError`` and changes nothing.
+bundle this node does not consume, is a ``DecodeError`` and changes nothing. The registry holds
+its own copies of list values: what ``get`` returns, and a received ``Bundle``'s lists, are the
+caller's to change.
 
-Heartbeats, as the seed describes them (bundle id 0, one uint32 signal): a node producing bundle 0
-adds one to its counter (modulo 2**32) each time it sends it. A peer producing bundle 0 that this
-node consumes is watched (an ``erc_codec.Watchdog``): INACTIVE until its first heartbeat, ACTIVE
-while they arrive, INACTIVE once none came within the timeout; a peer without heartbeats (or whose
-heartbeat has no period) is UNCONFIGURED. Proton's sources set no timeout. A sender following
-Proton's node manager sends heartbeats a period apart or more (later by however long its polls
-come after they are due), so a timeout of exactly one period would mark a healthy peer INACTIVE
-between its heartbeats: the default is the ``Watchdog``'s, three periods.
-A received heartbeat never overwrites the counter of a node that sends heartbeats itself.
+Heartbeats, as the seed describes them: a bundle with id 0 and one uint32 signal. A node producing
+it adds one to its counter (modulo 2**32) each time it sends it; a received heartbeat never
+overwrites the counter of a node that sends heartbeats itself.
+
+Peers (``peer_state``, as ``erc_codec.Liveness``): Proton defines UNCONFIGURED, INACTIVE and ACTIVE
+as a node's lifecycle and sets no timeout; here a peer's state is what this node can tell of it.
+A peer is watched when it produces a periodic bundle this node consumes: its heartbeat's period if
+it sends one, else the shortest ``period_ms`` of those bundles. A watched peer is INACTIVE until it
+is first heard, ACTIVE while any bundle it produces keeps arriving (any bundle proves it alive, not
+only heartbeats), INACTIVE once none came within the timeout. A peer sending this node only
+triggered bundles, or nothing, is UNCONFIGURED: nothing says when to expect it. The timeout is
+three periods unless given (``peer_timeout``): a sender following Proton's node manager sends a
+period apart or more (later by however long its polls come after they are due), so the "within
+the period" of the seed would mark a healthy peer INACTIVE between its heartbeats.
 """
 
+import math
 from collections.abc import Callable
 from typing import NamedTuple, TypeVar
 
-from .._errors import DecodeError, EncodeError
+from .._errors import DecodeError
 from .._watchdog import Liveness, Watchdog
-from ._codec import Bundle, BundleCodec
-from ._config import BundleConfig, Config, ProtonConfigError
+from ._codec import SCRATCH_BUFFER_SIZE, Bundle, BundleCodec
+from ._config import BundleConfig, Config
 from ._types import Value, Version
 
 __all__ = ["Node", "Sent"]
@@ -69,46 +80,53 @@ class _Schedule:
 
 
 class Node:
-    """One node of a Proton configuration, speaking ``version`` to its peers."""
+    """One node of a Proton configuration, speaking ``version`` to its peers.
+
+    Mistakes, one kind each: a name the configuration or this node's part in it does not have
+    (a node, signal, bundle or peer; a bundle it does not produce, to ``trigger``, or consume, to
+    ``register``) is a ``KeyError``; a value a signal cannot send an ``EncodeError``; a message
+    that does not decode (or that this node does not consume) a ``DecodeError``; a configuration
+    this version cannot use a ``ProtonConfigError``; a ``now`` that is not a finite number a
+    ``ValueError``."""
 
     def __init__(
         self,
         config: Config,
         name: str,
         version: Version = "2.0",
-        heartbeat_timeout: float | None = None,
+        peer_timeout: float | None = None,
         on_peer: PeerHandler | None = None,
+        scratch_buffer_size: int = SCRATCH_BUFFER_SIZE,
     ) -> None:
-        """``heartbeat_timeout``: seconds without a heartbeat before a peer is INACTIVE (default:
-        three heartbeat periods). ``on_peer(peer, state)`` hears every change of a peer's state."""
-        if all(node.name != name for node in config.nodes):
-            known = ", ".join(node.name for node in config.nodes)
-            raise ProtonConfigError(
-                config.source, None, "", f"no node is called {name!r} ({known})"
-            )
+        """``peer_timeout``: seconds without hearing a watched peer before it is INACTIVE
+        (default: three of its periods). ``on_peer(peer, state)`` hears every change of a
+        peer's state. ``scratch_buffer_size``: as for ``BundleCodec``."""
+        config.node(name)  # a KeyError naming it if there is none
         self.name = name
-        self.codec = BundleCodec(config, version)
+        self.codec = BundleCodec(config, version, scratch_buffer_size)
         self.on_peer = on_peer
         self._peers = tuple(dict.fromkeys(peer.name for _, peer, _ in config.peers(name)))
         mine = [b for b in config.bundles if name in b.producers or name in b.consumers]
         self._values: dict[str, Value] = {
-            signal: config.signal(signal).default for bundle in mine for signal in bundle.signals
+            signal: _own(config.signal(signal).default)
+            for bundle in mine
+            for signal in bundle.signals
         }
         self._produced = {
             b.name: _Schedule(b, tuple(p for p in b.consumers if p in self._peers))
             for b in mine
             if name in b.producers
         }
-        self._consumed = {b.id for b in mine if name in b.consumers}
+        consumed = [b for b in mine if name in b.consumers]
+        self._consumed = {b.id for b in consumed}
         self._handlers: dict[str, Handler] = {}
         self._booted = False
         self._watchdog = Watchdog()
-        self._heartbeat = next((b for b in mine if b.id == _HEARTBEAT), None)
-        if self._heartbeat is not None and self._heartbeat.id in self._consumed:
-            period = self._heartbeat.period_ms / 1000
-            for peer in self._beating_peers():
-                if period > 0:
-                    self._watchdog.watch(peer, period, heartbeat_timeout)
+        self._heartbeat = next((b for b in mine if _is_heartbeat(config, b)), None)
+        for peer in self._peers:
+            period = _watch_period(peer, consumed, self._heartbeat)
+            if period is not None:
+                self._watchdog.watch(peer, period / 1000, peer_timeout)
 
     @property
     def peers(self) -> tuple[str, ...]:
@@ -119,22 +137,20 @@ class Node:
 
     def set(self, signal: str, value: object) -> None:
         """Give ``signal`` a new value, sent with the next bundle that carries it."""
-        if signal not in self._values:
-            self.codec.signal(signal)  # an unknown name says so
-            raise EncodeError(
-                f"signal {signal!r} is in no bundle node {self.name!r} produces or consumes"
-            )
-        self._values[signal] = self.codec.check(signal, value)
+        self._registered(signal)
+        self._values[signal] = self.codec.check(signal, value)  # a new value: check() copies
 
     def get(self, signal: str) -> Value:
         """The signal's value: its default, what was set, or what was last received."""
+        return _own(self._values[self._registered(signal)])  # the caller's to change
+
+    def _registered(self, signal: str) -> str:
         if signal not in self._values:
-            self.codec.signal(signal)
-            raise EncodeError(
+            self.codec.config.signal(signal)  # a KeyError naming an unknown name
+            raise KeyError(
                 f"signal {signal!r} is in no bundle node {self.name!r} produces or consumes"
             )
-        value = self._values[signal]
-        return value.copy() if isinstance(value, list) else value  # the caller's to change
+        return signal
 
     # -- sending -------------------------------------------------------------------------------
 
@@ -144,7 +160,7 @@ class Node:
 
     def poll(self, now: float) -> list[Sent]:
         """Every bundle due at ``now``, in the order to send them."""
-        clock = round(now * _MICROSECONDS)
+        clock = _microseconds(now)
         if not self._booted:  # uptime 0: everything counts as sent now
             self._booted = True
             for schedule in self._produced.values():
@@ -162,41 +178,41 @@ class Node:
             elif schedule.period and elapsed >= schedule.period:
                 periodic.append(key)
         order = sorted(triggered, key=_priority) + sorted(periodic, key=_priority)
-        sent = [self._send(schedule, clock) for _, _, schedule in order]
+        counted: dict[str, Value] = {}  # the heartbeat counter, once it is sent
+        sent = [self._encoded(schedule.config, counted) for _, _, schedule in order]
+        for _, _, schedule in order:  # every bundle encoded: only now does anything change
+            schedule.last, schedule.triggered = clock, False
+        self._values.update(counted)
         for peer in self._watchdog.poll(now):
             self._tell(peer, Liveness.INACTIVE)
         return sent
 
-    def _send(self, schedule: _Schedule, clock: int) -> Sent:
-        bundle = schedule.config
-        if bundle.id == _HEARTBEAT:
+    def _encoded(self, bundle: BundleConfig, counted: dict[str, Value]) -> Sent:
+        values = {n: self._values[n] for n in bundle.signals}
+        if bundle is self._heartbeat:
             (counter,) = bundle.signals
-            beats = self._values[counter]
+            beats = values[counter]
             assert isinstance(beats, int)  # the configuration makes it a uint32
-            self._values[counter] = (beats + 1) % (1 << 32)
-        data = self.codec.encode(bundle.name, {n: self._values[n] for n in bundle.signals})
-        schedule.last, schedule.triggered = clock, False
-        return Sent(bundle.name, data, schedule.peers)
+            values[counter] = counted[counter] = (beats + 1) % (1 << 32)
+        data = self.codec.encode(bundle.name, values)
+        return Sent(bundle.name, data, self._produced[bundle.name].peers)
 
     def _schedule(self, bundle: str) -> _Schedule:
         schedule = self._produced.get(bundle)
         if schedule is None:
-            self.codec.bundle(bundle)  # an unknown name says so
-            raise EncodeError(f"bundle {bundle!r} is not produced by node {self.name!r}")
+            self.codec.config.bundle(bundle)  # a KeyError naming an unknown name
+            raise KeyError(f"node {self.name!r} produces no bundle {bundle!r}")
         return schedule
 
     # -- receiving -----------------------------------------------------------------------------
 
     def register(self, bundle: str, handler: Handler) -> None:
         """Call ``handler(received)`` (a ``Bundle``) after each ``bundle`` received and applied."""
-        config = self.codec.bundle(bundle)
+        config = self.codec.config.bundle(bundle)  # a KeyError naming an unknown name
         if config.id not in self._consumed:
-            raise ProtonConfigError(
-                self.codec.config.source,
-                config.line,
-                f"bundle {bundle!r}",
-                f"is not consumed by node {self.name!r} (its consumers: "
-                f"{', '.join(config.consumers)})",
+            raise KeyError(
+                f"node {self.name!r} consumes no bundle {bundle!r} (its consumers: "
+                f"{', '.join(config.consumers)})"
             )
         self._handlers[bundle] = handler
 
@@ -211,45 +227,47 @@ class Node:
 
     def receive(self, data: bytes, now: float, peer: str | None = None) -> Bundle:
         """Decode one message (unframed), apply it to the registry and call its handler; the
-        bundle. ``peer``: who sent it, when the transport knows; a heartbeat from an unnamed
-        sender counts for the one peer producing heartbeats, if there is just one."""
+        bundle. ``peer``: who sent it, when the transport knows; unnamed, the sender is the
+        bundle's one producer among this node's peers, if it has just one."""
+        _microseconds(now)  # a ValueError before anything changes
         received = self.codec.decode(data)
         if received.id not in self._consumed:
             raise DecodeError(
                 f"bundle {received.name!r} is not consumed by node {self.name!r}", "not_consumed"
             )
-        if received.id == _HEARTBEAT:
-            self._heard(peer, now)
-        for signal, value in received.signals.items():
-            if received.id != _HEARTBEAT or received.name not in self._produced:
-                self._values[signal] = value
+        heartbeat = self._heartbeat
+        counts_its_own = (
+            heartbeat is not None
+            and received.name == heartbeat.name
+            and heartbeat.name in self._produced
+        )
+        if not counts_its_own:
+            for signal, value in received.signals.items():
+                self._values[signal] = _own(value)  # the received Bundle's lists stay its own
+        self._heard(received, peer, now)
         handler = self._handlers.get(received.name)
         if handler is not None:
             handler(received)
         return received
 
     def peer_state(self, peer: str) -> Liveness:
-        """``peer``'s state, as its heartbeats show it."""
+        """``peer``'s state, as what arrives from it shows it (see the module's docstring)."""
         if peer not in self._peers:
             raise KeyError(f"{peer!r} is not a peer of node {self.name!r}")
         return self._watchdog.state(peer)
 
-    def _heard(self, peer: str | None, now: float) -> None:
-        beating = self._beating_peers()
-        if peer is None and len(beating) == 1:
-            peer = beating[0]
-        if peer is None or peer not in beating:
+    def _heard(self, received: Bundle, peer: str | None, now: float) -> None:
+        if peer is None:
+            producers = self.codec.config.bundle(received.name).producers
+            candidates = [p for p in self._peers if p in producers]
+            peer = candidates[0] if len(candidates) == 1 else None
+        if peer is None or peer not in self._peers:
             return
         before = self._watchdog.state(peer)
         self._watchdog.seen(peer, now)
         after = self._watchdog.state(peer)
         if after is not before:
             self._tell(peer, after)
-
-    def _beating_peers(self) -> tuple[str, ...]:
-        if self._heartbeat is None:
-            return ()
-        return tuple(p for p in self._peers if p in self._heartbeat.producers)
 
     def _tell(self, peer: str, state: Liveness) -> None:
         if self.on_peer is not None:
@@ -259,3 +277,36 @@ class Node:
 def _priority(key: tuple[int, int, _Schedule]) -> tuple[int, int]:
     overdue, bundle_id, _ = key
     return -overdue, -bundle_id
+
+
+def _microseconds(now: float) -> int:
+    """``now`` (seconds) on the node's microsecond clock; a ``ValueError`` for anything but a
+    finite number (NaN would stop every timeout comparison, infinity every schedule)."""
+    if isinstance(now, bool) or not isinstance(now, int | float) or not math.isfinite(now):
+        raise ValueError(f"now must be a finite number of seconds, not {now!r}")
+    return round(now * _MICROSECONDS)
+
+
+def _own(value: Value) -> Value:
+    """A value the registry (or its caller) holds alone: lists are copied."""
+    return value.copy() if isinstance(value, list) else value
+
+
+def _is_heartbeat(config: Config, bundle: BundleConfig) -> bool:
+    """The seed's heartbeat: bundle id 0 with one uint32 signal."""
+    return (
+        bundle.id == _HEARTBEAT
+        and len(bundle.signals) == 1
+        and config.signal(bundle.signals[0]).type == "uint32"
+    )
+
+
+def _watch_period(
+    peer: str, consumed: list[BundleConfig], heartbeat: BundleConfig | None
+) -> int | None:
+    """The period (ms) to expect ``peer`` by: its heartbeat's, else its fastest periodic bundle
+    this node consumes; ``None`` when nothing it sends here is periodic."""
+    periodic = [b for b in consumed if peer in b.producers and b.period_ms > 0]
+    if heartbeat is not None and heartbeat in periodic:
+        return heartbeat.period_ms
+    return min((b.period_ms for b in periodic), default=None)

@@ -4,16 +4,20 @@ Everything that decides lives in the node (what is due, what a message means, wh
 in the framing (``erc_codec.frame``, ``erc_codec.Deframer``); these only move bytes and read the
 clock, polling the node every ``tick`` seconds. A message that does not decode, or that the node
 does not consume, is counted by its ``DecodeError`` reason and handed to ``on_error``; the link
-goes on. Like erc_codec's own UDP endpoint, this module does not import asyncio at import time
-(``import erc_codec.proton`` stays cheap): its code runs inside an event loop, where asyncio is
-loaded, and ``ProtonUdp`` implements asyncio's datagram protocol methods itself.
+goes on. Anything else that goes wrong (the node refusing the clock, a handler or ``on_peer``
+raising, a write that fails because the device went away) stops the link, never silently:
+``run_proton_serial`` raises it, and a UDP link closes and ``wait_closed()`` raises it. Like
+erc_codec's own UDP endpoint, this module does not import asyncio at import time (``import
+erc_codec.proton`` stays cheap): its code runs inside an event loop, where asyncio is loaded, and
+``ProtonUdp`` implements asyncio's datagram protocol methods itself.
 
 UDP, as Proton's udp4 transport: one message per datagram, no CRC; a 2.0 sender's optional 4-byte
-header is read (its node id names the sender when its address does not) and none is sent. The
-local address and the peers' addresses come from the configuration's connections (a udp4 endpoint
-each) unless given.
+header is read and none is sent. A datagram's sender is the peer at its address; from an address
+no peer has, the node whose id its header names (any id, 0 included). The local address and the
+peers' addresses come from the configuration's connections (a udp4 endpoint each) unless given.
 """
 
+import math
 import time
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any, NamedTuple, cast
@@ -26,69 +30,108 @@ from ._udp_header import split_udp_header
 if TYPE_CHECKING:
     import asyncio
 
-__all__ = ["LinkStats", "ProtonUdp", "open_datagrams", "open_proton_udp", "run_proton_serial"]
+__all__ = ["LinkStats", "ProtonUdp", "open_proton_udp", "run_proton_serial"]
 
 Clock = Callable[[], float]
-Heard = Callable[[bytes, Any], object]
 OnError = Callable[[DecodeError], object]
 _MAX_FRAME = 0xFFFF
+_SEND_FAILED = "send_failed"
 
 
 class LinkStats(NamedTuple):
-    """A link's counters: messages received and applied, messages sent, failures by reason."""
+    """A link's counters: messages received and applied, messages sent, failures by reason
+    (a ``DecodeError`` reason, or ``"send_failed"`` for a datagram the kernel reported
+    undeliverable), and the fields received messages carried that Proton does not define
+    (skipped: ``Bundle.unknown_fields``)."""
 
     received: int
     sent: int
     errors: dict[str, int]
+    unknown_fields: int
 
 
 class _Counters:
     def __init__(self, on_error: OnError | None) -> None:
-        self.received = self.sent = 0
+        self.received = self.sent = self.unknown_fields = 0
         self.errors: dict[str, int] = {}
         self.on_error = on_error
 
     def receive(self, node: Node, data: bytes, clock: Clock, peer: str | None) -> None:
         try:
-            node.receive(data, clock(), peer)
+            bundle = node.receive(data, clock(), peer)
         except DecodeError as error:
-            self.errors[error.reason] = self.errors.get(error.reason, 0) + 1
+            self.count(error.reason)
             if self.on_error is not None:
                 self.on_error(error)
             return
         self.received += 1
+        self.unknown_fields += len(bundle.unknown_fields)
+
+    def count(self, reason: str) -> None:
+        self.errors[reason] = self.errors.get(reason, 0) + 1
 
     def stats(self) -> LinkStats:
-        return LinkStats(self.received, self.sent, dict(self.errors))
+        return LinkStats(self.received, self.sent, dict(self.errors), self.unknown_fields)
+
+
+def _checked_tick(tick: float) -> float:
+    if isinstance(tick, bool) or not isinstance(tick, int | float) or not 0 < tick < math.inf:
+        raise ValueError(f"tick must be a positive number of seconds, not {tick!r}")
+    return tick
 
 
 class ProtonUdp:
-    """A UDP socket as an asyncio datagram protocol: ``heard(data, sender)`` hears every
-    datagram; ``sendto`` sends one. ``open_proton_udp`` makes one that runs a node."""
+    """A node running on a UDP socket, as ``open_proton_udp`` returns it (it is not made
+    directly): its ``address``, its ``stats()``, ``close()`` and ``wait_closed()``. The
+    remaining methods are asyncio's datagram protocol, called by the event loop."""
 
-    def __init__(self, heard: Heard, stats: Callable[[], LinkStats] | None = None) -> None:
-        """``stats``: the counters of the node the socket runs, if it runs one."""
-        self.heard = heard
-        self.on_close: Callable[[], object] | None = None
+    def __init__(
+        self,
+        node: Node,
+        addresses: dict[str, tuple[str, int]],
+        clock: Clock,
+        tick: float,
+        on_error: OnError | None,
+    ) -> None:
+        import asyncio  # loaded: open_proton_udp runs inside an event loop
+
+        self._node = node
+        self._addresses = addresses
+        self._senders = {address: name for name, address in addresses.items()}
+        self._ids = {n.id: n.name for n in node.codec.config.nodes if n.name in node.peers}
+        self._clock = clock
+        self._tick = tick
+        self._counters = _Counters(on_error)
         self._transport: asyncio.DatagramTransport | None = None
-        self._stats = stats
-        self.send_errors = 0
+        self._poller: asyncio.Task[None] | None = None
+        self._closed: asyncio.Future[None] = asyncio.get_running_loop().create_future()
 
     # -- asyncio.DatagramProtocol ----------------------------------------------------------------
 
     def connection_made(self, transport: "asyncio.BaseTransport") -> None:
+        import asyncio
+
         self._transport = cast("asyncio.DatagramTransport", transport)
+        self._poller = asyncio.get_running_loop().create_task(self._polling())
+        self._poller.add_done_callback(self._poller_done)
 
     def connection_lost(self, exc: Exception | None) -> None:
-        if self.on_close is not None:
-            self.on_close()
-            self.on_close = None
+        self._stop(exc)
 
     def datagram_received(self, data: bytes, addr: Any) -> None:
-        self.heard(data, addr)
+        if self._closed.done():
+            return
+        header, message = split_udp_header(data)
+        peer = self._senders.get((addr[0], addr[1]))
+        if peer is None and header is not None:
+            peer = self._ids.get(header.node_id)
+        try:
+            self._counters.receive(self._node, message, self._clock, peer)
+        except Exception as error:  # a handler, on_peer or the clock: the link stops, loudly
+            self._stop(error)
 
     def error_received(self, exc: Exception) -> None:
-        self.send_errors += 1  # e.g. ICMP port unreachable after a send
+        self._counters.count(_SEND_FAILED)  # e.g. ICMP port unreachable after a send
 
     def pause_writing(self) -> None:
         """The kernel's send buffer is full; datagrams queue in the transport meanwhile."""
@@ -96,7 +139,7 @@ class ProtonUdp:
     def resume_writing(self) -> None:
         """The send buffer has room again."""
 
-    # -- the socket ------------------------------------------------------------------------------
+    # -- the link --------------------------------------------------------------------------------
 
     @property
     def address(self) -> tuple[str, int]:
@@ -105,35 +148,59 @@ class ProtonUdp:
         host, port = self._transport.get_extra_info("sockname")[:2]
         return host, port
 
-    def sendto(self, data: bytes, address: tuple[str, int]) -> None:
-        assert self._transport is not None, "the socket is not open"
-        self._transport.sendto(data, address)
+    @property
+    def closed(self) -> bool:
+        """Whether the link has stopped (``close()``, or a failure ``wait_closed()`` raises)."""
+        return self._closed.done()
 
     def stats(self) -> LinkStats:
-        """The node's link counters (all zero for a socket that runs no node)."""
-        return self._stats() if self._stats is not None else LinkStats(0, 0, {})
+        """The link's counters."""
+        return self._counters.stats()
 
     def close(self) -> None:
         """Stop the node's polling and close the socket."""
+        self._stop(None)
+
+    async def wait_closed(self) -> None:
+        """Until the link stops: it returns after ``close()``, and raises what stopped it
+        otherwise (an exception from the node, a handler, ``on_peer``, the clock or the
+        socket)."""
+        import asyncio
+
+        await asyncio.shield(self._closed)
+
+    async def _polling(self) -> None:
+        import asyncio
+
+        while True:
+            for sent in self._node.poll(self._clock()):
+                for peer in sent.peers:
+                    if peer in self._addresses:
+                        self._sendto(sent.data, self._addresses[peer])
+            await asyncio.sleep(self._tick)
+
+    def _sendto(self, data: bytes, address: tuple[str, int]) -> None:
+        assert self._transport is not None
+        self._transport.sendto(data, address)
+        self._counters.sent += 1
+
+    def _poller_done(self, poller: "asyncio.Task[None]") -> None:
+        if not poller.cancelled():
+            self._stop(poller.exception())
+
+    def _stop(self, failure: BaseException | None) -> None:
+        """Stop once: the first failure (or none, for ``close()``) is what ``wait_closed``
+        reports."""
+        if self._closed.done():
+            return
+        if failure is None:
+            self._closed.set_result(None)
+        else:
+            self._closed.set_exception(failure)
+        if self._poller is not None:
+            self._poller.cancel()
         if self._transport is not None:
             self._transport.close()
-        self.connection_lost(None)
-
-
-async def open_datagrams(heard: Heard, host: str, port: int) -> ProtonUdp:
-    """A UDP socket bound to ``host:port`` (port 0: any free one) whose datagrams go to
-    ``heard(data, sender)``."""
-    return await _bound(ProtonUdp(heard), host, port)
-
-
-async def _bound(endpoint: ProtonUdp, host: str, port: int) -> ProtonUdp:
-    import asyncio
-
-    protocol = cast("asyncio.DatagramProtocol", endpoint)
-    await asyncio.get_running_loop().create_datagram_endpoint(
-        lambda: protocol, local_addr=(host, port)
-    )
-    return endpoint
 
 
 async def open_proton_udp(
@@ -147,41 +214,21 @@ async def open_proton_udp(
 ) -> ProtonUdp:
     """``node`` on UDP: bound to ``host:port`` (default: its endpoint of its first udp4
     connection), sending each due bundle to its consumers' addresses (``peers`` by name; default:
-    their endpoints of those connections), polled every ``tick`` seconds until closed."""
+    their endpoints of those connections), polled every ``tick`` seconds until closed or until
+    something stops it (``ProtonUdp.wait_closed`` raises what)."""
     import asyncio
 
+    tick = _checked_tick(tick)
     local, addresses = _udp_addresses(node)
     addresses.update(peers or {})
-    senders = {address: name for name, address in addresses.items()}
-    ids = {n.id: n.name for n in node.codec.config.nodes if n.name in node.peers}
-    counters = _Counters(on_error)
-
-    def heard(data: bytes, sender: Any) -> None:
-        header, message = split_udp_header(data)
-        peer = senders.get((sender[0], sender[1]))
-        if peer is None and header is not None:
-            peer = ids.get(header.node_id)
-        counters.receive(node, message, clock, peer)
-
+    link = ProtonUdp(node, addresses, clock, tick, on_error)
     bound_host, bound_port = local or ("127.0.0.1", 0)
-    endpoint = await _bound(
-        ProtonUdp(heard, counters.stats),
-        bound_host if host is None else host,
-        bound_port if port is None else port,
+    protocol = cast("asyncio.DatagramProtocol", link)
+    await asyncio.get_running_loop().create_datagram_endpoint(
+        lambda: protocol,
+        local_addr=(bound_host if host is None else host, bound_port if port is None else port),
     )
-
-    async def polling() -> None:
-        while True:
-            for sent in node.poll(clock()):
-                for peer in sent.peers:
-                    if peer in addresses:
-                        endpoint.sendto(sent.data, addresses[peer])
-                        counters.sent += 1
-            await asyncio.sleep(tick)
-
-    poller = asyncio.get_running_loop().create_task(polling())
-    endpoint.on_close = poller.cancel
-    return endpoint
+    return link
 
 
 def _udp_addresses(node: Node) -> tuple[tuple[str, int] | None, dict[str, tuple[str, int]]]:
@@ -207,11 +254,19 @@ async def run_proton_serial(
 ) -> LinkStats:
     """``node`` on a serial link (pyserial-asyncio's streams, a socket, a pipe): every frame that
     arrives is received from ``peer``, every due bundle for ``peer`` (any bundle, without one) is
-    framed and written, until ``reader`` ends; the link's counters."""
+    framed and written, until ``reader`` ends; the link's counters. What stops the reading or
+    the writing otherwise (a failed write, a handler raising, the node refusing the clock) stops
+    both and is raised here."""
     import asyncio
 
+    tick = _checked_tick(tick)
     counters = _Counters(on_error)
     deframer = Deframer(max_length=_MAX_FRAME)
+
+    async def reading() -> None:
+        while data := await reader.read(4096):
+            for payload in deframer.feed(data):
+                counters.receive(node, payload, clock, peer)
 
     async def polling() -> None:
         while True:
@@ -224,11 +279,15 @@ async def run_proton_serial(
                 await writer.drain()
             await asyncio.sleep(tick)
 
-    poller = asyncio.get_running_loop().create_task(polling())
+    loop = asyncio.get_running_loop()
+    tasks = (loop.create_task(reading()), loop.create_task(polling()))
     try:
-        while data := await reader.read(4096):
-            for payload in deframer.feed(data):
-                counters.receive(node, payload, clock, peer)
+        await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
     finally:
-        poller.cancel()
+        for task in tasks:
+            task.cancel()
+        await asyncio.wait(tasks)
+    for task in tasks:
+        if not task.cancelled() and task.exception() is not None:
+            raise cast(BaseException, task.exception())
     return counters.stats()

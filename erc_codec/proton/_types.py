@@ -19,12 +19,13 @@ Facts, from Proton's sources (``2.0-d269668`` and ``1.0-8c898cf``):
 
 import math
 import struct
-from typing import Literal, NamedTuple
+from typing import Literal, NamedTuple, get_args
 
 __all__ = [
     "LIST_TYPES",
     "SCALAR_TYPES",
     "TYPES",
+    "SignalType",
     "Value",
     "Version",
     "check",
@@ -49,9 +50,29 @@ Value = (
     | list[bytes]
 )
 
-SCALAR_TYPES = ("double", "float", "int32", "int64", "uint32", "uint64", "bool", "string", "bytes")
-LIST_TYPES = tuple(f"list_{name}" for name in SCALAR_TYPES)
-TYPES = SCALAR_TYPES + LIST_TYPES
+SignalType = Literal[
+    "double",
+    "float",
+    "int32",
+    "int64",
+    "uint32",
+    "uint64",
+    "bool",
+    "string",
+    "bytes",
+    "list_double",
+    "list_float",
+    "list_int32",
+    "list_int64",
+    "list_uint32",
+    "list_uint64",
+    "list_bool",
+    "list_string",
+    "list_bytes",
+]
+TYPES: tuple[SignalType, ...] = get_args(SignalType)  # member n of Signal's oneof: TYPES[n - 1]
+SCALAR_TYPES = TYPES[:9]
+LIST_TYPES = TYPES[9:]
 
 
 class _Range(NamedTuple):

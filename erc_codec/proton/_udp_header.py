@@ -15,7 +15,9 @@ _SIZE = 4
 
 
 class UdpHeader(NamedTuple):
-    """The header's fields: ``node_id`` 0 leaves the sender for the receiver to tell."""
+    """The header's fields, as Proton's ``proton_udp4_fill_header`` writes them: ``node_id`` is
+    the sending node's id (0 is a node id like any other: a datagram without a header has no
+    ``UdpHeader`` here, where Proton's C core reports node id 0 for it)."""
 
     version: int
     node_id: int
