@@ -167,7 +167,7 @@ def _map_entries(old: dict[str, Message], new: dict[str, Message]) -> dict[str, 
 
 
 def _pair(
-    kind: Callable[[_Container, _Container], _Pair],
+    make: Callable[[_Container, _Container], _Pair],
     old: dict[str, _Container],
     new: dict[str, _Container],
     renamed: dict[str, str],
@@ -177,8 +177,8 @@ def _pair(
     renamed message declares), then by identical body, outermost NEW elements first, so that
     a message's rename brings its nested types before any other body can claim them. A NEW
     element is the rename of one OLD element at most; renames are added to ``renamed``.
-    Returns the pairs and OLD's unpaired leftovers."""
-    pairs = [kind(old[name], new[name]) for name in old if name in new]
+    Returns the pairs (each made by ``make``) and OLD's unpaired leftovers."""
+    pairs = [make(old[name], new[name]) for name in old if name in new]
     left = [name for name in old if name not in new]
     added = [name for name in new if name not in old]
     hints = dict(hints)
@@ -186,7 +186,7 @@ def _pair(
     taken: set[str] = set()
 
     def link(before: str, after: str) -> None:
-        pairs.append(kind(old[before], new[after]))
+        pairs.append(make(old[before], new[after]))
         renamed[before] = after
         done.add(before)
         taken.add(after)
