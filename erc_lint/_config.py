@@ -1,5 +1,6 @@
 """``[tool.erc-lint]`` in a pyproject.toml: embedded roots, rules to ignore, paths to exclude."""
 
+import sys
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -81,7 +82,10 @@ def _table(path: Path) -> dict[str, Any] | None:
     """The ``[tool.erc-lint]`` table of a pyproject.toml, ``None`` if it has none."""
     # Only when there is a file to read: for bench_lint's 30-file ratio, a tree without a
     # configuration does not pay for it (about 8 ms of start-up).
-    import tomllib
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # tomllib is tomli, joined to the standard library in 3.11
+        import tomli as tomllib
 
     try:
         document = tomllib.loads(path.read_text(encoding="utf-8"))

@@ -9,8 +9,8 @@ in NEW, and where NEW put the names that left it.
 """
 
 import functools
-from collections.abc import Iterator
-from typing import TYPE_CHECKING, Any, Generic, NamedTuple, TypeVar
+from collections.abc import Callable, Iterator
+from typing import TYPE_CHECKING, Any, NamedTuple, TypeVar
 
 from ._config import Config
 from ._model import Enum, EnumValue, Field, Message, Revision
@@ -18,9 +18,7 @@ from ._model import Enum, EnumValue, Field, Message, Revision
 if TYPE_CHECKING:
     from ._ledger import Ledger
 
-__all__ = ["Change", "FieldPair", "NumberPair", "Paired", "wire_compatible"]
-
-Container = TypeVar("Container", Message, Enum)
+__all__ = ["Change", "EnumPair", "FieldPair", "MessagePair", "NumberPair", "wire_compatible"]
 
 # Scalar types that share a wire encoding (wire-facts §6); string → bytes is checked apart.
 _WIRE_GROUPS = [
@@ -31,11 +29,23 @@ _WIRE_GROUPS = [
 ]
 
 
-class Paired(NamedTuple, Generic[Container]):
-    """A message or enum of OLD and the same one in NEW (by full name, or renamed)."""
+# Two named tuples, not one generic: Python 3.10 cannot make a NamedTuple generic.
+class MessagePair(NamedTuple):
+    """A message of OLD and the same one in NEW (by full name, or renamed)."""
 
-    old: Container
-    new: Container
+    old: Message
+    new: Message
+
+
+class EnumPair(NamedTuple):
+    """An enum of OLD and the same one in NEW (by full name, or renamed)."""
+
+    old: Enum
+    new: Enum
+
+
+_Container = TypeVar("_Container", Message, Enum)
+_Pair = TypeVar("_Pair", MessagePair, EnumPair)
 
 
 class FieldPair(NamedTuple):
@@ -74,13 +84,13 @@ class Change:
         # OLD full name → NEW full name of each renamed message or enum
         self.renamed: dict[str, str] = {}
         hints = _map_entries(old.messages, new.messages)
-        self.messages: list[Paired[Message]]
-        self.messages, gone = _pair(old.messages, new.messages, self.renamed, hints)
+        self.messages: list[MessagePair]
+        self.messages, gone = _pair(MessagePair, old.messages, new.messages, self.renamed, hints)
         hints = {}  # the enums that renamed messages declare
         for before, after in self.renamed.items():
             _nest(hints, old.enums, new.enums, before, after)
-        self.enums: list[Paired[Enum]]
-        self.enums, _ = _pair(old.enums, new.enums, self.renamed, hints)
+        self.enums: list[EnumPair]
+        self.enums, _ = _pair(EnumPair, old.enums, new.enums, self.renamed, hints)
         # A message whose file no longer compiles is unknown in NEW, not gone: COMPILE says so.
         self.deleted_messages = [m for m in gone if m.file not in self.new.tree.failed]
 
@@ -157,17 +167,18 @@ def _map_entries(old: dict[str, Message], new: dict[str, Message]) -> dict[str, 
 
 
 def _pair(
-    old: dict[str, Container],
-    new: dict[str, Container],
+    make: Callable[[_Container, _Container], _Pair],
+    old: dict[str, _Container],
+    new: dict[str, _Container],
     renamed: dict[str, str],
     hints: dict[str, str],
-) -> tuple[list[Paired[Container]], list[Container]]:
+) -> tuple[list[_Pair], list[_Container]]:
     """Pairs by full name, then renames: first those ``hints`` name (map entries; what a
     renamed message declares), then by identical body, outermost NEW elements first, so that
     a message's rename brings its nested types before any other body can claim them. A NEW
     element is the rename of one OLD element at most; renames are added to ``renamed``.
-    Returns the pairs and OLD's unpaired leftovers."""
-    pairs = [Paired(old[name], new[name]) for name in old if name in new]
+    Returns the pairs (each made by ``make``) and OLD's unpaired leftovers."""
+    pairs = [make(old[name], new[name]) for name in old if name in new]
     left = [name for name in old if name not in new]
     added = [name for name in new if name not in old]
     hints = dict(hints)
@@ -175,7 +186,7 @@ def _pair(
     taken: set[str] = set()
 
     def link(before: str, after: str) -> None:
-        pairs.append(Paired(old[before], new[after]))
+        pairs.append(make(old[before], new[after]))
         renamed[before] = after
         done.add(before)
         taken.add(after)

@@ -3,8 +3,9 @@
 The wheel is built from the repository (hatchling, no build isolation: no network needed),
 installed with ``pip install --target`` into a temporary folder, and exercised by a fresh
 interpreter whose working directory and import path are outside the repository. The editable
-install of the development environment is kept out of that interpreter's path, and the script
-checks that what it imported really is the installed copy.
+install of the development environment is kept out of that interpreter's path (its own
+environment's packages stay, even when the venv sits inside the checkout), and the script checks
+that what it imported really is the installed copy.
 """
 
 import json
@@ -21,10 +22,19 @@ from conftest import REPO
 SCRIPT = textwrap.dedent(
     """
     import json
+    import os
     import sys
 
-    repo = sys.argv[1]
-    hidden = [entry for entry in sys.path if entry and entry.startswith(repo)]
+    def inside(entry, folder):
+        entry = os.path.realpath(entry)
+        return entry == folder or entry.startswith(folder + os.sep)
+
+    repo = os.path.realpath(sys.argv[1])
+    environment = os.path.realpath(sys.prefix)  # a venv's site-packages: the dependencies
+    hidden = [
+        entry for entry in sys.path
+        if entry and inside(entry, repo) and not inside(entry, environment)
+    ]
     sys.path[:] = [entry for entry in sys.path if entry not in hidden]
 
     import erc_codec
@@ -44,7 +54,7 @@ SCRIPT = textwrap.dedent(
         "modules": sorted(
             name for name, module in sys.modules.items()
             if name.startswith("erc_codec") and getattr(module, "__file__", None)
-            and module.__file__.startswith(repo)
+            and inside(module.__file__, repo)
         ),
         "max_size": codec.max_size("PBEnvelope"),
         "kinds": codec.kinds(),

@@ -24,7 +24,7 @@ from erc_codec.schema import Location
 
 from .._finding import Finding, Severity
 from .._model import Message, Revision
-from .._pairing import Change, FieldPair, NumberPair, Paired
+from .._pairing import Change, EnumPair, FieldPair, MessagePair, NumberPair
 
 __all__ = [
     "RULES",
@@ -55,8 +55,8 @@ _Check = TypeVar("_Check", bound=Callable[..., Reports])
 # What each helper's rules are handed (and the change, for context).
 _FieldCheck = Callable[[FieldPair, Change], Reports]
 _NumberCheck = Callable[[NumberPair, Change], Reports]
-_MessageCheck = Callable[[Paired[Message], Change], Reports]
-_DefinitionCheck = Callable[[Paired[Any], Change], Reports]  # a message or an enum pair
+_MessageCheck = Callable[[MessagePair, Change], Reports]
+_DefinitionCheck = Callable[[MessagePair | EnumPair, Change], Reports]
 _DeletedCheck = Callable[[Message, Change], Reports]
 _TreeCheck = Callable[[Revision, Change], Reports]
 

@@ -1,10 +1,8 @@
 """Rules on whole messages and enums: deletions, renames, reservations, the envelope's size. Each
 is handed one message or enum of OLD and its partner in NEW (or, for deletions, none)."""
 
-from typing import Any
-
 from .._model import Message
-from .._pairing import Change, Paired
+from .._pairing import Change, EnumPair, MessagePair
 from ._registry import Report, Reports, definition_rule, deleted_message_rule, message_rule
 
 
@@ -46,7 +44,7 @@ def deleted(message: Message, change: Change) -> Reports:
     "A message changed its name but not its fields: harmless on the wire, breaks code.",
     severity="warning",
 )
-def renamed(pair: Paired[Message], change: Change) -> Reports:
+def renamed(pair: MessagePair, change: Change) -> Reports:
     """## What it does
     Reports a message of OLD that NEW has under another name with an identical body (the same
     fields, numbers, names and types). What it declares is renamed with it and compared under
@@ -88,7 +86,7 @@ def renamed(pair: Paired[Message], change: Change) -> Reports:
 
 
 @definition_rule("RESERVED_REMOVED", "A reserved number or name is no longer reserved.")
-def reserved_removed(pair: Paired[Any], change: Change) -> Reports:
+def reserved_removed(pair: MessagePair | EnumPair, change: Change) -> Reports:
     """## What it does
     Reports a reserved number range (or any part of it) or a reserved name of a message or enum
     that NEW no longer reserves, with the first number that became free.
@@ -140,7 +138,7 @@ def reserved_removed(pair: Paired[Any], change: Change) -> Reports:
     "An embedded root's nanopb maximum size grew: receivers built with the old size drop more.",
     severity="warning",
 )
-def envelope_size_grown(pair: Paired[Message], change: Change) -> Reports:
+def envelope_size_grown(pair: MessagePair, change: Change) -> Reports:
     """## What it does
     Reports an embedded root (`roots` of `[tool.erc-lint]`, `PBEnvelope` by default) whose
     maximum encoded size, as nanopb's generator computes it, is larger in NEW than in OLD.
