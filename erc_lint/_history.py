@@ -22,10 +22,15 @@ from pathlib import Path
 
 from google.protobuf import descriptor_pb2
 
-from erc_codec.schema import ProtocError, compile_files, declarations, imports
+from erc_codec.schema import (
+    GitSpec,
+    ProtocError,
+    Repository,
+    compile_files,
+    declarations,
+    imports,
+)
 
-from ._git import Repository
-from ._inputs import GitInput, locate
 from ._ledger import Entry, Key, Ledger
 from ._loader import by_basename, matches, utf8_name
 from ._model import type_of
@@ -71,7 +76,7 @@ class History:
     """Walks revisions of one git input, compiling only what changed since the last one."""
 
     repository: Repository
-    spec: GitInput
+    spec: GitSpec
     includes: Sequence[Path] = ()
     exclude: Sequence[str] = ()
     compiled: int = 0  # files compiled so far, for the benchmark's report
@@ -81,7 +86,7 @@ class History:
     def update(self, ledger: Ledger, commits: Sequence[str]) -> list[Entry]:
         """Add every revision of ``commits`` (parents first) to ``ledger``; the new entries."""
         added: list[Entry] = []
-        inside, _ = locate(self.spec, self.repository)
+        inside, _ = self.repository.where(self.spec.subdir)
         with tempfile.TemporaryDirectory(prefix="erc-lint-history-") as scratch:
             for commit in commits:
                 files = self.repository.files(commit, inside, missing_ok=True)

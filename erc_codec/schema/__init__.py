@@ -4,6 +4,10 @@ Both packages build on it, and so may users: ``erc_codec`` loads a schema, sizes
 messages against it; ``erc_lint`` compiles trees file by file, locates what it reports and asks for
 sizes and nanopb limits. Nothing here encodes envelopes or talks to a network.
 
+- a tree as commands name it: ``open_tree`` (a folder, or a git revision in buf's spelling,
+  ``GITDIR#ref=REF[,subdir=PATH]``, read from the repository's objects into a scratch folder:
+  ``TreeSource``), ``parse_tree_spec`` and ``GitSpec``, ``Repository`` (a repository's objects,
+  no checkout) and ``GitError``;
 - protoc in-process: ``compile_files`` (a ``FileDescriptorSet``, or ``ProtocError`` with protoc's
   own ``path:line:col`` diagnostics);
 - a tree's text before it compiles: ``imports`` (as protoc tokenizes them) and ``declared_names``;
@@ -16,11 +20,13 @@ sizes and nanopb limits. Nothing here encodes envelopes or talks to a network.
 """
 
 from ._descriptors import Declaration, Location, SourceIndex, declarations
+from ._git import GitError, Repository
 from ._options import Options, ResolvedOptions, options_class, resolve_options
 from ._protoc import ProtocError, compile_files
 from ._schema import Schema, descriptor_of, enum_of, load_schema, message_of
 from ._sizes import Sizes
 from ._text import declared_names, imports
+from ._tree import GitSpec, TreeSource, open_tree, parse_tree_spec
 from ._wire import (
     EGROUP,
     I32,
@@ -47,13 +53,17 @@ __all__ = [
     "WIRE_TYPE_NAMES",
     "Declaration",
     "FieldSpan",
+    "GitError",
+    "GitSpec",
     "Location",
     "Options",
     "ProtocError",
+    "Repository",
     "ResolvedOptions",
     "Schema",
     "Sizes",
     "SourceIndex",
+    "TreeSource",
     "WireError",
     "compile_files",
     "declarations",
@@ -65,7 +75,9 @@ __all__ = [
     "load_schema",
     "message_of",
     "next_field",
+    "open_tree",
     "options_class",
+    "parse_tree_spec",
     "read_varint",
     "resolve_options",
     "varint_size",

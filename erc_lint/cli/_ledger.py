@@ -7,10 +7,10 @@ from pathlib import Path
 
 import click
 
+from erc_codec.schema import GitSpec, Repository, parse_tree_spec
+
 from .._config import LEDGER
-from .._git import Repository
 from .._history import History, keys
-from .._inputs import GitInput, locate, parse
 from .._ledger import Entry, Ledger
 from .._loader import load_tree
 from ._shared import FILE, Failure, common_options, guard, settings
@@ -48,10 +48,10 @@ def update(
 ) -> None:
     """Record every number TREE's messages and enums use (a folder or GITDIR#ref=REF)."""
     with guard():
-        spec = parse(tree)
-        if isinstance(spec, GitInput):
+        spec = parse_tree_spec(tree)
+        if isinstance(spec, GitSpec):
             with Repository(spec.folder) as repository:
-                shown = locate(spec, repository)[1]
+                shown = repository.where(spec.subdir)[1]
                 if shown is None and path is None:
                     raise Failure(
                         f"{tree}: a bare repository has no folder for the ledger; "

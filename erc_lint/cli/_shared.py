@@ -9,11 +9,12 @@ from typing import Any, TypeVar
 import click
 
 from erc_codec import CodecError
+from erc_codec.schema import TreeSource
 
 from .._config import Config, find_config, read_config
 from .._errors import LintError
 from .._finding import Finding
-from .._inputs import Source, open_input
+from .._inputs import open_input
 from .._report import FORMATS, render
 from ..rules import RULES
 
@@ -77,7 +78,7 @@ FORMAT_OPTION = click.option(
 
 
 @contextmanager
-def opened(text: str, role: str = "") -> Iterator[Source]:
+def opened(text: str, role: str = "") -> Iterator[TreeSource]:
     """The tree ``text`` names; a wrong path is an error rather than an empty, passing tree."""
     with open_input(text) as source:
         if not source.folder.is_dir():

@@ -17,15 +17,19 @@ import posixpath
 from pathlib import Path
 from typing import IO, TYPE_CHECKING
 
-from ._errors import GitError
+from .._errors import SchemaError
 
 if TYPE_CHECKING:
     import subprocess
 
-__all__ = ["Repository"]
+__all__ = ["GitError", "Repository"]
 
 
 _LINK = "link:"  # marks a symlink's blob in a parsed tree
+
+
+class GitError(SchemaError):
+    """A repository, or an object in it, cannot be read."""
 
 
 class Repository:
@@ -68,6 +72,15 @@ class Repository:
             self._batch.wait()
             self._batch.stdout.close()
             self._batch = None
+
+    def where(self, subdir: str = "") -> tuple[str, Path | None]:
+        """``subdir`` of ``folder`` as a path in the repository's trees (``folder`` may be a
+        folder inside the working tree, or ``.git``), and where it sits in the working tree
+        (None: a bare repository)."""
+        inside = f"{self.prefix}{subdir}".strip("/")
+        if self.worktree is None:
+            return inside, None
+        return inside, self.worktree / subdir if subdir else self.worktree
 
     def commit(self, ref: str) -> str:
         """The id of the commit ``ref`` names."""
