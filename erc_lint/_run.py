@@ -4,7 +4,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from erc_codec.schema import TreeSource
+from erc_codec.schema import TreeSource, file_exists
 
 from ._config import LEDGER, Config
 from ._finding import Finding
@@ -67,7 +67,7 @@ def compare(
 def find_ledger(tree: TreeSource, path: str | Path | None = None) -> "Ledger | None":
     """The ledger at ``path``, else the one beside ``tree``'s protos, else none."""
     beside = tree.folder / LEDGER
-    if path is None and not beside.is_file():
+    if path is None and not file_exists(beside):  # a FIFO there is refused by the reader
         return None
     # Only a run with a ledger pays for its import: for bench_lint's 30-file ratio, as the
     # module's dataclasses cost about 9 ms of start-up.

@@ -8,6 +8,9 @@ sizes and nanopb limits. Nothing here encodes envelopes or talks to a network.
   ``GITDIR#ref=REF[,subdir=PATH]``, read from the repository's objects into a scratch folder:
   ``TreeSource``), ``parse_tree_spec`` and ``GitSpec``, ``Repository`` (a repository's objects,
   no checkout) and ``GitError``;
+- a tree's files read without trusting them: ``read_file``/``read_text`` (regular files only,
+  at most a limit: ``SOURCE_LIMIT`` for a ``.proto`` or ``.options``; else ``FileError``),
+  ``file_exists`` and ``proto_files`` (the walk, never into a symlinked folder);
 - protoc in-process: ``compile_files`` (a ``FileDescriptorSet``, or ``ProtocError`` with protoc's
   own ``path:line:col`` diagnostics);
 - a tree's text before it compiles: ``imports`` (as protoc tokenizes them) and ``declared_names``;
@@ -20,6 +23,7 @@ sizes and nanopb limits. Nothing here encodes envelopes or talks to a network.
 """
 
 from ._descriptors import Declaration, Location, SourceIndex, declarations
+from ._files import SOURCE_LIMIT, FileError, file_exists, proto_files, read_file, read_text
 from ._git import GitError, Repository
 from ._options import Options, ResolvedOptions, options_class, resolve_options
 from ._protoc import ProtocError, compile_files
@@ -49,10 +53,12 @@ __all__ = [
     "I64",
     "LEN",
     "SGROUP",
+    "SOURCE_LIMIT",
     "VARINT",
     "WIRE_TYPE_NAMES",
     "Declaration",
     "FieldSpan",
+    "FileError",
     "GitError",
     "GitSpec",
     "Location",
@@ -71,6 +77,7 @@ __all__ = [
     "descriptor_of",
     "encode_varint",
     "enum_of",
+    "file_exists",
     "imports",
     "load_schema",
     "message_of",
@@ -78,6 +85,9 @@ __all__ = [
     "open_tree",
     "options_class",
     "parse_tree_spec",
+    "proto_files",
+    "read_file",
+    "read_text",
     "read_varint",
     "resolve_options",
     "varint_size",

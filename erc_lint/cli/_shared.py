@@ -9,7 +9,7 @@ from typing import Any, TypeVar
 import click
 
 from erc_codec import CodecError
-from erc_codec.schema import TreeSource
+from erc_codec.schema import TreeSource, proto_files
 
 from .._config import Config, find_config, read_config
 from .._errors import LintError
@@ -83,7 +83,7 @@ def opened(text: str, role: str = "") -> Iterator[TreeSource]:
     with open_input(text) as source:
         if not source.folder.is_dir():
             raise Failure(f"{text}: not a folder holding a proto tree")
-        if role and not any(source.folder.rglob("*.proto")):
+        if role and not proto_files(source.folder):
             raise Failure(f"{text}: no .proto file in {role} (a wrong path would pass every check)")
         yield source
 
