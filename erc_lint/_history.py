@@ -128,8 +128,8 @@ class History:
         for path, blob in protos.items():
             spans = self._imports.get(blob)
             if spans is None:
-                text = self.repository.read(blob).decode("utf-8", "replace")
-                spans = self._imports[blob] = list(imports(text))
+                text = self.repository.read(blob, name=str(self.spec.shown / path))
+                spans = self._imports[blob] = list(imports(text.decode("utf-8", "replace")))
             found = []
             for _, _, spelling in spans:
                 if spelling not in protos and any((d / spelling).is_file() for d in self.includes):
@@ -150,7 +150,8 @@ class History:
     ) -> _Result:
         """Compile ``path`` alone, its imports respelled as tree paths and given compiled."""
         self.compiled += 1
-        text = self.repository.read(protos[path]).decode("utf-8", "replace")
+        shown = str(self.spec.shown / path)
+        text = self.repository.read(protos[path], name=shown).decode("utf-8", "replace")
         respelled = dict(deps)
         for start, end, spelling in reversed(self._imports[protos[path]]):
             if respelled.get(spelling, spelling) != spelling:

@@ -12,7 +12,7 @@ from contextlib import AbstractContextManager
 
 from erc_codec.schema import TreeSource, open_tree
 
-from ._config import CONFIG, LEDGER
+from ._config import CONFIG, CONFIG_LIMIT, LEDGER, LEDGER_LIMIT
 from ._finding import Finding
 
 __all__ = ["open_input", "relocate"]
@@ -20,7 +20,7 @@ __all__ = ["open_input", "relocate"]
 
 def open_input(text: str) -> AbstractContextManager[TreeSource]:
     """The tree ``text`` names, as a folder, for the duration of the ``with`` block."""
-    return open_tree(text, (CONFIG, LEDGER))
+    return open_tree(text, {CONFIG: CONFIG_LIMIT, LEDGER: LEDGER_LIMIT})
 
 
 def relocate(findings: Sequence[Finding], sources: Sequence[TreeSource]) -> list[Finding]:

@@ -24,13 +24,13 @@ sizes and nanopb limits. Nothing here encodes envelopes or talks to a network.
 
 from ._descriptors import Declaration, Location, SourceIndex, declarations
 from ._files import SOURCE_LIMIT, FileError, file_exists, proto_files, read_file, read_text
-from ._git import GitError, Repository
+from ._git import MAX_DEPTH, MAX_FILES, GitError, Repository
 from ._options import Options, ResolvedOptions, options_class, resolve_options
 from ._protoc import ProtocError, compile_files
 from ._schema import Schema, descriptor_of, enum_of, load_schema, message_of
 from ._sizes import Sizes
 from ._text import declared_names, imports
-from ._tree import GitSpec, TreeSource, open_tree, parse_tree_spec
+from ._tree import TREE_LIMIT, GitSpec, TreeSource, open_tree, parse_tree_spec
 from ._wire import (
     EGROUP,
     I32,
@@ -52,8 +52,11 @@ __all__ = [
     "I32",
     "I64",
     "LEN",
+    "MAX_DEPTH",
+    "MAX_FILES",
     "SGROUP",
     "SOURCE_LIMIT",
+    "TREE_LIMIT",
     "VARINT",
     "WIRE_TYPE_NAMES",
     "Declaration",

@@ -3,21 +3,32 @@ spelling, ``GITDIR#ref=REF[,subdir=PATH]`` (``branch=`` or ``tag=`` instead of `
 
 A revision is read from the repository's objects (``Repository``) into a scratch folder that
 lives as long as ``open_tree``'s ``with`` block; the repository and its working tree are never
-touched. The scratch folder holds the ``.proto`` and ``.options`` files, and the files ``extra``
-names at the tree's top.
+touched. Spaces work in every part of the spelling but the ref (a ref name cannot hold one).
+
+Guarantees:
+- The scratch folder is the only place written: a new folder in the system's temporary folder
+  (``TMPDIR``), readable by its owner only, removed when the block ends. Every path written
+  there is made of tree entries the reader checked (each one file name), every file is created
+  new (never through a symlink, never over another file) and no symlink is ever made.
+- What is written: the ``.proto`` and ``.options`` files, each at most ``SOURCE_LIMIT``; the
+  files ``extra`` names at the tree's top, each within its own limit; ``TREE_LIMIT`` in all (a
+  commit's objects compress a thousandfold: a small fetch must not fill a disk).
 """
 
+import os
 import tempfile
-from collections.abc import Collection, Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import NamedTuple
 
+from .._errors import SchemaError
+from ._files import SOURCE_LIMIT, size_text
 from ._git import GitError, Repository
 
-__all__ = ["GitSpec", "TreeSource", "open_tree", "parse_tree_spec"]
+__all__ = ["TREE_LIMIT", "GitSpec", "TreeSource", "open_tree", "parse_tree_spec"]
 
-_SUFFIXES = (".proto", ".options")
+TREE_LIMIT = 256 * 1024 * 1024
 
 
 class GitSpec(NamedTuple):
@@ -60,16 +71,16 @@ def parse_tree_spec(text: str) -> Path | GitSpec:
     if len(refs) != 1:
         raise GitError(f"{text}: give exactly one of ref=, branch= or tag=")
     subdir = values.get("subdir", "").strip("/")
-    if any(part in ("", ".", "..") for part in subdir.split("/")) and subdir:
+    if subdir and any(part in ("", ".", "..") for part in subdir.split("/")):
         raise GitError(f"{text}: subdir must be a plain path inside the repository")
     return GitSpec(Path(folder or "."), refs[0], subdir)
 
 
 @contextmanager
-def open_tree(text: str, extra: Collection[str] = ()) -> Iterator[TreeSource]:
-    """The tree ``text`` names, as a folder, for the duration of the ``with`` block; for a git
-    revision, the files ``extra`` names at the tree's top (a configuration, say) are copied
-    beside the protos."""
+def open_tree(text: str, extra: Mapping[str, int] | None = None) -> Iterator[TreeSource]:
+    """The tree ``text`` names, as a folder, for the duration of the ``with`` block. For a git
+    revision, ``extra`` maps names of files at the tree's top to copy beside the protos (a
+    configuration, say) to their size limits."""
     spec = parse_tree_spec(text)
     if isinstance(spec, Path):
         yield TreeSource(spec, spec)
@@ -85,19 +96,35 @@ def open_tree(text: str, extra: Collection[str] = ()) -> Iterator[TreeSource]:
                 yield TreeSource(Path(scratch), spec.shown)
             return
         inside, worktree = repository.where(spec.subdir)
-        files = repository.files(commit, inside)
+        shown = worktree or spec.shown
+        limits = dict(extra or {})
+        files = repository.files(commit, inside, top=limits)
         with tempfile.TemporaryDirectory(prefix="erc-tree-") as scratch:
-            _materialize(repository, files, extra, Path(scratch))
-            yield TreeSource(Path(scratch), worktree or spec.shown, commit)
+            _materialize(repository, files, limits, Path(scratch), shown)
+            yield TreeSource(Path(scratch), shown, commit)
 
 
 def _materialize(
-    repository: Repository, files: dict[str, str], extra: Collection[str], folder: Path
+    repository: Repository,
+    files: dict[str, str],
+    limits: dict[str, int],
+    folder: Path,
+    shown: Path,
 ) -> None:
-    """Write the protos and options of a tree's files (``{path: blob}``), and ``extra``'s
-    files at its top, into ``folder``."""
+    """Write ``files`` (``{path: blob}``) into ``folder``; ``shown`` names them in errors."""
+    total = 0
     for path, blob in files.items():
-        if path.endswith(_SUFFIXES) or path in extra:
-            target = folder / path
+        data = repository.read(blob, limits.get(path, SOURCE_LIMIT), str(shown / path))
+        total += len(data)
+        if total > TREE_LIMIT:
+            raise GitError(
+                f"{shown}: the tree's files pass {size_text(TREE_LIMIT)} in all at {path}: refused"
+            )
+        target = folder / path  # each part a tree entry's name: one file name
+        try:
             target.parent.mkdir(parents=True, exist_ok=True)
-            target.write_bytes(repository.read(blob))
+            flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
+            with open(os.open(target, flags, 0o644), "wb") as stream:
+                stream.write(data)
+        except OSError as error:
+            raise SchemaError(f"{shown / path}: cannot be copied out: {error.strerror}") from None
