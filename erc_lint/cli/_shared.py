@@ -110,7 +110,8 @@ def guard() -> Iterator[None]:
 
 
 def report(findings: list[Finding], output: str) -> None:
-    """Print the findings; exit 1 when one of them is an error."""
-    click.echo(render(findings, output), nl=False)
+    """Print the findings; exit 1 when one of them is an error. A file name that is not UTF-8
+    is printed as the bytes it is (as ``ls`` prints it), whatever the locale's encoding."""
+    click.echo(render(findings, output).encode("utf-8", "surrogateescape"), nl=False)
     if any(finding.severity == "error" for finding in findings):
         raise SystemExit(1)
