@@ -3,7 +3,7 @@
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from erc_codec.schema import FileError, read_text
+from erc_codec.schema import FileError, file_exists, read_text
 
 from ._errors import ConfigError
 
@@ -45,7 +45,7 @@ def find_config(*folders: Path) -> Path | None:
     """The first pyproject.toml in ``folders`` with a ``[tool.erc-lint]`` table."""
     for folder in folders:
         candidate = folder / CONFIG
-        if candidate.is_file() and _table(candidate) is not None:
+        if file_exists(candidate) and _table(candidate) is not None:  # a FIFO is refused
             return candidate
     return None
 

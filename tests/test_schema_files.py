@@ -150,6 +150,19 @@ def test_a_nanopb_options_file_that_is_no_file_is_exit_2(tmp_path: Path) -> None
     refused(run("erc_lint", str(root), str(root)), complaint)
 
 
+def test_a_configuration_or_ledger_beside_the_protos_that_is_a_fifo_is_refused(
+    tmp_path: Path,
+) -> None:
+    root = envelope_tree(tmp_path / "tree")
+    for name in ("pyproject.toml", "erc-lint.lock"):
+        os.mkfifo(root / name)
+        refused(run("erc_lint", "check", str(root)), f"{root}/{name}: not a regular file (a FIFO)")
+        (root / name).unlink()
+        (root / name).mkdir()  # a folder is no configuration, no ledger: there is none
+        assert run("erc_lint", "check", str(root)).returncode == 0
+        (root / name).rmdir()
+
+
 @pytest.mark.skipif(not DEVICES, reason="no /dev/zero here")
 def test_a_configuration_or_ledger_that_is_a_device_is_refused(tmp_path: Path) -> None:
     root = envelope_tree(tmp_path / "tree")
