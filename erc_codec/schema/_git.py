@@ -181,7 +181,7 @@ class Repository:
         found = self._object(commit, SOURCE_LIMIT, f"{self.folder}: commit {commit}")
         if found is None or found[0] != "commit" or not found[2].startswith(b"tree "):
             raise GitError(f"{self.folder}: {commit} is not a commit")
-        return found[2][5 : found[2].find(b"\n")].decode("ascii", "replace")
+        return found[2].split(b"\n", 1)[0][5:].decode("ascii", "replace")
 
     def _entries(self, tree_id: str) -> dict[str, _Entry]:
         """A tree's entries by name, each name checked (see the module's guarantees)."""
