@@ -32,9 +32,8 @@ from pathlib import Path
 
 from bench_lint import _envelope, _Field, _File, _plan, _render
 
-from erc_lint._git import Repository
+from erc_codec.schema import GitSpec, Repository
 from erc_lint._history import History
-from erc_lint._inputs import GitInput
 from erc_lint._ledger import Ledger
 from erc_lint._loader import load_tree
 
@@ -129,7 +128,7 @@ def main() -> int:
     print(f"growth: {growth:.2f}x time per revision from {min(_REVISIONS)} to {max(_REVISIONS)}")
 
     with Repository(repo) as repository:
-        walker = History(repository, GitInput(repo, "main", "proto"))
+        walker = History(repository, GitSpec(repo, "main", "proto"))
         start = time.perf_counter()
         walker.update(Ledger("bench"), repository.history("main"))
         cached = time.perf_counter() - start

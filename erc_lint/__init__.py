@@ -4,12 +4,14 @@
 findings, sorted by location; ``check(tree)`` lints one tree on its own; ``erc-lint`` is the
 command line around them (``erc_lint.cli``). Everything not re-exported here is private.
 
-One module per job, and data flows one way: ``_inputs`` (a folder, or a git revision whose objects
-``_git`` reads) → ``_loader`` (compiled files and load problems) → ``_model`` (one revision: its
-messages, enums, names, sizes) → ``_pairing`` (OLD and NEW paired) → ``rules/`` (one pair at a
-time) → ``_report`` (text, JSON, GitHub annotations) → ``cli/``. ``_run`` is one lint run,
-``_config`` reads ``[tool.erc-lint]``, ``_ledger`` and ``_history`` keep the number ledger, and
-``_errors`` holds ``LintError``, the base of every failure to run.
+One module per job, and data flows one way: ``_inputs`` (a folder, or a git revision read by the
+codec's schema layer, ``erc_codec.schema.open_tree``) → ``_loader`` (compiled files and load
+problems) → ``_model`` (one revision: its messages, enums, names, sizes) → ``_pairing`` (OLD and
+NEW paired) → ``rules/`` (one pair at a time) → ``_report`` (text, JSON, GitHub annotations) →
+``cli/``. ``_run`` is one lint run, ``_config`` reads ``[tool.erc-lint]``, ``_ledger`` and
+``_history`` keep the number ledger, and ``_errors`` holds ``LintError``, the base of the
+linter's own failures to run (``GitError``, for a revision that cannot be read, is the schema
+layer's, an ``erc_codec.SchemaError``).
 """
 
 from ._config import Config

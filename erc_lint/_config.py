@@ -4,11 +4,26 @@ import sys
 from pathlib import Path
 from typing import Any, NamedTuple
 
+from erc_codec.schema import FileError, file_exists, read_text
+
 from ._errors import ConfigError
 
-__all__ = ["LEDGER", "Config", "find_config", "read_config"]
+__all__ = [
+    "CONFIG",
+    "CONFIG_LIMIT",
+    "LEDGER",
+    "LEDGER_LIMIT",
+    "Config",
+    "find_config",
+    "read_config",
+]
 
+CONFIG = "pyproject.toml"  # where [tool.erc-lint] is looked for, beside a tree's protos
 LEDGER = "erc-lint.lock"  # the ledger's file name, beside a tree's protos
+# The largest file of each kind read (a longer one is refused, exit 2): the rover's are some
+# 2 KiB and 4 KiB; a ledger of 64 MiB holds about a million entries.
+CONFIG_LIMIT = 1024 * 1024
+LEDGER_LIMIT = 64 * 1024 * 1024
 
 
 _ROOTS = ("PBEnvelope",)  # embedded roots unless the configuration names others
@@ -30,8 +45,8 @@ class Config(NamedTuple):
 def find_config(*folders: Path) -> Path | None:
     """The first pyproject.toml in ``folders`` with a ``[tool.erc-lint]`` table."""
     for folder in folders:
-        candidate = folder / "pyproject.toml"
-        if candidate.is_file() and _table(candidate) is not None:
+        candidate = folder / CONFIG
+        if file_exists(candidate) and _table(candidate) is not None:  # a FIFO is refused
             return candidate
     return None
 
@@ -69,7 +84,7 @@ def read_config(path: Path | None, known_rules: set[str], explicit: bool = False
 def _line_of(path: Path, key: str) -> int:
     """The line of ``path`` that sets ``key`` in ``[tool.erc-lint]`` (1 if none is found)."""
     inside = False
-    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+    for number, line in enumerate(_read(path).splitlines(), 1):
         text = line.strip()
         if text.startswith("["):
             inside = text.replace(" ", "") in ("[tool.erc-lint]", '[tool."erc-lint"]')
@@ -88,11 +103,19 @@ def _table(path: Path) -> dict[str, Any] | None:
         import tomli as tomllib
 
     try:
-        document = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
+        document = tomllib.loads(_read(path))
+    except tomllib.TOMLDecodeError as error:
         raise ConfigError(f"{path}: {error}") from None
     tool = document.get("tool", {})
     table = tool.get("erc-lint") if isinstance(tool, dict) else None
     if table is not None and not isinstance(table, dict):
         raise ConfigError(f"{path}: tool.erc-lint must be a table")
     return table
+
+
+def _read(path: Path) -> str:
+    """The configuration's text: a regular file of at most CONFIG_LIMIT bytes of UTF-8."""
+    try:
+        return read_text(path, CONFIG_LIMIT)
+    except FileError as error:
+        raise ConfigError(str(error)) from None

@@ -22,10 +22,15 @@ from pathlib import Path
 
 from google.protobuf import descriptor_pb2
 
-from erc_codec.schema import ProtocError, compile_files, declarations, imports
+from erc_codec.schema import (
+    GitSpec,
+    ProtocError,
+    Repository,
+    compile_files,
+    declarations,
+    imports,
+)
 
-from ._git import Repository
-from ._inputs import GitInput, locate
 from ._ledger import Entry, Key, Ledger
 from ._loader import by_basename, matches, utf8_name
 from ._model import type_of
@@ -71,7 +76,7 @@ class History:
     """Walks revisions of one git input, compiling only what changed since the last one."""
 
     repository: Repository
-    spec: GitInput
+    spec: GitSpec
     includes: Sequence[Path] = ()
     exclude: Sequence[str] = ()
     compiled: int = 0  # files compiled so far, for the benchmark's report
@@ -81,7 +86,7 @@ class History:
     def update(self, ledger: Ledger, commits: Sequence[str]) -> list[Entry]:
         """Add every revision of ``commits`` (parents first) to ``ledger``; the new entries."""
         added: list[Entry] = []
-        inside, _ = locate(self.spec, self.repository)
+        inside, _ = self.repository.where(self.spec.subdir)
         with tempfile.TemporaryDirectory(prefix="erc-lint-history-") as scratch:
             for commit in commits:
                 files = self.repository.files(commit, inside, missing_ok=True)
@@ -123,8 +128,8 @@ class History:
         for path, blob in protos.items():
             spans = self._imports.get(blob)
             if spans is None:
-                text = self.repository.read(blob).decode("utf-8", "replace")
-                spans = self._imports[blob] = list(imports(text))
+                text = self.repository.read(blob, name=str(self.spec.shown / path))
+                spans = self._imports[blob] = list(imports(text.decode("utf-8", "replace")))
             found = []
             for _, _, spelling in spans:
                 if spelling not in protos and any((d / spelling).is_file() for d in self.includes):
@@ -145,7 +150,8 @@ class History:
     ) -> _Result:
         """Compile ``path`` alone, its imports respelled as tree paths and given compiled."""
         self.compiled += 1
-        text = self.repository.read(protos[path]).decode("utf-8", "replace")
+        shown = str(self.spec.shown / path)
+        text = self.repository.read(protos[path], name=shown).decode("utf-8", "replace")
         respelled = dict(deps)
         for start, end, spelling in reversed(self._imports[protos[path]]):
             if respelled.get(spelling, spelling) != spelling:

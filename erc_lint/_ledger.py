@@ -18,7 +18,8 @@ Guarantees:
   an acknowledgement or a comment: a comment on its own line stays above the entry it precedes,
   one set apart by a blank line before the first entry stays at the top; line endings stay.
 - A line that is not an entry, an entry given twice, or a merge conflict left in the file is a
-  ``LedgerError`` naming the file and the line.
+  ``LedgerError`` naming the file and the line; so is a ledger that is not a regular file (a
+  device, a FIFO) or is over ``LEDGER_LIMIT`` (64 MiB), refused before it is read.
 """
 
 import re
@@ -27,6 +28,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NamedTuple
 
+from erc_codec.schema import FileError, read_file
+
+from ._config import LEDGER_LIMIT
 from ._errors import LedgerError
 
 __all__ = ["Entry", "Key", "Ledger"]
@@ -83,10 +87,11 @@ class Ledger:
         """The ledger in ``path`` (named ``shown`` in messages)."""
         name = shown or str(path)
         try:
-            text = path.read_bytes().decode("utf-8")  # line endings as they are
-        except (OSError, UnicodeDecodeError) as error:
-            reason = error.strerror if isinstance(error, OSError) else "not UTF-8 text"
-            raise LedgerError(f"{name}: {reason}") from None
+            text = read_file(path, LEDGER_LIMIT).decode("utf-8")  # line endings as they are
+        except FileError as error:
+            raise LedgerError(f"{name}: {error.reason}") from None
+        except UnicodeDecodeError:
+            raise LedgerError(f"{name}: not UTF-8 text") from None
         return cls.parse(text, name)
 
     @classmethod

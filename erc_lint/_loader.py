@@ -14,6 +14,9 @@ Guarantees:
   the spelling rewritten in place, line for line, so protoc's locations stay the originals');
   otherwise protoc reads the tree where it is.
 
+Every ``.proto`` under the root is read through ``erc_codec.schema.read_text`` (a FIFO, a device
+or a file over 16 MiB stops the run, naming it); symlinked folders are not entered.
+
 The loader reports what it met as ``LoadProblem`` records; the rules of the same names turn them
 into findings.
 """
@@ -28,7 +31,7 @@ from typing import Literal, NamedTuple
 
 from google.protobuf import descriptor_pb2
 
-from erc_codec.schema import Location, ProtocError, compile_files, imports
+from erc_codec.schema import Location, ProtocError, compile_files, imports, proto_files, read_text
 
 __all__ = [
     "LoadProblem",
@@ -76,11 +79,7 @@ def load_tree(
     """Compile every ``.proto`` under ``root`` but those matching an ``exclude`` pattern (which
     stay importable: excluding a file spares it the checks, not its importers), or only those
     in ``only``."""
-    every = [
-        path.relative_to(root).as_posix()
-        for path in sorted(root.rglob("*.proto"))
-        if path.is_file()
-    ]
+    every = proto_files(root)
     tree = LoadedTree(root)
     for name in [name for name in every if not utf8_name(name)]:
         every.remove(name)
@@ -93,11 +92,11 @@ def load_tree(
         for name in every
         if not any(fnmatchcase(name, p) for p in exclude) and (only is None or name in only)
     ]
-    texts = {name: (root / name).read_text(encoding="utf-8", errors="replace") for name in every}
+    texts = {name: read_text(root / name, errors="replace") for name in every}
     tree.texts = texts
-    rewritten = _resolve_imports(tree, texts, set(names), includes)
+    rewritten, read = _resolve_imports(tree, texts, set(names), includes)
     if not rewritten:
-        _compile(tree, root, names, includes)
+        _compile(tree, root, names, includes, read)
         return tree
     with tempfile.TemporaryDirectory(prefix="erc-lint-") as scratch:
         staged = Path(scratch)
@@ -105,7 +104,7 @@ def load_tree(
             target = staged / name
             target.parent.mkdir(parents=True, exist_ok=True)
             target.write_text(rewritten.get(name, text), "utf-8")
-        _compile(tree, staged, names, includes)
+        _compile(tree, staged, names, includes, read)
     return tree
 
 
@@ -134,18 +133,23 @@ def by_basename(known: Collection[str]) -> dict[str, list[str]]:
 
 def _resolve_imports(
     tree: LoadedTree, texts: dict[str, str], reported: set[str], includes: Sequence[Path]
-) -> dict[str, str]:
-    """The texts whose imports needed respelling (relative to the root), respelled; ambiguous
-    imports of the files in ``reported`` are load problems."""
+) -> tuple[dict[str, str], dict[str, list[str]]]:
+    """The texts whose imports needed respelling (relative to the root), respelled, and every
+    file's imports as protoc will read them (respelled too); ambiguous imports of the files in
+    ``reported`` are load problems."""
     known, index = set(texts), by_basename(texts)
-    rewritten = {}
+    rewritten: dict[str, str] = {}
+    read: dict[str, list[str]] = {}
     for name, text in texts.items():
         edits: list[tuple[int, int, str]] = []
+        spellings = read[name] = []
         for start, end, spelling in imports(text):
+            spellings.append(spelling)
             if spelling in known or any((folder / spelling).is_file() for folder in includes):
                 continue
             found = matches(spelling, known, index)
             if len(found) == 1:
+                spellings[-1] = found[0]
                 edits.append((start, end, _literal(found[0], text[start:end])))
             elif len(found) > 1 and name in reported:
                 line = text.count("\n", 0, start) + 1
@@ -158,22 +162,29 @@ def _resolve_imports(
             text = text[:start] + replacement + text[end:]
         if edits:
             rewritten[name] = text
-    return rewritten
+    return rewritten, read
 
 
-def _compile(tree: LoadedTree, base: Path, names: list[str], includes: Sequence[Path]) -> None:
+def _compile(
+    tree: LoadedTree,
+    base: Path,
+    names: list[str],
+    includes: Sequence[Path],
+    read: dict[str, list[str]],
+) -> None:
+    """Compile ``names`` (``read``: every file of ``base``, read, with its imports)."""
     if not names:
         return
     try:
-        compiled = compile_files(base, names, includes)
+        compiled = compile_files(base, names, includes, read=read)
     except ProtocError as error:
         if len(names) == 1:
             tree.failed.add(names[0])
             _report(tree, base, names[0], error.lines, includes)
             return
         half = len(names) // 2
-        _compile(tree, base, names[:half], includes)
-        _compile(tree, base, names[half:], includes)
+        _compile(tree, base, names[:half], includes, read)
+        _compile(tree, base, names[half:], includes, read)
         return
     own = set(names)
     for proto in compiled.file:

@@ -16,12 +16,15 @@ from google.protobuf import descriptor_pb2
 from erc_codec import SchemaError
 from erc_codec.schema import (
     Declaration,
+    FileError,
     Location,
     Schema,
     Sizes,
     SourceIndex,
     declarations,
     declared_names,
+    file_exists,
+    read_file,
     resolve_options,
 )
 
@@ -251,6 +254,8 @@ class Revision:
         try:
             schema = Schema(self.root, root, descriptor_pb2.FileDescriptorSet(file=files.values()))
             return Sizes(schema).max_size(root)
+        except FileError:
+            raise  # a .options file that is no file stops the run; it is no missing size
         except SchemaError:
             return None
 
@@ -277,7 +282,7 @@ class Revision:
                 pending.extend(f.type_name.lstrip(".") for f in proto.field if f.type_name)
             if ("file", file.name) not in found:
                 options = self.root / Path(file.name).with_suffix(".options")
-                text = options.read_bytes() if options.is_file() else None
+                text = read_file(options) if file_exists(options) else None
                 settings = file.options.SerializeToString(deterministic=True)
                 found["file", file.name] = (file.package, file.syntax, file.edition, settings, text)
         return found

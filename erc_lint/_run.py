@@ -4,9 +4,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from erc_codec.schema import TreeSource, file_exists
+
 from ._config import LEDGER, Config
 from ._finding import Finding
-from ._inputs import Source, open_input, relocate
+from ._inputs import open_input, relocate
 from ._loader import LoadedTree, load_tree
 from ._model import build
 from ._pairing import Change
@@ -45,8 +47,8 @@ def check(
 
 
 def compare(
-    old: Source | None,
-    new: Source,
+    old: TreeSource | None,
+    new: TreeSource,
     config: Config,
     includes: Sequence[str | Path] = (),
     ledger: str | Path | None = None,
@@ -62,10 +64,10 @@ def compare(
     return relocate(run(change), [new] if old is None else [old, new])
 
 
-def find_ledger(tree: Source, path: str | Path | None = None) -> "Ledger | None":
+def find_ledger(tree: TreeSource, path: str | Path | None = None) -> "Ledger | None":
     """The ledger at ``path``, else the one beside ``tree``'s protos, else none."""
     beside = tree.folder / LEDGER
-    if path is None and not beside.is_file():
+    if path is None and not file_exists(beside):  # a FIFO there is refused by the reader
         return None
     # Only a run with a ledger pays for its import: for bench_lint's 30-file ratio, as the
     # module's dataclasses cost about 9 ms of start-up.

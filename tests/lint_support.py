@@ -5,13 +5,12 @@ import subprocess
 import sys
 from pathlib import Path
 
-from erc_lint import Finding
-from erc_lint._git import Repository
-from erc_lint._history import History
-from erc_lint._inputs import GitInput
-from erc_lint._ledger import Entry, Ledger
+from git_support import HEADER, Repo
 
-HEADER = 'syntax = "proto3";\n'
+from erc_codec.schema import GitSpec, Repository
+from erc_lint import Finding
+from erc_lint._history import History
+from erc_lint._ledger import Entry, Ledger
 
 
 def tree(root: Path, files: dict[str, str]) -> Path:
@@ -56,47 +55,12 @@ READING = {
 }
 
 
-class Repo:
-    """A git repository the test writes history into, one commit at a time."""
-
-    def __init__(self, root: Path) -> None:
-        self.root = root
-        root.mkdir(parents=True, exist_ok=True)
-        self.git("init", "-q", "-b", "main")
-
-    def git(self, *args: str) -> str:
-        done = subprocess.run(
-            ["git", "-c", "user.name=t", "-c", "user.email=t@t.invalid", *args],
-            cwd=self.root,
-            capture_output=True,
-            text=True,
-            check=True,
-        )
-        return done.stdout.strip()
-
-    def commit(self, message: str, **files: str | None) -> str:
-        """Write (or, for None, delete) ``proto/<name>.proto`` files and commit; the id."""
-        for name, text in files.items():
-            path = self.root / "proto" / f"{name}.proto"
-            if text is None:
-                path.unlink()
-            else:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                path.write_text(HEADER + text)
-        self.git("add", "-A")
-        self.git("commit", "-q", "--allow-empty", "-m", message)
-        return self.git("rev-parse", "HEAD")
-
-    def spec(self, ref: str) -> str:
-        return f"{self.root}#ref={ref},subdir=proto"
-
-
 def walk(repo: Repo, commits: list[str] | None = None) -> tuple[History, Ledger, list[Entry]]:
     """``ledger update --history`` in process over ``repo``'s main (or ``commits``): the walker,
     the ledger it filled and the entries it added."""
     book = Ledger("mem")
     with Repository(repo.root) as repository:
-        history = History(repository, GitInput(repo.root, "main", "proto"))
+        history = History(repository, GitSpec(repo.root, "main", "proto"))
         added = history.update(book, repository.history("main") if commits is None else commits)
     return history, book, added
 

@@ -157,3 +157,19 @@ def test_the_pre_commit_hook_compares_against_head(tmp_path: Path) -> None:
     broken = erc_lint_cli(*args, cwd=repo)
     assert broken.returncode == 1
     assert broken.stdout.startswith("proto/a.proto:2:13: FIELD_TYPE_CHANGED")
+
+
+@pytest.mark.parametrize("output", ["text", "github"])
+def test_a_file_name_that_is_not_utf8_is_reported_as_its_bytes(tmp_path: Path, output: str) -> None:
+    """Whatever the locale's encoding (here UTF-8, strict), the finding's path is the name's
+    own bytes, as ``ls`` prints them, and the status is the findings'."""
+    root = tree(tmp_path / "tree", {"a.proto": "message A { oops }\n"})
+    os.rename(root / "a.proto", os.fsencode(root) + b"/x\xff.proto")
+    done = subprocess.run(
+        [sys.executable, "-m", "erc_lint", "check", str(root), "--format", output],
+        capture_output=True,
+        env={**os.environ, "PYTHONIOENCODING": "utf-8:strict"},
+    )
+    assert (done.returncode, done.stderr) == (1, b"")
+    assert b"x\xff.proto" in done.stdout
+    assert b"File name is not UTF-8" in done.stdout

@@ -3,7 +3,8 @@ followed inside the commit."""
 
 from pathlib import Path
 
-from lint_support import HEADER, Repo, reused_history, walk
+from git_support import HEADER, Repo
+from lint_support import reused_history, walk
 
 import erc_lint
 

@@ -3,7 +3,8 @@ histories the tests script (branches and merges included)."""
 
 from pathlib import Path
 
-from lint_support import Repo, erc_lint_cli, reused_history, walk
+from git_support import Repo
+from lint_support import erc_lint_cli, reused_history, walk
 
 import erc_lint
 from erc_lint._history import keys

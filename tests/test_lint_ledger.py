@@ -5,7 +5,8 @@ import re
 from pathlib import Path
 
 import pytest
-from lint_support import HEADER, erc_lint_cli, reused_history
+from git_support import HEADER
+from lint_support import erc_lint_cli, reused_history
 
 import erc_lint
 from erc_lint import LedgerError

@@ -4,6 +4,13 @@ Both packages build on it, and so may users: ``erc_codec`` loads a schema, sizes
 messages against it; ``erc_lint`` compiles trees file by file, locates what it reports and asks for
 sizes and nanopb limits. Nothing here encodes envelopes or talks to a network.
 
+- a tree as commands name it: ``open_tree`` (a folder, or a git revision in buf's spelling,
+  ``GITDIR#ref=REF[,subdir=PATH]``, read from the repository's objects into a scratch folder:
+  ``TreeSource``), ``parse_tree_spec`` and ``GitSpec``, ``Repository`` (a repository's objects,
+  no checkout) and ``GitError``;
+- a tree's files read without trusting them: ``read_file``/``read_text`` (regular files only,
+  at most a limit: ``SOURCE_LIMIT`` for a ``.proto`` or ``.options``; else ``FileError``),
+  ``file_exists`` and ``proto_files`` (the walk, never into a symlinked folder);
 - protoc in-process: ``compile_files`` (a ``FileDescriptorSet``, or ``ProtocError`` with protoc's
   own ``path:line:col`` diagnostics);
 - a tree's text before it compiles: ``imports`` (as protoc tokenizes them) and ``declared_names``;
@@ -16,11 +23,14 @@ sizes and nanopb limits. Nothing here encodes envelopes or talks to a network.
 """
 
 from ._descriptors import Declaration, Location, SourceIndex, declarations
+from ._files import SOURCE_LIMIT, FileError, file_exists, proto_files, read_file, read_text
+from ._git import MAX_DEPTH, MAX_FILES, GitError, Repository
 from ._options import Options, ResolvedOptions, options_class, resolve_options
 from ._protoc import ProtocError, compile_files
 from ._schema import Schema, descriptor_of, enum_of, load_schema, message_of
 from ._sizes import Sizes
 from ._text import declared_names, imports
+from ._tree import TREE_LIMIT, GitSpec, TreeSource, open_tree, parse_tree_spec
 from ._wire import (
     EGROUP,
     I32,
@@ -42,18 +52,27 @@ __all__ = [
     "I32",
     "I64",
     "LEN",
+    "MAX_DEPTH",
+    "MAX_FILES",
     "SGROUP",
+    "SOURCE_LIMIT",
+    "TREE_LIMIT",
     "VARINT",
     "WIRE_TYPE_NAMES",
     "Declaration",
     "FieldSpan",
+    "FileError",
+    "GitError",
+    "GitSpec",
     "Location",
     "Options",
     "ProtocError",
+    "Repository",
     "ResolvedOptions",
     "Schema",
     "Sizes",
     "SourceIndex",
+    "TreeSource",
     "WireError",
     "compile_files",
     "declarations",
@@ -61,11 +80,17 @@ __all__ = [
     "descriptor_of",
     "encode_varint",
     "enum_of",
+    "file_exists",
     "imports",
     "load_schema",
     "message_of",
     "next_field",
+    "open_tree",
     "options_class",
+    "parse_tree_spec",
+    "proto_files",
+    "read_file",
+    "read_text",
     "read_varint",
     "resolve_options",
     "varint_size",

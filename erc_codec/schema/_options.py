@@ -22,6 +22,7 @@ from google.protobuf.message import Message
 
 from .._errors import SchemaError
 from ._descriptors import declarations
+from ._files import file_exists, read_text
 from ._protoc import FALLBACK_INCLUDE, compile_files
 from ._wire import LEN, WireError, next_field
 
@@ -127,16 +128,13 @@ def _annotations(data: bytes) -> Iterator[Options]:
 
 
 def _read_rules(path: Path) -> Rules:
-    if not path.is_file():
+    if not file_exists(path):  # a FIFO or a device is there: read_text refuses it
         return []
     from google.protobuf import text_format  # only when there is a file to read
 
     rules: Rules = []
     cls = options_class()
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as error:
-        raise SchemaError(f"{path}: cannot read: {error}") from None
+    text = read_text(path)
     for number, line in enumerate(text.splitlines(), 1):
         parts = _COMMENTS.sub("", line).split(None, 1)
         if not parts:

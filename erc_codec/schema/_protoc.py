@@ -1,7 +1,11 @@
 """protoc, run in-process through grpcio-tools, turning .proto files into a FileDescriptorSet.
 
 Guarantees: no generated code is written anywhere; protoc's own diagnostics (``path:line:col:
-message``) come back as the text of a ``SchemaError``. protoc reports on the process's standard
+message``) come back as the text of a ``SchemaError``. protoc reads whatever its search folders
+hold under an imported name, so every file it will read from disk is found first as protoc finds
+it and must be a regular file within ``SOURCE_LIMIT`` (a FIFO would block it for ever, a link to
+``/dev/zero`` fill memory): ``read_file`` refuses anything else, naming it. Only erc-codec's own
+include folders are taken on trust. protoc reports on the process's standard
 error descriptor, so compilation briefly points fd 2 at a scratch file; a lock keeps two
 compilations in this process from interleaving. Scratch files (protoc's output, its diagnostics,
 descriptors it is given) live in a temporary folder that is gone when the compilation ends.
@@ -11,15 +15,18 @@ import contextlib
 import functools
 import os
 import re
+import stat
 import tempfile
 import threading
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 
 import grpc_tools
 from google.protobuf import descriptor_pb2
 
 from .._errors import SchemaError
+from ._files import read_text
+from ._text import imports as imported
 
 try:
     # protoc's own entry point, which grpc_tools.protoc.main calls with the arguments encoded;
@@ -63,6 +70,7 @@ def compile_files(
     locations: bool = True,
     defaults: bool = True,
     imports: bool = True,
+    read: Mapping[str, Iterable[str]] | None = None,
 ) -> descriptor_pb2.FileDescriptorSet:
     """Compile ``files`` (paths relative to ``root``) with their imports and, unless told
     otherwise, source locations.
@@ -74,12 +82,18 @@ def compile_files(
     lists every file once, each after the files it imports (``imports=False``: ``files``
     alone). ``defaults=False`` leaves our well-known files and nanopb.proto out altogether:
     ``known`` holds what the files import.
+
+    Every file protoc will read from disk is read first, where protoc will find it, and must
+    be a regular file within ``SOURCE_LIMIT`` (else ``FileError``); ``read`` spares that for
+    files under ``root`` the caller has read with ``read_file`` itself: their names, each with
+    the import spellings protoc will find in it.
     """
     search = [str(root), *map(str, includes)]
     if defaults and known is not None and {file.name for file in known.file} & _default_names():
         known = descriptor_pb2.FileDescriptorSet(file=[*known.file, *_defaults().file])
     elif defaults:
         search += [_WELL_KNOWN, FALLBACK_INCLUDE]
+    _vet(search, files, read or {})
     with _LOCK, tempfile.TemporaryDirectory(prefix="erc-codec-") as scratch:
         # one compilation at a time, scratch files and all
         _standard_descriptors_open()
@@ -105,6 +119,35 @@ def compile_files(
             lines = [line for line in lines if line and line != _LOG_NOTICE]
             raise ProtocError(lines or [f"protoc exited with status {status}"])
         return descriptor_pb2.FileDescriptorSet.FromString(Path(out).read_bytes())
+
+
+def _vet(search: Sequence[str], files: Sequence[str], read: Mapping[str, Iterable[str]]) -> None:
+    """Read every file protoc will read from disk for ``files``, and their imports, each where
+    protoc finds it: in the first search folder holding it as something other than a folder
+    (files of ``read``: in the first, ``root``). What protoc will not open is left alone: a name
+    it refuses (absolute, or with ``..``, ``.`` or an empty part), or one no folder holds
+    (protoc reports it)."""
+    trusted = (_WELL_KNOWN, FALLBACK_INCLUDE)
+    pending, seen = list(files), set()
+    while pending:
+        name = pending.pop().partition("\0")[0]  # protoc's names are C strings
+        if name in seen or name.startswith("/") or {"", ".", ".."} & set(name.split("/")):
+            continue
+        seen.add(name)
+        if name in read:
+            pending.extend(read[name])
+            continue
+        for folder in search:
+            path = os.path.join(folder, name)
+            try:
+                if stat.S_ISDIR(os.stat(path).st_mode):
+                    continue
+            except OSError:
+                continue
+            if folder not in trusted:
+                text = read_text(path, errors="replace")
+                pending.extend(spelling for _, _, spelling in imported(text))
+            break
 
 
 @functools.cache

@@ -4,6 +4,8 @@ Loading starts from the message the caller names as the root: the one file that 
 compiled with everything it imports, and nothing else. Unrelated files in the tree (a leftover enum
 whose values collide with message names, a half-written draft) therefore never stop loading, while
 any problem in a file the root depends on is a ``SchemaError`` carrying protoc's ``path:line:col``.
+Every ``.proto`` of the tree is read to find the root, each through ``read_file`` (a FIFO, a
+device or a file over ``SOURCE_LIMIT`` is refused, naming it); symlinked folders are not entered.
 """
 
 import functools
@@ -17,6 +19,7 @@ from google.protobuf.message import Message
 
 from .._errors import SchemaError
 from ._descriptors import Location, SourceIndex, declarations
+from ._files import FileError, proto_files, read_text
 from ._protoc import compile_files
 from ._text import declared_names
 
@@ -108,15 +111,17 @@ def load_schema(tree: str | os.PathLike[str], root: str = "PBEnvelope") -> Schem
         raise SchemaError(f"{base}: not a directory holding a proto tree")
     short = root.rpartition(".")[2]
     candidates = [
-        path.relative_to(base).as_posix()
-        for path in sorted(base.rglob("*.proto"))
-        if short in declared_names(_read(path))
+        name
+        for name in proto_files(base)
+        if short in declared_names(read_text(base / name, errors="replace"))
     ]
     found: list[tuple[str, descriptor_pb2.FileDescriptorSet]] = []
     failure: SchemaError | None = None
     for name in candidates:
         try:
             compiled = compile_files(base, [name])
+        except FileError:
+            raise  # a file protoc would read is refused: the tree is, whatever defines the root
         except SchemaError as error:
             failure = failure or error
             continue
@@ -129,13 +134,6 @@ def load_schema(tree: str | os.PathLike[str], root: str = "PBEnvelope") -> Schem
     if failure is not None:
         raise failure
     raise SchemaError(f"{base}: no .proto file defines message {root}")
-
-
-def _read(path: Path) -> str:
-    try:
-        return path.read_text(encoding="utf-8", errors="replace")
-    except OSError as error:
-        raise SchemaError(f"{path}: cannot read: {error.strerror}") from None
 
 
 def descriptor_of(cls: type[Message]) -> Descriptor:

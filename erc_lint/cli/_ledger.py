@@ -7,10 +7,11 @@ from pathlib import Path
 
 import click
 
-from .._config import LEDGER
-from .._git import Repository
+from erc_codec.schema import GitSpec, Repository, parse_tree_spec, read_file
+
+from .._config import LEDGER, LEDGER_LIMIT
+from .._errors import LedgerError
 from .._history import History, keys
-from .._inputs import GitInput, locate, parse
 from .._ledger import Entry, Ledger
 from .._loader import load_tree
 from ._shared import FILE, Failure, common_options, guard, settings
@@ -48,10 +49,10 @@ def update(
 ) -> None:
     """Record every number TREE's messages and enums use (a folder or GITDIR#ref=REF)."""
     with guard():
-        spec = parse(tree)
-        if isinstance(spec, GitInput):
+        spec = parse_tree_spec(tree)
+        if isinstance(spec, GitSpec):
             with Repository(spec.folder) as repository:
-                shown = locate(spec, repository)[1]
+                shown = repository.where(spec.subdir)[1]
                 if shown is None and path is None:
                     raise Failure(
                         f"{tree}: a bare repository has no folder for the ledger; "
@@ -87,14 +88,15 @@ def update(
 
 
 def _open(target: Path) -> Ledger:
-    """The ledger at ``target``; an empty one if there is no file yet."""
-    return Ledger.read(target) if target.exists() else Ledger(str(target))
+    """The ledger at ``target``; an empty one if there is no file yet (a device or a FIFO is
+    one: refused, and so never replaced)."""
+    return Ledger.read(target) if os.path.lexists(target) else Ledger(str(target))
 
 
 def _check(book: Ledger, added: list[Entry], target: Path) -> None:
     """Exit 1, saying why, when an update would change the ledger file."""
-    before = target.read_bytes().decode("utf-8", "replace") if target.exists() else None
-    reordered = before is not None and before != book.render()
+    before = read_file(target, LEDGER_LIMIT) if os.path.lexists(target) else None
+    reordered = before is not None and before.decode("utf-8", "replace") != book.render()
     for entry in added:
         click.echo(f"{target}: missing entry: {entry.render().rstrip()}")
     if reordered and not added:
@@ -104,13 +106,19 @@ def _check(book: Ledger, added: list[Entry], target: Path) -> None:
 
 
 def _write(target: Path, text: str) -> None:
-    """Replace ``target`` at once, so an interrupted update never leaves half a ledger."""
-    target.parent.mkdir(parents=True, exist_ok=True)
-    handle, scratch = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent)
+    """Replace ``target`` at once, so an interrupted or failed update (a full disk) never
+    leaves half a ledger: the old one stays, and the failure is a ``LedgerError``."""
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        handle, scratch = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent)
+    except OSError as error:
+        raise LedgerError(f"{target}: cannot write: {error.strerror}") from None
     try:
         with os.fdopen(handle, "w", encoding="utf-8", newline="\n") as stream:
             stream.write(text)
         os.replace(scratch, target)
-    except BaseException:
+    except BaseException as error:
         Path(scratch).unlink(missing_ok=True)
+        if isinstance(error, OSError):
+            raise LedgerError(f"{target}: cannot write: {error.strerror}") from None
         raise

@@ -9,11 +9,12 @@ from typing import Any, TypeVar
 import click
 
 from erc_codec import CodecError
+from erc_codec.schema import TreeSource, proto_files
 
 from .._config import Config, find_config, read_config
 from .._errors import LintError
 from .._finding import Finding
-from .._inputs import Source, open_input
+from .._inputs import open_input
 from .._report import FORMATS, render
 from ..rules import RULES
 
@@ -77,12 +78,12 @@ FORMAT_OPTION = click.option(
 
 
 @contextmanager
-def opened(text: str, role: str = "") -> Iterator[Source]:
+def opened(text: str, role: str = "") -> Iterator[TreeSource]:
     """The tree ``text`` names; a wrong path is an error rather than an empty, passing tree."""
     with open_input(text) as source:
         if not source.folder.is_dir():
             raise Failure(f"{text}: not a folder holding a proto tree")
-        if role and not any(source.folder.rglob("*.proto")):
+        if role and not proto_files(source.folder):
             raise Failure(f"{text}: no .proto file in {role} (a wrong path would pass every check)")
         yield source
 
@@ -109,7 +110,8 @@ def guard() -> Iterator[None]:
 
 
 def report(findings: list[Finding], output: str) -> None:
-    """Print the findings; exit 1 when one of them is an error."""
-    click.echo(render(findings, output), nl=False)
+    """Print the findings; exit 1 when one of them is an error. A file name that is not UTF-8
+    is printed as the bytes it is (as ``ls`` prints it), whatever the locale's encoding."""
+    click.echo(render(findings, output).encode("utf-8", "surrogateescape"), nl=False)
     if any(finding.severity == "error" for finding in findings):
         raise SystemExit(1)

@@ -1,0 +1,360 @@
+"""The schema layer's git revisions: a repository's objects read without a checkout, buf's
+spelling, and the scratch copy, against real repositories, hostile objects included (made with
+git's plumbing: a fetch hands such objects over unchecked, and a CI lints what it fetched)."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from git_support import HEADER, Repo, loose
+from git_support import tree as git_tree
+
+from erc_codec import SchemaError
+from erc_codec.schema import (
+    MAX_DEPTH,
+    MAX_FILES,
+    GitError,
+    GitSpec,
+    Repository,
+    TreeSource,
+    open_tree,
+    parse_tree_spec,
+)
+
+PROTO = HEADER + "message A { int32 x = 1; }\n"
+
+
+def files_of(source: TreeSource) -> dict[str, bytes]:
+    """Every file under a source's folder, by path, with its bytes (symlinks would show)."""
+    found = {}
+    for folder, _, names in os.walk(source.folder):
+        for name in names:
+            path = Path(folder) / name
+            assert not path.is_symlink()
+            found[path.relative_to(source.folder).as_posix()] = path.read_bytes()
+    return found
+
+
+def test_a_revision_is_its_commit_not_the_working_tree_and_nothing_changes(
+    tmp_path: Path,
+) -> None:
+    repo = Repo(tmp_path / "repo")
+    first = repo.commit("one", a="message A { int32 x = 1; }\n")
+    (repo.root / "proto" / "a.options").write_text("A.x int_size:IS_8\n")
+    (repo.root / "proto" / "README").write_text("not a proto\n")
+    (repo.root / "proto" / "pyproject.toml").write_text("[tool.erc-lint]\n")
+    repo.commit("two")
+    (repo.root / "proto" / "a.proto").write_text("edited, not committed")
+    status = repo.git("status", "--porcelain")
+    index = (repo.root / ".git" / "index").read_bytes()
+    with open_tree(repo.spec("main"), {"pyproject.toml": 100}) as source:
+        assert source.shown == repo.root / "proto"
+        assert source.revision == repo.git("rev-parse", "main")
+        assert files_of(source) == {
+            "a.proto": PROTO.encode(),
+            "a.options": b"A.x int_size:IS_8\n",
+            "pyproject.toml": b"[tool.erc-lint]\n",
+        }
+        scratch = source.folder
+    assert not scratch.exists()
+    with open_tree(repo.spec(first)) as source:
+        assert files_of(source) == {"a.proto": PROTO.encode()}
+    assert repo.git("status", "--porcelain") == status
+    assert (repo.root / ".git" / "index").read_bytes() == index
+
+
+def test_symlinks_resolve_in_the_commit_and_never_leave_it(tmp_path: Path) -> None:
+    repo = Repo(tmp_path / "repo")
+    (repo.root / "shared" / "deep").mkdir(parents=True)
+    (repo.root / "shared" / "deep" / "common.proto").write_text(PROTO)
+    (repo.root / "proto").mkdir()
+    (tmp_path / "outside.proto").write_text("outside the repository\n")
+    links = {
+        "inside.proto": "../shared/deep/common.proto",  # out of the tree, inside the repo
+        "through.proto": "../shared/link/common.proto",  # through a symlinked folder
+        "chain.proto": "inside.proto",  # a link to a link
+        "absolute.proto": str(tmp_path / "outside.proto"),
+        "escape.proto": "../../outside.proto",
+        "dangling.proto": "missing.proto",
+        "folder.proto": "../shared",
+        "loop.proto": "loop.proto",
+        "file-as-folder.proto": "inside.proto/x",
+    }
+    (repo.root / "shared" / "link").symlink_to("deep")
+    for name, target in links.items():
+        (repo.root / "proto" / name).symlink_to(target)
+    repo.commit("links")
+    with open_tree(repo.spec("main")) as source:
+        found = files_of(source)
+    followed = ("inside.proto", "through.proto", "chain.proto")
+    assert found == dict.fromkeys(followed, PROTO.encode())
+
+
+def test_a_chain_of_more_than_40_links_is_left_out(tmp_path: Path) -> None:
+    repo = Repo(tmp_path / "repo")
+    (repo.root / "proto").mkdir()
+    (repo.root / "proto" / "0.proto").write_text(PROTO)
+    for k in range(1, 42):
+        (repo.root / "proto" / f"{k}.proto").symlink_to(f"{k - 1}.proto")
+    repo.commit("chain")
+    with open_tree(repo.spec("main")) as source:
+        found = files_of(source)
+    # Linux follows 40 links: 40.proto reaches 0.proto through 40 of them, 41.proto needs 41.
+    assert sorted(found, key=lambda name: int(name.split(".")[0])) == [
+        f"{k}.proto" for k in range(41)
+    ]
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("proto", Path("proto")),
+        ("repo#ref=main", GitSpec(Path("repo"), "main")),
+        ("#branch=x,subdir=/a b/c/", GitSpec(Path("."), "x", "a b/c")),
+        ("my repo#tag=v1,subdir=with space", GitSpec(Path("my repo"), "v1", "with space")),
+    ],
+)
+def test_the_spelling_is_bufs(text: str, expected: Path | GitSpec) -> None:
+    assert parse_tree_spec(text) == expected
+
+
+@pytest.mark.parametrize(
+    ("text", "complaint"),
+    [
+        ("repo#ref=main,depth=3", "not the option 'depth=3'"),
+        ("repo#subdir=proto", "give exactly one of ref=, branch= or tag="),
+        ("repo#ref=a,ref=b", "ref given twice"),
+        ("repo#ref=main,subdir=a/../b", "subdir must be a plain path"),
+        ("repo#ref=main,subdir=./a", "subdir must be a plain path"),
+    ],
+)
+def test_a_bad_spelling_is_a_git_error(text: str, complaint: str) -> None:
+    with pytest.raises(GitError, match=complaint):
+        parse_tree_spec(text)
+
+
+def test_spaces_work_in_every_part_of_the_spelling(tmp_path: Path) -> None:
+    """Ref names cannot hold a space; a repository's folder, a subdir and file names can."""
+    repo = Repo(tmp_path / "my repo")
+    (repo.root / "a b" / "c d").mkdir(parents=True)
+    (repo.root / "a b" / "c d" / "x y.proto").write_text(PROTO)
+    repo.commit("spaces")
+    with open_tree(f"{repo.root}#ref=main,subdir=a b") as source:
+        assert files_of(source) == {"c d/x y.proto": PROTO.encode()}
+        assert source.shown == repo.root / "a b"
+    # A folder the commit lacks: git's answer to "C:no such" was "C:no such missing", three words.
+    with open_tree(f"{repo.root}#ref=main,subdir=no such") as source:
+        assert files_of(source) == {}
+    with (
+        pytest.raises(GitError, match=r"'a b/c d/x y\.proto' at [0-9a-f]{12} is not a folder"),
+        open_tree(f"{repo.root}#ref=main,subdir=a b/c d/x y.proto"),
+    ):
+        pass
+    with Repository(repo.root / "a b") as repository:
+        assert repository.where("c d") == ("a b/c d", repo.root / "a b" / "c d")
+
+
+def test_a_blob_over_the_limit_is_refused_unread_and_reading_goes_on(tmp_path: Path) -> None:
+    repo = Repo(tmp_path / "repo")
+    big = repo.blob(b"x" * 1001)
+    small = repo.blob(b"small")
+    with Repository(repo.root) as repository:
+        with pytest.raises(
+            GitError, match=r"^big\.proto: 1001 bytes, over the limit of 1000 bytes"
+        ):
+            repository.read(big, 1000, "big.proto")
+        assert repository.read(small) == b"small"  # a new cat-file process serves it
+        assert repository.read(big, 1001) == b"x" * 1001
+
+
+def test_a_proto_over_16_mib_stops_a_revision_in_one_line(tmp_path: Path) -> None:
+    repo = Repo(tmp_path / "repo")
+    (repo.root / "proto").mkdir()
+    (repo.root / "proto" / "huge.proto").write_bytes(b"/" * (16 * 1024 * 1024 + 1))
+    repo.commit("huge")
+    done = erc_lint("check", repo.spec("main"))
+    assert done.returncode == 2
+    assert done.stderr == (
+        f"Error: {repo.root}/proto/huge.proto: 16777217 bytes, over the limit of 16 MiB: refused\n"
+    )
+
+
+def erc_lint(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "erc_lint", *args], capture_output=True, text=True, timeout=120
+    )
+
+
+# Entry names no git command writes, each of which once wrote outside the scratch folder or
+# would on some file system (git's fsck: has_full_path, has_dotdot, has_dot, has_empty_name,
+# has_dotgit with its case, NTFS and HFS+ spellings); True: the entry is a folder.
+HOSTILE = [
+    ("{victims}/abs.proto", False),
+    ("../../victim.proto", False),
+    ("a/b.proto", False),
+    ("..", True),
+    ("..", False),
+    (".", True),
+    ("", True),
+    (".git", True),
+    (".GIT", True),
+    (".Git.", True),
+    (".git ", True),
+    ("git~1", True),
+    (".g\u200cit", True),
+    (".git::$INDEX_ALLOCATION", True),
+]
+
+
+@pytest.mark.parametrize(("name", "folder"), HOSTILE)
+def test_a_hostile_entry_refuses_the_revision_and_writes_nothing(
+    tmp_path: Path, name: str, folder: bool
+) -> None:
+    repo = Repo(tmp_path / "repo")
+    victims = tmp_path / "victims"
+    victims.mkdir()
+    (victims / "abs.proto").write_text("kept\n")
+    blob = repo.blob(PROTO)
+    inner = repo.tree([("100644", "victim.proto", blob), ("100644", "x.proto", blob)])
+    entry = name.format(victims=victims)
+    hostile = repo.tree(
+        [
+            ("100644", "a.proto", blob),
+            ("40000", entry, inner) if folder else ("100644", entry, blob),
+        ]
+    )
+    commit = repo.branch("hostile", repo.tree([("40000", "proto", hostile)]))
+    before = snapshot(tmp_path)
+    with (
+        pytest.raises(GitError, match=f"tree {hostile} holds an entry named"),
+        open_tree(f"{repo.root}#ref={commit},subdir=proto"),
+    ):
+        pass
+    for args in (
+        ["check", repo.spec("hostile")],
+        ["ledger", "update", repo.spec("hostile"), "--history", "--ledger", str(tmp_path / "l")],
+    ):
+        done = erc_lint(*args)
+        assert done.returncode == 2, done
+        assert done.stderr.count("\n") == 1, done.stderr
+        assert f"tree {hostile} holds an entry named {entry!r}" in done.stderr
+    assert (victims / "abs.proto").read_text() == "kept\n"
+    assert snapshot(tmp_path) == before
+
+
+def snapshot(folder: Path) -> dict[str, bytes | None]:
+    """Every path under ``folder`` but the repository's objects, with each file's bytes."""
+    return {
+        str(path): None if path.is_dir() else path.read_bytes()
+        for path in folder.rglob("*")
+        if ".git" not in path.parts
+    }
+
+
+def test_history_never_deletes_outside_its_scratch_folder(tmp_path: Path) -> None:
+    """``ledger update --history`` compiled each file in place and unlinked it after: a file
+    named ``/abs/x.proto`` was written and then deleted, whatever it had been."""
+    repo = Repo(tmp_path / "repo")
+    victim = tmp_path / "victim.proto"
+    victim.write_text("kept\n")
+    blob = repo.blob(PROTO)
+    hostile = repo.tree([("100644", str(victim), blob)])
+    repo.branch("hostile", repo.tree([("40000", "proto", hostile)]))
+    ledger = str(tmp_path / "l")
+    done = erc_lint("ledger", "update", repo.spec("hostile"), "--history", "--ledger", ledger)
+    assert done.returncode == 2
+    assert victim.read_text() == "kept\n"
+
+
+@pytest.mark.parametrize(
+    ("entries", "complaint"),
+    [
+        (
+            [("100644", "a.proto", "{blob}"), ("100644", "a.proto", "{blob}")],
+            "holds 'a.proto' twice",
+        ),
+        ([("40000", "a", "{blob}")], "is a blob, not a tree"),
+        ([("100644", "a.proto", "{tree}")], "proto/a.proto: a tree, not a file"),
+        ([("60644", "a.proto", "{blob}")], "gives 'a.proto' the mode '60644'"),
+        ([("10x644", "a.proto", "{blob}")], "gives 'a.proto' the mode '10x644'"),
+        ([("40000", "a", "0" * 40)], "no tree 0000000000000000000000000000000000000000"),
+    ],
+)
+def test_a_tree_git_never_writes_is_refused_in_one_line(
+    tmp_path: Path, entries: list[tuple[str, str, str]], complaint: str
+) -> None:
+    repo = Repo(tmp_path / "repo")
+    blob = repo.blob(PROTO)
+    sub = repo.tree([("100644", "x.proto", blob)])
+    made = [(mode, name, oid.format(blob=blob, tree=sub)) for mode, name, oid in entries]
+    repo.branch("odd", repo.tree([("40000", "proto", repo.tree(made))]))
+    done = erc_lint("check", repo.spec("odd"))
+    assert done.returncode == 2, done
+    assert complaint in done.stderr
+    assert done.stderr.count("\n") == 1
+
+
+def test_a_corrupt_tree_is_refused(tmp_path: Path) -> None:
+    repo = Repo(tmp_path / "repo")
+    cut = bytes.fromhex(repo.blob(PROTO))[:7]
+    command = ("hash-object", "-w", "-t", "tree", "--literally", "--stdin")
+    for broken in (
+        repo.git(*command, data=b"100644 a.proto"),  # no NUL after the name
+        repo.git(*command, data=b"100644 a.proto\0" + cut),  # the id cut short
+    ):
+        with Repository(repo.root) as repository:
+            commit = repo.git("commit-tree", broken, "-m", "x")
+            with pytest.raises(GitError, match=f"tree {broken} is corrupt at byte 0"):
+                repository.files(commit)
+
+
+def test_a_tree_nesting_to_more_than_max_files_is_refused_small(tmp_path: Path) -> None:
+    """Two trees of 400 entries make 160,000 paths: refused while flattened, in a moment."""
+    repo = Repo(tmp_path / "repo")
+    blob = repo.blob(PROTO)
+    leaves = repo.tree([("100644", f"{k:03}.proto", blob) for k in range(400)])
+    bomb = repo.tree([("40000", f"d{k:03}", leaves) for k in range(400)])
+    assert MAX_FILES < 400 * 400
+    commit = repo.branch("bomb", bomb)
+    with Repository(repo.root) as repository, pytest.raises(GitError, match="more than 100000"):
+        repository.files(commit)
+
+
+def test_trees_nested_deeper_than_max_depth_are_refused_without_recursion(
+    tmp_path: Path,
+) -> None:
+    repo = Repo(tmp_path / "repo")
+    deepest = {}
+    tree = loose(repo.root, "tree", git_tree([("100644", "x.proto", repo.blob(PROTO))]))
+    for depth in range(1, 3001):
+        tree = loose(repo.root, "tree", git_tree([("40000", "d", tree)]))
+        deepest[depth] = repo.branch(f"at-{depth}", tree)
+    with Repository(repo.root) as repository:
+        assert list(repository.files(deepest[MAX_DEPTH])) == ["d/" * MAX_DEPTH + "x.proto"]
+        with pytest.raises(GitError, match=f"nests files more than {MAX_DEPTH} folders deep"):
+            repository.files(deepest[MAX_DEPTH + 1])
+    done = erc_lint("check", f"{repo.root}#ref=at-3000")
+    assert done.returncode == 2
+    assert done.stderr.count("\n") == 1
+    assert f"nests files more than {MAX_DEPTH} folders deep: refused" in done.stderr
+
+
+def test_the_files_of_a_revision_are_bounded_in_all(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """16 MiB a file, 256 MiB in all (here 1 KiB, to see the sum counted)."""
+    monkeypatch.setattr("erc_codec.schema._tree.TREE_LIMIT", 1024)
+    repo = Repo(tmp_path / "repo")
+    entries = [("100644", f"{k}.proto", repo.blob(f"// {k}\n" + "/" * 300)) for k in range(4)]
+    repo.branch("many", repo.tree(entries))
+    with (
+        pytest.raises(GitError, match=r"the tree's files pass 1 KiB in all at 3\.proto: refused"),
+        open_tree(f"{repo.root}#ref=many"),
+    ):
+        pass
+
+
+def test_git_errors_are_schema_errors() -> None:
+    assert issubclass(GitError, SchemaError)
