@@ -21,7 +21,6 @@ dropped), or, at the target rate, when any was lost.
 
 import argparse
 import json
-import os
 import random
 import signal
 import socket
@@ -30,6 +29,7 @@ import sys
 import time
 from pathlib import Path
 from tempfile import TemporaryDirectory
+from typing import NamedTuple
 
 from bench_codec import corpus
 
@@ -37,6 +37,16 @@ import erc_codec
 
 _TARGET_RATE = 20_000
 _BURST = 0.001  # seconds between two bursts of the sender
+
+
+class Result(NamedTuple):
+    sent: int
+    received: int  # by listen
+    shown: int  # JSON lines written
+    dropped: int  # listen's own counters
+    kernel: int | None  # kernel_dropped, as listen reports it (None: not reported)
+    system: int | None  # the system's RcvbufErrors delta
+    buffer: int | None  # the receive buffer granted, as listen reports it
 
 
 def datagrams(mix: bool) -> list[bytes]:
@@ -78,7 +88,7 @@ def rcvbuf_errors() -> int | None:
     return int(dict(zip(names, values, strict=True))["RcvbufErrors"])
 
 
-def run(rate: int, seconds: float, mix: bool, folder: Path) -> dict[str, object]:
+def run(rate: int, seconds: float, mix: bool, folder: Path) -> Result:
     shown = folder / "shown.jsonl"
     with shown.open("wb") as out:
         listener = subprocess.Popen(
@@ -103,15 +113,15 @@ def run(rate: int, seconds: float, mix: bool, folder: Path) -> dict[str, object]
     counters = json.loads(err.strip().splitlines()[-1].removeprefix("counters: "))
     with shown.open("rb") as lines:
         written = sum(1 for _ in lines)
-    return {
-        "sent": int(sender.stdout),
-        "received": counters["received"],
-        "shown": written,
-        "dropped": counters["dropped"],
-        "kernel": counters.get("kernel_dropped"),
-        "system": None if before is None or after is None else after - before,
-        "buffer": counters.get("receive_buffer"),
-    }
+    return Result(
+        int(sender.stdout),
+        counters["received"],
+        written,
+        counters["dropped"],
+        counters.get("kernel_dropped"),
+        None if before is None or after is None else after - before,
+        counters.get("receive_buffer"),
+    )
 
 
 def main() -> int:
@@ -126,25 +136,21 @@ def main() -> int:
         return 0
     rates = [int(rate) for rate in args.rates.split(",")]
     print(f"datagrams: {'one of every kind' if args.mix else 'driving_motor_message, 7 bytes'}")
-    print("rate/s    sent  received     shown  dropped  kernel dropped  system  buffer")
+    print("rate/s    sent  received     shown  dropped  kernel dropped  system    buffer")
     ok = True
     with TemporaryDirectory() as folder:
         for rate in rates:
             r = run(rate, args.seconds, args.mix, Path(folder))
-            kernel = "-" if r["kernel"] is None else r["kernel"]
-            system = "-" if r["system"] is None else r["system"]
-            buffer = "-" if r["buffer"] is None else r["buffer"]
+            kernel, system, buffer = ("-" if n is None else n for n in r[4:])
             print(
-                f"{rate:>6} {r['sent']:>7} {r['received']:>9} {r['shown']:>9} {r['dropped']:>8}"
-                f" {kernel:>15} {system:>7} {buffer:>7}"
+                f"{rate:>6} {r.sent:>7} {r.received:>9} {r.shown:>9} {r.dropped:>8}"
+                f" {kernel:>15} {system:>7} {buffer:>8}"
             )
-            counted = isinstance(r["kernel"], int) and r["received"] + r["kernel"] == r["sent"]
-            lost = r["sent"] != r["shown"]
-            ok = ok and counted and not (rate >= _TARGET_RATE and lost)
+            counted = r.kernel is not None and r.received + r.kernel == r.sent
+            ok = ok and counted and not (rate >= _TARGET_RATE and r.shown != r.sent)
     print(f"every datagram accounted for, none lost at {_TARGET_RATE}/s: {'yes' if ok else 'NO'}")
     return 0 if ok else 1
 
 
 if __name__ == "__main__":
-    os.environ.setdefault("PYTHONHASHSEED", "0")
     sys.exit(main())
