@@ -2,10 +2,12 @@
 a serial byte stream (a socket pair), with the clock and the sockets real."""
 
 import asyncio
+import math
 import socket
 import subprocess
 import sys
 
+import pytest
 from proton_values import TYPES_2_0
 
 import erc_codec
@@ -107,3 +109,21 @@ def test_importing_erc_codec_proton_loads_neither_asyncio_nor_yaml() -> None:
     code = "import sys, erc_codec.proton; print(sorted({'asyncio', 'yaml'} & set(sys.modules)))"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.strip() == "[]"
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, 0.0, -0.005])
+def test_the_tick_is_positive_finite_seconds(bad: float) -> None:
+    async def scenario() -> None:
+        ours, theirs = socket.socketpair()
+        reader, writer = await asyncio.open_connection(sock=ours)
+        try:
+            with pytest.raises(ValueError, match=r"^tick must be a positive, finite number"):
+                await open_proton_udp(Node(TYPES_2_0, "pc"), "127.0.0.1", 0, peers={}, tick=bad)
+            with pytest.raises(ValueError, match=r"^tick must be a positive, finite number"):
+                await run_proton_serial(Node(TYPES_2_0, "pc"), reader, writer, tick=bad)
+        finally:
+            theirs.close()
+            writer.close()
+            await writer.wait_closed()
+
+    asyncio.run(scenario())

@@ -18,6 +18,7 @@ import time
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any, NamedTuple, cast
 
+from .._checks import duration
 from .._errors import DecodeError
 from .._framing import Deframer, frame
 from ._node import Node, Sent
@@ -150,6 +151,7 @@ async def open_proton_udp(
     their endpoints of those connections), polled every ``tick`` seconds until closed."""
     import asyncio
 
+    duration("tick", tick)
     local, addresses = _udp_addresses(node)
     addresses.update(peers or {})
     senders = {address: name for name, address in addresses.items()}
@@ -210,6 +212,7 @@ async def run_proton_serial(
     framed and written, until ``reader`` ends; the link's counters."""
     import asyncio
 
+    duration("tick", tick)
     counters = _Counters(on_error)
     deframer = Deframer(max_length=_MAX_FRAME)
 
