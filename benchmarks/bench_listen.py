@@ -12,6 +12,11 @@ receive-buffer drops on this machine during the run: a cross-check, and an upper
 other processes may drop too). Nothing is lost silently when sent = received + kernel dropped.
 Target (security issue, "every loss counted"): at 20,000 datagrams/s nothing lost at all.
 
+Whether listen keeps up depends on the CPU it gets, which on a shared machine is whatever the
+others leave: so the CPU time listen spent per datagram received (``/proc/PID/stat``, Linux) is
+printed too, with the rate that would fill one CPU (``1 / that``): the figure to compare between
+two versions, as it hardly depends on the load.
+
 The datagrams are the README's ``send`` example (a driving_motor_message, 7 bytes); with
 ``--mix``, one random payload of every kind in turn (``bench_codec.corpus``), whose conversion
 to JSON costs far more. The machine is shared and noisy: repeat a run before believing it.
@@ -21,6 +26,7 @@ dropped), or, at the target rate, when any was lost.
 
 import argparse
 import json
+import os
 import random
 import signal
 import socket
@@ -47,6 +53,16 @@ class Result(NamedTuple):
     kernel: int | None  # kernel_dropped, as listen reports it (None: not reported)
     system: int | None  # the system's RcvbufErrors delta
     buffer: int | None  # the receive buffer granted, as listen reports it
+    cpu: float | None  # listen's CPU seconds while the datagrams came and were read
+
+
+def cpu_seconds(pid: int) -> float | None:
+    """The user and system CPU time of process ``pid`` (Linux's ``/proc``), None elsewhere."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def datagrams(mix: bool) -> list[bytes]:
@@ -102,11 +118,13 @@ def run(rate: int, seconds: float, mix: bool, folder: Path) -> Result:
         assert first.startswith("listening on 127.0.0.1:"), first
         port = int(first.rsplit(":", 1)[1])
         before = rcvbuf_errors()
+        started = cpu_seconds(listener.pid)
         me = [sys.executable, __file__, "--send", str(port), str(rate), str(seconds)]
         sender = subprocess.run(
             [*me, *(["--mix"] if mix else [])], capture_output=True, text=True, check=True
         )
         time.sleep(0.5)  # what is queued is read and shown
+        ended = cpu_seconds(listener.pid)
         listener.send_signal(signal.SIGINT)
         _, err = listener.communicate(timeout=60)
         after = rcvbuf_errors()
@@ -121,6 +139,7 @@ def run(rate: int, seconds: float, mix: bool, folder: Path) -> Result:
         counters.get("kernel_dropped"),
         None if before is None or after is None else after - before,
         counters.get("receive_buffer"),
+        None if started is None or ended is None else ended - started,
     )
 
 
@@ -136,15 +155,21 @@ def main() -> int:
         return 0
     rates = [int(rate) for rate in args.rates.split(",")]
     print(f"datagrams: {'one of every kind' if args.mix else 'driving_motor_message, 7 bytes'}")
-    print("rate/s    sent  received     shown  dropped  kernel dropped  system    buffer")
+    print(
+        "rate/s    sent  received     shown  dropped  kernel dropped  system    buffer"
+        "  CPU µs/datagram  (1 CPU: /s)"
+    )
     ok = True
     with TemporaryDirectory() as folder:
         for rate in rates:
             r = run(rate, args.seconds, args.mix, Path(folder))
-            kernel, system, buffer = ("-" if n is None else n for n in r[4:])
+            kernel, system, buffer = ("-" if n is None else n for n in r[4:7])
+            each = r.cpu / r.received if r.cpu is not None and r.received else None
+            cost = "-" if each is None else f"{each * 1e6:.1f}"
+            capacity = "-" if not each else f"{1 / each:,.0f}"
             print(
                 f"{rate:>6} {r.sent:>7} {r.received:>9} {r.shown:>9} {r.dropped:>8}"
-                f" {kernel:>15} {system:>7} {buffer:>8}"
+                f" {kernel:>15} {system:>7} {buffer:>9} {cost:>16} {capacity:>12}"
             )
             counted = r.kernel is not None and r.received + r.kernel == r.sent
             ok = ok and counted and not (rate >= _TARGET_RATE and r.shown != r.sent)
