@@ -1,6 +1,6 @@
 """``erc-codec listen --format json`` under a steady UDP stream: is every datagram shown or counted?
 
-    python benchmarks/bench_listen.py [--rates 5000,10000,20000] [--seconds 3] [--mix]
+    python benchmarks/bench_listen.py [--rates 5000,10000,20000] [--seconds 3] [--mix] [--quick]
 
 For each rate, a listener (the command, as a user runs it, its output to a file) and a sender
 process (datagrams paced in 1 ms bursts on 127.0.0.1) run for the given seconds; then the
@@ -148,12 +148,14 @@ def main() -> int:
     parser.add_argument("--rates", default="5000,10000,20000", help="datagrams per second")
     parser.add_argument("--seconds", type=float, default=3.0, help="per rate")
     parser.add_argument("--mix", action="store_true", help="every payload kind, not one")
+    parser.add_argument("--quick", action="store_true", help="one second at 5,000/s (a smoke run)")
     parser.add_argument("--send", nargs=3, metavar=("PORT", "RATE", "SECONDS"), help="internal")
     args = parser.parse_args()
     if args.send:
         send(int(args.send[0]), int(args.send[1]), float(args.send[2]), args.mix)
         return 0
-    rates = [int(rate) for rate in args.rates.split(",")]
+    rates = [5000] if args.quick else [int(rate) for rate in args.rates.split(",")]
+    seconds = 1.0 if args.quick else args.seconds
     print(f"datagrams: {'one of every kind' if args.mix else 'driving_motor_message, 7 bytes'}")
     print(
         "rate/s    sent  received     shown  dropped  kernel dropped  system    buffer"
@@ -162,7 +164,7 @@ def main() -> int:
     ok = True
     with TemporaryDirectory() as folder:
         for rate in rates:
-            r = run(rate, args.seconds, args.mix, Path(folder))
+            r = run(rate, seconds, args.mix, Path(folder))
             kernel, system, buffer = ("-" if n is None else n for n in r[4:7])
             each = r.cpu / r.received if r.cpu is not None and r.received else None
             cost = "-" if each is None else f"{each * 1e6:.1f}"
@@ -173,7 +175,8 @@ def main() -> int:
             )
             counted = r.kernel is not None and r.received + r.kernel == r.sent
             ok = ok and counted and not (rate >= _TARGET_RATE and r.shown != r.sent)
-    print(f"every datagram accounted for, none lost at {_TARGET_RATE}/s: {'yes' if ok else 'NO'}")
+    target = f"none lost at {_TARGET_RATE}/s" if _TARGET_RATE in rates else "(target rate not run)"
+    print(f"every datagram accounted for, {target}: {'yes' if ok else 'NO'}")
     return 0 if ok else 1
 
 

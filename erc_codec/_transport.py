@@ -36,14 +36,17 @@ __all__ = ["UdpEndpoint", "UdpStats", "open_udp", "read_serial"]
 Clock = Callable[[], float]
 Heard = Callable[[bytes, Any], object]
 
-RECEIVE_BUFFER = 4 << 20  # bytes asked for: 0.2 s of 20,000 datagrams/s, where the system allows
+# Bytes of receive buffer asked for. Linux grants twice as much, up to twice net.core.rmem_max
+# (often 208 KiB: raise it for the full buffer): 8 MiB hold some 10,000 small datagrams, half a
+# second of 20,000 a second.
+RECEIVE_BUFFER = 4 << 20
 _BATCH = 256  # datagrams read in one go before the loop runs anything else
 _LARGEST_BUFFER = (1 << 31) - 1  # SO_RCVBUF takes a C int
 
 
 class UdpStats(NamedTuple):
-    """A UDP endpoint's counters since it opened: received + kernel_dropped + unread is every
-    datagram that reached its port."""
+    """A UDP endpoint's counters since it opened. Once it is closed, received + kernel_dropped
+    + unread is every datagram that reached its port."""
 
     received: int  # datagrams read, each heard by on_datagram and fed to the dispatcher
     kernel_dropped: int | None  # dropped by the kernel before they could be read (None: the
@@ -164,7 +167,8 @@ class UdpEndpoint:
 
     def _readable(self) -> None:
         """Read what is queued, up to a batch, each datagram heard and dispatched in turn (an
-        exception in a handler leaves the rest queued, for the next call)."""
+        exception from ``on_datagram`` or the watchdog's clock leaves the rest queued, for the
+        next call; the dispatcher catches its handlers' own)."""
         assert self._sock is not None
         receive, feed = self._sock.receive, self.dispatcher.feed
         for _ in range(_BATCH):

@@ -15,7 +15,10 @@ are merged by serial-number arithmetic, so it may wrap and a stale reading never
 The receive buffer is asked for with ``SO_RCVBUF``; ``buffer`` is what the kernel granted, as
 it reports it. Linux doubles the request (half of it is bookkeeping: a datagram of a few bytes
 takes about 800 bytes of buffer) and caps it at twice ``net.core.rmem_max``; raise that sysctl
-for more. No asyncio here: ``_transport.UdpEndpoint`` puts the socket on a loop.
+for more (``SO_RCVBUFFORCE`` would let root pass the cap: not used, the cap is the
+administrator's). A system that refuses a size instead (the BSDs above ``kern.ipc.maxsockbuf``)
+is asked for half as much, and so on down to its default. No asyncio here:
+``_transport.UdpEndpoint`` puts the socket on a loop.
 """
 
 import socket
@@ -24,12 +27,14 @@ from typing import Any
 
 __all__ = ["UdpSocket"]
 
-_RXQ_OVFL = getattr(socket, "SO_RXQ_OVFL", 40 if sys.platform == "linux" else None)
-_MEMINFO = getattr(socket, "SO_MEMINFO", 55 if sys.platform == "linux" else None)
+_LINUX = sys.platform == "linux"
+_RXQ_OVFL: int | None = getattr(socket, "SO_RXQ_OVFL", 40 if _LINUX else None)
+_MEMINFO: int | None = getattr(socket, "SO_MEMINFO", 55 if _LINUX else None)
 _MEMINFO_DROPS = 8  # SK_MEMINFO_DROPS: the ninth u32 of the array
 _MEMINFO_SIZE = 4 * (_MEMINFO_DROPS + 1)
 _LARGEST = 65535  # the largest UDP datagram (IPv4 payloads stop at 65507)
-_ANCILLARY = socket.CMSG_SPACE(4)  # one u32: the drop count
+_ANCILLARY = socket.CMSG_SPACE(4) if _RXQ_OVFL is not None else 0  # one u32: the drop count
+_SMALLEST_ASKED = 1 << 16  # a refused receive buffer is asked for by halves down to this
 _HALF = 1 << 31
 _WRAP = (1 << 32) - 1
 _UNREAD_LIMIT = 1 << 16  # datagrams close() reads off the queue at most
@@ -44,7 +49,7 @@ class UdpSocket:
         self._sock = sock = socket.socket(family, socket.SOCK_DGRAM)
         try:
             sock.setblocking(False)
-            sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, receive_buffer)
+            _ask_for_buffer(sock, receive_buffer)
             self._ovfl = _RXQ_OVFL is not None and _enable(sock, _RXQ_OVFL)
             self._meminfo = _meminfo_drops(sock) is not None
             sock.bind(address)
@@ -66,7 +71,10 @@ class UdpSocket:
     def receive(self) -> tuple[bytes, Any] | None:
         """The next datagram and its sender, ``None`` when none is waiting."""
         try:
-            data, ancillary, _, sender = self._sock.recvmsg(_LARGEST, _ANCILLARY)
+            if self._ovfl:
+                data, ancillary, _, sender = self._sock.recvmsg(_LARGEST, _ANCILLARY)
+            else:
+                (data, sender), ancillary = self._sock.recvfrom(_LARGEST), None
         except (BlockingIOError, InterruptedError):
             return None
         except OSError:  # the error of an earlier send, reported by the kernel
@@ -114,6 +122,19 @@ class UdpSocket:
         if 0 < step < _HALF:
             self._drops += step
             self._reading = reading
+
+
+def _ask_for_buffer(sock: socket.socket, size: int) -> None:
+    """Ask for ``size`` bytes of receive buffer, or the most below it the system takes."""
+    while True:
+        try:
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, size)
+        except OSError:
+            if size <= _SMALLEST_ASKED:
+                return  # the system's default stays
+            size //= 2
+            continue
+        return
 
 
 def _enable(sock: socket.socket, option: int) -> bool:
