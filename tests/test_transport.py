@@ -141,7 +141,7 @@ def flood(address: tuple[str, int], count: int) -> None:
             raw.sendto(data, address)
 
 
-def accounted(stats: erc_codec.UdpStats) -> int:
+def accounted(stats: "erc_codec.UdpStats") -> int:
     """The datagrams an endpoint read or knows the kernel dropped."""
     assert stats.kernel_dropped is not None, "Linux tells the drops"
     return stats.received + stats.kernel_dropped
@@ -149,7 +149,7 @@ def accounted(stats: erc_codec.UdpStats) -> int:
 
 @pytest.mark.skipif(sys.platform != "linux", reason="the kernel's drop count is Linux's")
 def test_every_datagram_is_received_or_counted_as_dropped_by_the_kernel() -> None:
-    async def scenario() -> list[erc_codec.UdpStats]:
+    async def scenario() -> "list[erc_codec.UdpStats]":
         dispatcher = erc_codec.Dispatcher(CODEC)
         endpoint = await erc_codec.open_udp(dispatcher, receive_buffer=1)  # the least there is
         seen = []
@@ -193,7 +193,7 @@ def test_the_receive_buffer_asked_for_is_granted_up_to_the_systems_cap() -> None
 
 
 def test_what_is_still_queued_at_close_is_counted_as_unread() -> None:
-    async def scenario() -> erc_codec.UdpStats:
+    async def scenario() -> "erc_codec.UdpStats":
         dispatcher = erc_codec.Dispatcher(CODEC)
         endpoint = await erc_codec.open_udp(dispatcher)
         flood(endpoint.address, 100)
@@ -206,7 +206,7 @@ def test_what_is_still_queued_at_close_is_counted_as_unread() -> None:
 
 
 def test_an_endpoint_closed_by_its_listener_reads_no_further() -> None:
-    async def scenario() -> tuple[list[bytes], erc_codec.UdpStats]:
+    async def scenario() -> "tuple[list[bytes], erc_codec.UdpStats]":
         heard: list[bytes] = []
         endpoint: erc_codec.UdpEndpoint
 
@@ -249,11 +249,11 @@ def test_the_receive_buffer_is_a_whole_number_of_bytes_a_socket_takes(bad: float
 def test_the_serial_chunk_is_a_whole_number_of_bytes(bad: float) -> None:
     async def scenario() -> None:
         ours, theirs = socket.socketpair()
+        theirs.close()  # the stream has ended: a chunk of -1 (read to the end) would not hang
         reader, writer = await asyncio.open_connection(sock=ours)
         try:
             await erc_codec.read_serial(reader, erc_codec.Dispatcher(CODEC), chunk=bad)  # type: ignore[arg-type]
         finally:
-            theirs.close()
             writer.close()
             await writer.wait_closed()
 
