@@ -3,13 +3,15 @@
     python benchmarks/bench_listen.py [--rates 5000,10000,20000] [--seconds 3] [--mix] [--quick]
 
 For each rate, a listener (the command, as a user runs it, its output to a file) and a sender
-process (datagrams paced in 1 ms bursts on 127.0.0.1) run for the given seconds; then the
-listener is stopped with SIGINT and its ``counters:`` line read. Printed per rate: datagrams
+process (datagrams paced in 1 ms bursts on 127.0.0.1) run for the given seconds; once the
+listener's output has stopped growing (it has read what was queued) it is stopped with SIGINT
+and its ``counters:`` line read. Printed per rate: datagrams
 sent, received by listen, shown (JSON lines written), dropped by listen (its own counters),
 dropped by the kernel as listen reports it (``kernel_dropped``; "-" from a listen that does not
 report it), and the system-wide ``Udp: RcvbufErrors`` delta of ``/proc/net/snmp`` (every socket's
 receive-buffer drops on this machine during the run: a cross-check, and an upper bound, since
-other processes may drop too). Nothing is lost silently when sent = received + kernel dropped.
+other processes may drop too). Nothing is lost silently when sent = received + kernel dropped +
+unread (still queued when listen stopped).
 Target (security issue, "every loss counted"): at 20,000 datagrams/s nothing lost at all.
 
 Whether listen keeps up depends on the CPU it gets, which on a shared machine is whatever the
@@ -21,7 +23,7 @@ The datagrams are the README's ``send`` example (a driving_motor_message, 7 byte
 ``--mix``, one random payload of every kind in turn (``bench_codec.corpus``), whose conversion
 to JSON costs far more. The machine is shared and noisy: repeat a run before believing it.
 Exit status 1 when a rate's datagrams are not all accounted for (sent != received + kernel
-dropped), or, at the target rate, when any was lost.
+dropped + unread), or, at the target rate, when any was lost.
 """
 
 import argparse
@@ -51,6 +53,7 @@ class Result(NamedTuple):
     shown: int  # JSON lines written
     dropped: int  # listen's own counters
     kernel: int | None  # kernel_dropped, as listen reports it (None: not reported)
+    unread: int | None  # still queued when listen stopped (None: not reported)
     system: int | None  # the system's RcvbufErrors delta
     buffer: int | None  # the receive buffer granted, as listen reports it
     cpu: float | None  # listen's CPU seconds while the datagrams came and were read
@@ -104,6 +107,19 @@ def rcvbuf_errors() -> int | None:
     return int(dict(zip(names, values, strict=True))["RcvbufErrors"])
 
 
+def settled(output: Path, quiet: float = 0.5, longest: float = 20.0) -> None:
+    """Wait until ``output`` has not grown for ``quiet`` seconds (``longest`` at most)."""
+    deadline = time.monotonic() + longest
+    size, since = -1, time.monotonic()
+    while time.monotonic() < deadline:
+        now = output.stat().st_size
+        if now != size:
+            size, since = now, time.monotonic()
+        elif time.monotonic() - since >= quiet:
+            return
+        time.sleep(0.05)
+
+
 def run(rate: int, seconds: float, mix: bool, folder: Path) -> Result:
     shown = folder / "shown.jsonl"
     with shown.open("wb") as out:
@@ -123,7 +139,7 @@ def run(rate: int, seconds: float, mix: bool, folder: Path) -> Result:
         sender = subprocess.run(
             [*me, *(["--mix"] if mix else [])], capture_output=True, text=True, check=True
         )
-        time.sleep(0.5)  # what is queued is read and shown
+        settled(shown)  # what is queued is read and shown
         ended = cpu_seconds(listener.pid)
         listener.send_signal(signal.SIGINT)
         _, err = listener.communicate(timeout=60)
@@ -137,6 +153,7 @@ def run(rate: int, seconds: float, mix: bool, folder: Path) -> Result:
         written,
         counters["dropped"],
         counters.get("kernel_dropped"),
+        counters.get("unread"),
         None if before is None or after is None else after - before,
         counters.get("receive_buffer"),
         None if started is None or ended is None else ended - started,
@@ -158,22 +175,22 @@ def main() -> int:
     seconds = 1.0 if args.quick else args.seconds
     print(f"datagrams: {'one of every kind' if args.mix else 'driving_motor_message, 7 bytes'}")
     print(
-        "rate/s    sent  received     shown  dropped  kernel dropped  system    buffer"
+        "rate/s    sent  received     shown  dropped  kernel dropped  unread  system    buffer"
         "  CPU µs/datagram  (1 CPU: /s)"
     )
     ok = True
     with TemporaryDirectory() as folder:
         for rate in rates:
             r = run(rate, seconds, args.mix, Path(folder))
-            kernel, system, buffer = ("-" if n is None else n for n in r[4:7])
+            kernel, unread, system, buffer = ("-" if n is None else n for n in r[4:8])
             each = r.cpu / r.received if r.cpu is not None and r.received else None
             cost = "-" if each is None else f"{each * 1e6:.1f}"
             capacity = "-" if not each else f"{1 / each:,.0f}"
             print(
                 f"{rate:>6} {r.sent:>7} {r.received:>9} {r.shown:>9} {r.dropped:>8}"
-                f" {kernel:>15} {system:>7} {buffer:>9} {cost:>16} {capacity:>12}"
+                f" {kernel:>15} {unread:>7} {system:>7} {buffer:>9} {cost:>16} {capacity:>12}"
             )
-            counted = r.kernel is not None and r.received + r.kernel == r.sent
+            counted = r.kernel is not None and r.received + r.kernel + (r.unread or 0) == r.sent
             ok = ok and counted and not (rate >= _TARGET_RATE and r.shown != r.sent)
     target = f"none lost at {_TARGET_RATE}/s" if _TARGET_RATE in rates else "(target rate not run)"
     print(f"every datagram accounted for, {target}: {'yes' if ok else 'NO'}")
