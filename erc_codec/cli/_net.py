@@ -1,11 +1,11 @@
 """``erc-codec send`` and ``erc-codec listen``: a message onto UDP, and what arrives, shown live.
 
-``send`` is the fleet's ``udp_client`` made general. ``listen`` is an ``open_udp`` endpoint with a
-``Watchdog`` measuring each kind's rate: it prints one JSON line per datagram (or, on a terminal,
-a table per kind with measured rates), counts every datagram that is dropped, by reason (those
-the kernel dropped before they could be read, too), and prints the counters when it stops. Its
-JSON lines are written a batch at a time (one write per batch of datagrams read), so that it
-keeps up with 20,000 datagrams a second (``benchmarks/bench_listen.py``).
+``send`` is the fleet's ``udp_client`` made general. ``listen`` is an ``open_udp`` endpoint: it
+prints one JSON line per datagram (or, on a terminal, a table per kind with the rates a
+``Watchdog`` measures), counts every datagram that is dropped, by reason (those the kernel
+dropped before they could be read, too), and prints the counters when it stops. Its JSON lines
+are written a batch at a time (one write per batch of datagrams read): what listen costs per
+datagram is then mostly the message's conversion to JSON (``benchmarks/bench_listen.py``).
 """
 
 import contextlib
