@@ -37,7 +37,8 @@ _ANCILLARY = socket.CMSG_SPACE(4) if _RXQ_OVFL is not None else 0  # one u32: th
 _SMALLEST_ASKED = 1 << 16  # a refused receive buffer is asked for by halves down to this
 _HALF = 1 << 31
 _WRAP = (1 << 32) - 1
-_UNREAD_LIMIT = 1 << 16  # datagrams close() reads off the queue at most
+_LEAST_TRUESIZE = 256  # bytes of receive buffer a queued datagram takes at least (the kernel's
+# bookkeeping included): close() reads at most the granted buffer's worth of them, and then some
 
 
 class UdpSocket:
@@ -104,7 +105,7 @@ class UdpSocket:
         if self._closed:
             return
         self.kernel_dropped()
-        for _ in range(_UNREAD_LIMIT):
+        for _ in range(2 * (self.buffer // _LEAST_TRUESIZE + 1)):  # ends while a sender floods
             try:
                 self._sock.recv(1)
             except (BlockingIOError, InterruptedError):
