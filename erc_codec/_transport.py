@@ -9,9 +9,9 @@ queued when the endpoint closed. The endpoint asks for a large receive buffer (4
 the socket itself, in batches (``_udp.UdpSocket``: ``recvmsg``, for the kernel's drop count),
 rather than through asyncio's datagram transport, which would hide both.
 
-This module does not import asyncio: ``import erc_codec`` must not pay its 20 to 40 ms of start-up
-(erc-lint imports erc_codec and is measured against buf in ``benchmarks/bench_lint.py``). Code here
-runs inside an event loop, where asyncio is loaded already.
+This module does not import asyncio, nor socket: ``import erc_codec`` must not pay their 20 to 40
+ms of start-up (erc-lint imports erc_codec and is measured against buf in
+``benchmarks/bench_lint.py``). Code here runs inside an event loop, where both are loaded already.
 """
 
 import time
@@ -25,11 +25,12 @@ from ._checks import count, duration
 from ._dispatch import Dispatcher
 from ._envelope import Mode
 from ._framing import Deframer
-from ._udp import UdpSocket
 from ._watchdog import Watchdog
 
 if TYPE_CHECKING:
     import asyncio
+
+    from ._udp import UdpSocket
 
 __all__ = ["UdpEndpoint", "UdpStats", "open_udp", "read_serial"]
 
@@ -93,6 +94,8 @@ class UdpEndpoint:
         polling the watchdog). ``open_udp`` does this."""
         import asyncio
         import socket
+
+        from ._udp import UdpSocket  # socket and selectors: loaded in a loop, not by erc_codec
 
         count("receive_buffer", receive_buffer)
         if receive_buffer > _LARGEST_BUFFER:
