@@ -17,7 +17,7 @@ from ._dispatch import Dispatcher, DispatchStats, Drop
 from ._envelope import Decoded, Mode
 from ._errors import CodecError, DecodeError, EncodeError, SchemaError
 from ._framing import Deframer, DeframerStats, frame
-from ._transport import UdpEndpoint, open_udp, read_serial
+from ._transport import UdpEndpoint, UdpStats, open_udp, read_serial
 from ._watchdog import Liveness, Watchdog
 
 __all__ = [
@@ -40,6 +40,7 @@ __all__ = [
     "Rejected",
     "SchemaError",
     "UdpEndpoint",
+    "UdpStats",
     "Watchdog",
     "decode",
     "encode",

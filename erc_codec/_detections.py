@@ -11,12 +11,16 @@ frame with no detections is one object with ``total_count`` 0. Guarantees:
   reported with how many objects had arrived;
 - memory stays bounded whatever arrives: at most ``keep_frames`` frames of at most
   ``max_objects`` objects, and the ids of the last completed frames (to recognise late repeats).
-The clock is the caller's ``now``; nothing here reads time.
+The clock is the caller's ``now``; nothing here reads time. ``timeout`` must be positive and
+finite seconds, ``keep_frames`` and ``max_objects`` whole numbers of at least 1, ``now`` finite:
+anything else (NaN, an infinity, a float count) is a ``ValueError`` naming it, and changes nothing.
 """
 
 from collections import deque
 from collections.abc import Callable
 from typing import Any, NamedTuple
+
+from ._checks import count, duration, instant
 
 __all__ = ["AssemblerStats", "DetectionAssembler", "DetectionFrame", "FrameLoss", "Rejected"]
 
@@ -77,11 +81,9 @@ class DetectionAssembler:
         on_loss: Callable[[FrameLoss], object] | None = None,
         on_reject: Callable[[Rejected], object] | None = None,
     ) -> None:
-        if timeout <= 0 or keep_frames < 1 or max_objects < 1:
-            raise ValueError("timeout, keep_frames and max_objects must be positive")
-        self._timeout = timeout
-        self._keep = keep_frames
-        self._max_objects = max_objects
+        self._timeout = duration("timeout", timeout)
+        self._keep = count("keep_frames", keep_frames)
+        self._max_objects = count("max_objects", max_objects)
         self._on_loss = on_loss
         self._on_reject = on_reject
         self._pending: dict[int, _Pending] = {}  # in the order frames started
@@ -93,6 +95,7 @@ class DetectionAssembler:
 
     def add(self, detected: Any, now: float) -> DetectionFrame | None:
         """Take one ``BasestationDetectedObject``; the frame it completes, if any."""
+        instant("now", now)
         frame_id, total, index = detected.frame_id, detected.total_count, detected.index
         pending = self._pending.get(frame_id)
         if pending is None and frame_id in self._done:
@@ -121,6 +124,7 @@ class DetectionAssembler:
 
     def poll(self, now: float) -> list[FrameLoss]:
         """Drop the frames whose timeout passed; what was lost."""
+        instant("now", now)
         lost = []
         for frame_id, pending in list(self._pending.items()):
             if now < pending.started:  # the clock stepped back: measure from here

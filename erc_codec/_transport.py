@@ -3,21 +3,25 @@
 Everything that decides lives in the core (codec, ``Dispatcher``, ``Watchdog``, ``Deframer``);
 these only move bytes and read the clock. The UDP endpoint binds 127.0.0.1 unless told otherwise.
 Datagrams longer than the envelope's maximum are dropped and counted by the dispatcher, as every
-undecodable datagram is (reason ``too_long``).
+undecodable datagram is (reason ``too_long``). What never reaches the dispatcher is counted too
+(``UdpEndpoint.stats()``): datagrams the kernel dropped (its receive buffer full), and those still
+queued when the endpoint closed. The endpoint asks for a large receive buffer (4 MiB) and reads
+the socket itself, in batches (``_udp.UdpSocket``: ``recvmsg``, for the kernel's drop count),
+rather than through asyncio's datagram transport, which would hide both.
 
-This module does not import asyncio: ``import erc_codec`` must not pay its 20 to 40 ms of start-up
-(erc-lint imports erc_codec and is measured against buf in ``benchmarks/bench_lint.py``). Code here
-runs inside an event loop, where asyncio is loaded already; ``UdpEndpoint`` therefore implements
-asyncio's datagram protocol methods itself instead of inheriting them, and
-``tests/test_transport.py`` holds it to ``asyncio.DatagramProtocol``'s method list.
+This module does not import asyncio, nor socket: ``import erc_codec`` must not pay their 20 to 40
+ms of start-up (erc-lint imports erc_codec and is measured against buf in
+``benchmarks/bench_lint.py``). Code here runs inside an event loop, where both are loaded already.
 """
 
 import time
+from collections import deque
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from google.protobuf.message import Message
 
+from ._checks import count, duration
 from ._dispatch import Dispatcher
 from ._envelope import Mode
 from ._framing import Deframer
@@ -26,19 +30,40 @@ from ._watchdog import Watchdog
 if TYPE_CHECKING:
     import asyncio
 
-__all__ = ["UdpEndpoint", "open_udp", "read_serial"]
+    from ._udp import UdpSocket
+
+__all__ = ["UdpEndpoint", "UdpStats", "open_udp", "read_serial"]
 
 Clock = Callable[[], float]
 Heard = Callable[[bytes, Any], object]
+
+# Bytes of receive buffer asked for. Linux grants twice as much, up to twice net.core.rmem_max
+# (often 208 KiB: raise it for the full buffer): 8 MiB hold some 10,000 small datagrams, half a
+# second of 20,000 a second.
+RECEIVE_BUFFER = 4 << 20
+_BATCH = 256  # datagrams read in one go before the loop runs anything else
+_LARGEST_BUFFER = (1 << 31) - 1  # SO_RCVBUF takes a C int
+
+
+class UdpStats(NamedTuple):
+    """A UDP endpoint's counters since it opened. Once it is closed, received + kernel_dropped
+    + unread is every datagram that reached its port."""
+
+    received: int  # datagrams read, each heard by on_datagram and fed to the dispatcher
+    kernel_dropped: int | None  # dropped by the kernel before they could be read (None: the
+    # system does not say: not Linux)
+    unread: int  # still queued when the endpoint closed, read off and discarded
+    send_errors: int  # sends that failed (and errors the kernel reported for earlier sends)
+    receive_buffer: int  # bytes of receive buffer the kernel granted, as it counts them
 
 
 class UdpEndpoint:
     """Every datagram received goes to the dispatcher; ``send`` encodes and sends a message.
 
-    It is an asyncio datagram protocol; with a watchdog it polls it every ``poll_interval``
-    seconds while the socket is open, so ``on_timeout`` fires while the loop runs.
-    ``on_datagram(data, sender)`` (an attribute, too) hears every datagram before the dispatcher
-    does, with the sender's address."""
+    Made by ``open_udp``. With a watchdog it polls it every ``poll_interval`` seconds while the
+    socket is open, so ``on_timeout`` fires while the loop runs. ``on_datagram(data, sender)``
+    (an attribute, too) hears every datagram before the dispatcher does, with the sender's
+    address."""
 
     def __init__(
         self,
@@ -52,60 +77,134 @@ class UdpEndpoint:
         self.watchdog = watchdog
         self.on_datagram = on_datagram
         self._clock = clock
-        self._poll_interval = poll_interval
-        self._transport: asyncio.DatagramTransport | None = None
+        self._poll_interval = duration("poll_interval", poll_interval)
+        self._sock: UdpSocket | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
         self._poller: asyncio.Task[None] | None = None
-        self.send_errors = 0
+        self._unsent: deque[tuple[bytes, tuple[Any, ...]]] = deque()
+        self._send_errors = 0
+        self._writing = False  # a writer waits for room in the send buffer
+        self._closed = False
 
-    # -- asyncio.DatagramProtocol ----------------------------------------------------------------
+    async def open(
+        self, host: str = "127.0.0.1", port: int = 0, receive_buffer: int = RECEIVE_BUFFER
+    ) -> None:
+        """Bind ``host:port`` (port 0: any free one; the first of the host's addresses that
+        binds), asking for ``receive_buffer`` bytes of receive buffer, and start reading (and
+        polling the watchdog). ``open_udp`` does this."""
+        import asyncio
+        import socket
 
-    def connection_made(self, transport: "asyncio.BaseTransport") -> None:
-        self._transport = cast("asyncio.DatagramTransport", transport)
-        if self.watchdog is not None:
-            import asyncio  # loaded: this runs inside an event loop
+        from ._udp import UdpSocket  # socket and selectors: loaded in a loop, not by erc_codec
 
-            self._poller = asyncio.get_running_loop().create_task(self._poll(self.watchdog))
-
-    def connection_lost(self, exc: Exception | None) -> None:
-        if self._poller is not None:
-            self._poller.cancel()
-            self._poller = None
-
-    def datagram_received(self, data: bytes, addr: Any) -> None:
-        if self.on_datagram is not None:
-            self.on_datagram(data, addr)
-        self.dispatcher.feed(data)
-
-    def error_received(self, exc: Exception) -> None:
-        self.send_errors += 1  # e.g. ICMP port unreachable after a send
-
-    def pause_writing(self) -> None:
-        """The kernel's send buffer is full; datagrams queue in the transport meanwhile."""
-
-    def resume_writing(self) -> None:
-        """The send buffer has room again."""
-
-    # -- the endpoint ----------------------------------------------------------------------------
+        count("receive_buffer", receive_buffer)
+        if receive_buffer > _LARGEST_BUFFER:
+            raise ValueError(
+                f"receive_buffer must be at most {_LARGEST_BUFFER}, not {receive_buffer}"
+            )
+        assert self._sock is None, "the endpoint is open already"
+        loop = asyncio.get_running_loop()
+        found = await loop.getaddrinfo(host, port, type=socket.SOCK_DGRAM, flags=socket.AI_PASSIVE)
+        failure: OSError | None = None
+        for family, _, _, _, address in found:
+            try:
+                sock = UdpSocket(family, address, receive_buffer)
+            except OSError as error:
+                failure = failure or error
+                continue
+            self._sock, self._loop = sock, loop
+            loop.add_reader(sock.fileno(), self._readable)
+            if self.watchdog is not None:
+                self._poller = loop.create_task(self._poll(self.watchdog))
+            return
+        raise failure or OSError(f"{host}:{port}: no address to bind")
 
     @property
     def address(self) -> tuple[str, int]:
         """The local (host, port) the endpoint is bound to."""
-        assert self._transport is not None
-        host, port = self._transport.get_extra_info("sockname")[:2]
+        assert self._sock is not None, "the endpoint is not open"
+        host, port = self._sock.address[:2]
         return host, port
 
+    @property
+    def send_errors(self) -> int:
+        """Sends that failed, and errors the kernel reported for earlier sends."""
+        errors = self._sock.errors if self._sock is not None else 0
+        return self._send_errors + errors
+
     def send(self, message: Message, to: tuple[str, int], mode: Mode = "strip") -> int:
-        """Encode ``message`` (a payload or an envelope) and send it; the datagram's length."""
-        assert self._transport is not None, "the endpoint is not open"
+        """Encode ``message`` (a payload or an envelope) and send it; the datagram's length.
+        While the kernel's send buffer is full, datagrams wait in the endpoint, in order."""
+        assert self._sock is not None, "the endpoint is not open"
+        assert not self._closed, "the endpoint is closed"
         data = self.dispatcher.codec.encode(message, mode)
-        self._transport.sendto(data, to)
+        self._unsent.append((data, to))
+        if len(self._unsent) == 1:
+            self._send_unsent()
         return len(data)
 
+    def stats(self) -> UdpStats:
+        """A snapshot of the counters (the kernel's drop count read now, while open)."""
+        assert self._sock is not None, "the endpoint is not open"
+        sock = self._sock
+        return UdpStats(
+            sock.received, sock.kernel_dropped(), sock.unread, self.send_errors, sock.buffer
+        )
+
     def close(self) -> None:
-        """Stop polling the watchdog and close the socket."""
-        self.connection_lost(None)
-        if self._transport is not None:
-            self._transport.close()
+        """Stop polling the watchdog and reading; count what is still queued (``unread``) and
+        what could not be sent yet (``send_errors``); close the socket."""
+        if self._closed:
+            return
+        self._closed = True
+        if self._poller is not None:
+            self._poller.cancel()
+            self._poller = None
+        if self._sock is not None and self._loop is not None:
+            self._loop.remove_reader(self._sock.fileno())
+            if self._writing:
+                self._loop.remove_writer(self._sock.fileno())
+            self._send_errors += len(self._unsent)
+            self._unsent.clear()
+            self._sock.close()
+
+    def _readable(self) -> None:
+        """Read what is queued, up to a batch, each datagram heard and dispatched in turn (an
+        exception from ``on_datagram`` or the watchdog's clock leaves the rest queued, for the
+        next call; the dispatcher catches its handlers' own)."""
+        assert self._sock is not None
+        receive, feed = self._sock.receive, self.dispatcher.feed
+        for _ in range(_BATCH):
+            received = receive()
+            if received is None:
+                return
+            if self.on_datagram is not None:
+                self.on_datagram(*received)
+            feed(received[0])
+            if self._closed:  # on_datagram or a handler closed the endpoint: read no more
+                return
+
+    def _send_unsent(self) -> None:
+        """Send what waits, in order, until the kernel's send buffer is full (then again once
+        it has room)."""
+        sock, loop = self._sock, self._loop
+        assert sock is not None
+        assert loop is not None
+        while self._unsent:
+            data, to = self._unsent[0]
+            try:
+                sock.sendto(data, to)
+            except (BlockingIOError, InterruptedError):
+                if not self._writing:
+                    loop.add_writer(sock.fileno(), self._send_unsent)
+                    self._writing = True
+                return
+            except OSError:  # e.g. an ICMP error of an earlier send, or no route
+                self._send_errors += 1
+            self._unsent.popleft()
+        if self._writing:
+            loop.remove_writer(sock.fileno())
+            self._writing = False
 
     async def _poll(self, watchdog: Watchdog) -> None:
         import asyncio
@@ -123,15 +222,18 @@ async def open_udp(
     poll_interval: float = 0.05,
     clock: Clock = time.monotonic,
     on_datagram: Heard | None = None,
+    receive_buffer: int = RECEIVE_BUFFER,
 ) -> UdpEndpoint:
     """A UDP endpoint bound to ``host:port`` (port 0: any free one) feeding ``dispatcher``.
 
     With a ``watchdog``, every decoded kind counts as an arrival and the watchdog is polled every
     ``poll_interval`` seconds, so its ``on_timeout`` fires while the loop runs. ``on_datagram``
-    hears every datagram, with its sender, before the dispatcher does.
+    hears every datagram, with its sender, before the dispatcher does. ``receive_buffer``: the
+    bytes of receive buffer asked for (``stats().receive_buffer`` says what was granted: Linux
+    caps it at twice ``net.core.rmem_max``).
     """
-    import asyncio
-
+    endpoint = UdpEndpoint(dispatcher, watchdog, clock, poll_interval, on_datagram)
+    await endpoint.open(host, port, receive_buffer)
     if watchdog is not None:
         previous = dispatcher.on_decoded
 
@@ -141,11 +243,6 @@ async def open_udp(
                 previous(kind)
 
         dispatcher.on_decoded = arrived
-    endpoint = UdpEndpoint(dispatcher, watchdog, clock, poll_interval, on_datagram)
-    protocol = cast("asyncio.DatagramProtocol", endpoint)
-    await asyncio.get_running_loop().create_datagram_endpoint(
-        lambda: protocol, local_addr=(host, port)
-    )
     return endpoint
 
 
@@ -156,9 +253,12 @@ async def read_serial(
     chunk: int = 4096,
 ) -> Deframer:
     """Feed every framed payload arriving on ``reader`` (a serial port through pyserial-asyncio,
-    a socket, a pipe) to ``dispatcher`` until the stream ends; the deframer, for its counters."""
+    a socket, a pipe) to ``dispatcher`` until the stream ends; the deframer, for its counters
+    (flushed: a frame cut off by the end of the stream counts as ``unfinished`` bytes)."""
+    count("chunk", chunk)
     deframer = deframer or Deframer.for_codec(dispatcher.codec)
     while data := await reader.read(chunk):
         for payload in deframer.feed(data):
             dispatcher.feed(payload)
+    deframer.flush()  # a frame cut off by the end of the stream is counted as unfinished
     return deframer

@@ -7,12 +7,16 @@ timeout pass, which calls ``on_timeout(kind)`` once; the next arrival calls ``on
 A clock that steps backwards never fires a timeout early and delays one by at most one timeout
 (the last arrival is re-anchored to the new clock). Every kind reported, watched or not, has its
 arrival rate measured; memory per kind is bounded (the rate is measured over the last arrivals
-only).
+only). Periods and timeouts must be positive and finite, ``now`` finite: a NaN or an infinity is
+a ``ValueError`` naming it, and changes nothing (a NaN arrival time would otherwise compare false
+with every later clock reading, and the kind would never time out again).
 """
 
 import enum
 from collections import deque
 from collections.abc import Callable
+
+from ._checks import duration, instant
 
 __all__ = ["Liveness", "Watchdog"]
 
@@ -49,19 +53,26 @@ class Watchdog:
     ) -> None:
         self._on_timeout = on_timeout
         self._on_recover = on_recover
-        self._timeout_periods = timeout_periods
+        self._timeout_periods = duration("timeout_periods", timeout_periods)
         self._watched: dict[str, _Watched] = {}
         self._arrivals: dict[str, deque[float]] = {}  # every kind seen: its last arrivals
 
     def watch(self, kind: str, period: float, timeout: float | None = None) -> None:
         """Expect ``kind`` every ``period`` seconds; time out after ``timeout`` (default: a
         multiple of the period, ``timeout_periods``) without one."""
-        if period <= 0 or (timeout is not None and timeout <= 0):
-            raise ValueError(f"{kind}: period and timeout must be positive seconds")
-        self._watched[kind] = _Watched(period, timeout or period * self._timeout_periods)
+        try:
+            duration("period", period)
+            if timeout is None:
+                timeout = duration("period * timeout_periods", period * self._timeout_periods)
+            else:
+                duration("timeout", timeout)
+        except ValueError as error:
+            raise ValueError(f"{kind}: {error}") from None
+        self._watched[kind] = _Watched(period, timeout)
 
     def seen(self, kind: str, now: float) -> None:
         """``kind`` arrived at ``now``. An unwatched kind only has its rate measured."""
+        instant("now", now)
         arrivals = self._arrivals.get(kind)
         if arrivals is None:
             arrivals = self._arrivals[kind] = deque(maxlen=_RATE_WINDOW)
@@ -79,6 +90,7 @@ class Watchdog:
 
     def poll(self, now: float) -> list[str]:
         """Kinds whose timeout passed since the last poll (``on_timeout`` is called for each)."""
+        instant("now", now)
         expired = []
         for kind, watched in self._watched.items():
             if watched.state is not Liveness.ACTIVE or watched.last is None:

@@ -1,9 +1,13 @@
 """``erc-codec encode`` and ``erc-codec decode``, run as a user would (a subprocess)."""
 
+import array
+import fcntl
 import json
 import struct
 import subprocess
 import sys
+import termios
+import time
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -404,6 +408,80 @@ def test_pcap_problems_exit_2_in_one_line(codec: erc_codec.Codec, tmp_path: Path
     assert (done.code, done.err.splitlines()[1]) == (2, f"Error: {cut} is cut off after packet 1")
 
 
+def boundaries(form: str, whole: bytes) -> tuple[int, list[int]]:
+    """Where a capture's header ends, and where each record (pcap) or block (pcapng) ends."""
+    if form == "pcap":
+        offset, ends = 24, []
+        while offset < len(whole):
+            offset += 16 + struct.unpack_from("<I", whole, offset + 8)[0]  # header, caplen
+            ends.append(offset)
+        return 24, ends
+    offset, ends = 0, []
+    while offset < len(whole):
+        offset += struct.unpack_from("<I", whole, offset + 4)[0]  # block type, total length
+        ends.append(offset)
+    return ends[1], ends[2:]  # the section header and interface description blocks first
+
+
+@pytest.mark.parametrize("form", ["pcap", "pcapng"])
+def test_a_capture_cut_anywhere_but_between_packets_is_damage(
+    codec: erc_codec.Codec, tmp_path: Path, form: str
+) -> None:
+    """Every byte offset: between records or blocks, a shorter capture (all its packets, no
+    damage); inside one, damage after the packets before it; inside the header, no capture."""
+    from erc_codec.cli._pcap import Capture
+    from erc_codec.cli._shared import Fatal
+
+    fix = codec.encode(codec.message_class("SensorBoardGPSInfo")(satellites=5))
+    whole_path = tmp_path / f"whole.{form}"
+    write_capture(whole_path, form, ETHERNET, [udp4(fix)] * 3)
+    whole = whole_path.read_bytes()
+    header, ends = boundaries(form, whole)
+    assert len(ends) == 3
+    cut = tmp_path / f"cut.{form}"
+    wrong = []
+    for length in range(len(whole) + 1):
+        cut.write_bytes(whole[:length])
+        before = sum(end <= length for end in ends)  # the packets wholly before the cut
+        try:
+            with Capture(cut) as capture:
+                got = len(list(capture.datagrams())), bool(capture.damage)
+        except Fatal:
+            got = 0, True
+        expected = before, not (length == header or length in ends)
+        if got != expected:
+            wrong.append((length, got, expected))
+    assert wrong == []  # (cut at, (datagrams, damage), expected)
+
+
+@pytest.mark.parametrize("form", ["pcap", "pcapng"])
+def test_decode_of_a_cut_capture_exits_2_after_the_packets_before_the_cut(
+    codec: erc_codec.Codec, tmp_path: Path, form: str
+) -> None:
+    fix = codec.encode(codec.message_class("SensorBoardGPSInfo")(satellites=5))
+    capture = tmp_path / f"rover.{form}"
+    write_capture(capture, form, ETHERNET, [udp4(fix)] * 2)
+    whole = capture.read_bytes()
+    _, (first, second) = boundaries(form, whole)
+    commands = []
+    for length in (first, first + 1, first + 7, second - 1):  # the next header's first bytes
+        cut = tmp_path / f"cut{length}.{form}"
+        cut.write_bytes(whole[:length])
+        commands.append(["decode", "--pcap", str(cut)])
+    at_boundary, *inside = run_many(*commands)
+    assert (at_boundary.code, at_boundary.err) == (
+        0,
+        "1 datagram, 0 undecodable, 0 packets skipped\n",
+    )
+    for done in inside:
+        assert done.code == 2, done
+        assert [r["kind"] for r in records(done.out)] == ["gps_info"]
+        summary, damage = done.err.splitlines()
+        assert summary == "1 datagram, 0 undecodable, 0 packets skipped"
+        assert damage.startswith("Error: ")
+        assert " is cut off " in damage or " is damaged " in damage
+
+
 def test_pcap_without_dpkt_says_what_to_install(tmp_path: Path) -> None:
     # The same entry point, with dpkt made unimportable (whether or not it is installed).
     code = "import sys; sys.modules['dpkt'] = None; from erc_codec.cli._main import main; main()"
@@ -425,6 +503,47 @@ def test_a_one_byte_raw_datagram_on_stdin_is_raw(byte: bytes) -> None:
     assert done.returncode == 0, done.stdout
     (line,) = done.stdout.decode().splitlines()
     assert json.loads(line)["length"] == 1
+
+
+def run_slowly(*pieces: bytes) -> Done:
+    """``decode`` with standard input arriving in pieces, each once the command has read the
+    one before (and had time to judge it), as from a slow writer."""
+    decoder = subprocess.Popen(
+        [sys.executable, "-m", "erc_codec", "decode"],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert decoder.stdin is not None
+    for piece in pieces:
+        decoder.stdin.write(piece)
+        decoder.stdin.flush()
+        deadline = time.monotonic() + 30
+        waiting = array.array("i", [1])
+        while waiting[0] and time.monotonic() < deadline:  # bytes still in the pipe
+            fcntl.ioctl(decoder.stdin.fileno(), termios.FIONREAD, waiting)
+            time.sleep(0.01)
+        time.sleep(0.3)
+    out, err = decoder.communicate(timeout=30)
+    return Done(decoder.returncode, out.decode(), err.decode())
+
+
+def test_hex_text_arriving_slowly_on_stdin_is_hex() -> None:
+    # The first line's first digit alone would look like a one-byte raw datagram.
+    done = run_slowly(b"2", b"200\n", b"0a00\n")
+    assert done.code == 0, done
+    assert [(r["kind"], r["length"]) for r in records(done.out)] == [
+        ("arm_movement_feedback", 2),
+        ("ph_info", 2),
+    ]
+    done = run_slowly(b"\n  ", b"  22", b"00\n")  # blank lines first: judged on the first line
+    assert [r["length"] for r in records(done.out)] == [2]
+
+
+def test_raw_bytes_arriving_slowly_on_stdin_are_one_datagram() -> None:
+    done = run_slowly(b"\xb2\x01", b"\x00")  # member 22, empty: one datagram of three bytes
+    assert done.code == 1
+    assert [(r["reason"], r["length"]) for r in records(done.out)] == [("unknown_member", 3)]
 
 
 def test_a_key_given_twice_is_refused() -> None:

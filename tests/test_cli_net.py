@@ -1,9 +1,16 @@
 """erc-codec send and listen, end to end over 127.0.0.1, as two processes."""
 
 import json
+import signal
 import socket
 import subprocess
 import sys
+import time
+from pathlib import Path
+
+import pytest
+
+import erc_codec
 
 
 def start_listener(*args: str) -> tuple[subprocess.Popen[str], int]:
@@ -50,11 +57,14 @@ def test_send_to_listen() -> None:
     assert lines[0]["length"] == 7
     assert lines[0]["from"].startswith("127.0.0.1:")
     counters = json.loads(err.strip().splitlines()[-1].removeprefix("counters: "))
+    assert counters.pop("receive_buffer") >= 2 * 212992  # at least what Linux grants by default
     assert counters == {
         "received": 4,
         "handled": {"driving_motor_message": 3},
         "undecodable": {"unknown_member": 1},
         "dropped": 1,
+        "kernel_dropped": 0,
+        "unread": 0,
     }
 
 
@@ -121,3 +131,108 @@ def test_addresses_of_either_family_resolve_and_show_their_port() -> None:
     assert _shown(address) == "127.0.0.1:5005"
     # A name with addresses of both families (from /etc/hosts, no server asked) takes IPv4.
     assert _resolve("localhost", 5005) == (socket.AF_INET, ("127.0.0.1", 5005))
+
+
+def rcvbuf_errors() -> int:
+    """Every UDP socket's receive-buffer drops on this machine (``/proc/net/snmp``)."""
+    lines = Path("/proc/net/snmp").read_text().splitlines()
+    names, values = (line.split()[1:] for line in lines if line.startswith("Udp:"))
+    return int(dict(zip(names, values, strict=True))["RcvbufErrors"])
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="the kernel's drop count is Linux's")
+def test_listen_counts_what_the_kernel_dropped() -> None:
+    listener, port = start_listener("--format", "json")
+    codec = erc_codec.Codec.default()
+    data = codec.encode(codec.message_class("DrivingBoardMotorMessage")(distance_to_go=1.0))
+    sent = 40_000  # more than its receive buffer holds (8 MiB hold some 10,000 such datagrams)
+    before = rcvbuf_errors()
+    listener.send_signal(signal.SIGSTOP)  # its reader paused: the kernel queues, then drops
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as raw:
+            for _ in range(sent):
+                raw.sendto(data, ("127.0.0.1", port))
+    finally:
+        listener.send_signal(signal.SIGCONT)
+    after = rcvbuf_errors()
+    deadline = time.monotonic() + 20
+    assert listener.stdout is not None
+    shown = 0
+    while time.monotonic() < deadline and listener.stdout.readline():
+        shown += 1  # a line per datagram that was queued
+        if shown + (after - before) >= sent:
+            break
+    time.sleep(0.2)
+    listener.send_signal(signal.SIGINT)
+    out, err = listener.communicate(timeout=30)
+    shown += len(out.splitlines())
+    counters = json.loads(err.strip().splitlines()[-1].removeprefix("counters: "))
+    assert counters["received"] == shown
+    assert counters["received"] + counters["kernel_dropped"] + counters["unread"] == sent
+    assert counters["kernel_dropped"] > 0
+    assert after - before >= counters["kernel_dropped"]  # the system saw them too
+
+
+@pytest.mark.parametrize(
+    ("command", "option", "value", "problem"),
+    [
+        ("listen", "--seconds", "nan", "'nan' is not a finite number."),
+        ("listen", "--seconds", "inf", "'inf' is not a finite number."),
+        ("listen", "--seconds", "-1", "-1.0 is not in the range x>0."),
+        ("listen", "--seconds", "0", "0.0 is not in the range x>0."),
+        ("listen", "--count", "0", "0 is not in the range x>=1."),
+        ("listen", "--count", "nan", "'nan' is not a valid integer range."),
+        ("send", "--rate", "nan", "'nan' is not a finite number."),
+        ("send", "--rate", "-inf", "-inf is not in the range x>0."),
+        ("send", "--rate", "0", "0.0 is not in the range x>0."),
+        ("send", "--count", "1.5", "'1.5' is not a valid integer range."),
+    ],
+)
+def test_times_rates_and_counts_that_are_not_finite_and_positive_are_usage_errors(
+    command: str, option: str, value: str, problem: str
+) -> None:
+    target = ["127.0.0.1:0"] if command == "listen" else ["127.0.0.1:9", "gps_info", "{}"]
+    done = subprocess.run(
+        [sys.executable, "-m", "erc_codec", command, *target, option, value],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert (done.returncode, done.stdout) == (2, "")
+    assert done.stderr == f"Error: Invalid value for '{option}': {problem}\n"
+
+
+SLOWEST = ["--rate", "1e-300", "--count", "2"]
+
+
+def test_send_at_a_rate_slower_than_time_can_sleep_waits_instead_of_failing() -> None:
+    sender = subprocess.Popen(
+        [sys.executable, "-m", "erc_codec", "send", "127.0.0.1:9", "gps_info", "{}", *SLOWEST],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        with pytest.raises(subprocess.TimeoutExpired):  # the second send is due in 1e300 s
+            sender.wait(timeout=1.5)
+    finally:
+        sender.kill()
+        _, err = sender.communicate()
+    assert "Traceback" not in err
+
+
+def test_listen_ends_when_its_reader_goes_away() -> None:
+    listener, port = start_listener("--format", "json")
+    assert listener.stdout is not None
+    listener.stdout.close()  # as `listen | head -1` does once it has its line
+    try:
+        for _ in range(5):
+            send(port, "gps_info", "{}", "--count", "3")
+            if listener.poll() is not None:
+                break
+        assert listener.wait(timeout=10) == 1  # quietly: the reader went away
+    finally:
+        listener.kill()
+        _, err = listener.communicate()
+    assert "Traceback" not in err
+    assert "counters:" not in err

@@ -1,5 +1,6 @@
 """DetectionAssembler: whole frames once, in order; every loss and rejection reported; bounded."""
 
+import math
 import random
 
 import pytest
@@ -135,6 +136,36 @@ def test_memory_stays_bounded_under_a_flood() -> None:
         total = rng.randint(1, 16)
         assembler.add(obj(rng.getrandbits(32), total, rng.randrange(total)), 0.0)
         assert assembler.pending() <= 4
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf, -1.0, 0, True, "1"])
+def test_the_timeout_is_positive_finite_seconds(bad: object) -> None:
+    with pytest.raises(
+        ValueError, match=rf"^timeout must be a positive, finite number of seconds, not {bad!r}$"
+    ):
+        DetectionAssembler(timeout=bad)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("bad", [math.inf, math.nan, 0, -3, 4.0, True, "4"])
+@pytest.mark.parametrize("name", ["keep_frames", "max_objects"])
+def test_the_bounds_are_whole_numbers_of_at_least_one(name: str, bad: object) -> None:
+    # keep_frames=inf or max_objects=nan would leave memory unbounded.
+    with pytest.raises(ValueError, match=rf"^{name} must be a whole number of at least 1, not"):
+        DetectionAssembler(**{name: bad})  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_a_clock_reading_that_is_not_finite_is_refused_and_changes_nothing(bad: float) -> None:
+    lost: list[FrameLoss] = []
+    assembler = DetectionAssembler(timeout=0.5, on_loss=lost.append)
+    assert assembler.add(obj(1, 2, 0), 0.0) is None
+    with pytest.raises(ValueError, match=rf"^now must be a .* in seconds, not {bad}$"):
+        assembler.add(obj(2, 2, 0), bad)
+    with pytest.raises(ValueError, match=r"^now must be a finite clock reading"):
+        assembler.poll(bad)
+    assert assembler.pending() == 1  # frame 2 was not started, frame 1 not dropped
+    assert assembler.poll(1.0) == [FrameLoss(1, 1, 2, "timeout")]  # and the timeout still works
+    assert lost == [FrameLoss(1, 1, 2, "timeout")]
 
 
 @pytest.mark.parametrize(

@@ -143,15 +143,6 @@ def test_a_closed_udp_link_waits_for_nothing() -> None:
     assert asyncio.run(scenario()) == LinkStats(0, 0, {}, 0)
 
 
-def test_a_tick_is_a_positive_number_of_seconds() -> None:
-    async def scenario(tick: float) -> None:
-        await open_proton_udp(Node(TYPES_2_0, "mcu"), "127.0.0.1", 0, tick=tick)
-
-    for tick in (0, -1.0, math.inf, math.nan):
-        with pytest.raises(ValueError, match="tick must be a positive number of seconds"):
-            asyncio.run(scenario(tick))
-
-
 def test_a_2_0_senders_udp_header_is_read_and_names_the_sender() -> None:
     assert split_udp_header(b"\x01\x07\x00\x00\x0a\x00") == (UdpHeader(1, 7, 0, 0), b"\x0a\x00")
     assert split_udp_header(b"\x0a\x00") == (None, b"\x0a\x00")
@@ -260,3 +251,21 @@ def test_importing_erc_codec_proton_loads_neither_asyncio_nor_yaml() -> None:
     code = "import sys, erc_codec.proton; print(sorted({'asyncio', 'yaml'} & set(sys.modules)))"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.strip() == "[]"
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, 0.0, -0.005])
+def test_the_tick_is_positive_finite_seconds(bad: float) -> None:
+    async def scenario() -> None:
+        ours, theirs = socket.socketpair()
+        reader, writer = await asyncio.open_connection(sock=ours)
+        try:
+            with pytest.raises(ValueError, match=r"^tick must be a positive, finite number"):
+                await open_proton_udp(Node(TYPES_2_0, "pc"), "127.0.0.1", 0, peers={}, tick=bad)
+            with pytest.raises(ValueError, match=r"^tick must be a positive, finite number"):
+                await run_proton_serial(Node(TYPES_2_0, "pc"), reader, writer, tick=bad)
+        finally:
+            theirs.close()
+            writer.close()
+            await writer.wait_closed()
+
+    asyncio.run(scenario())

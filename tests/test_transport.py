@@ -1,16 +1,16 @@
 """The asyncio shells, over real sockets on 127.0.0.1.
 
-UdpEndpoint implements asyncio's datagram protocol itself rather than inheriting it, so that
-``import erc_codec`` never imports asyncio: it is held to asyncio.DatagramProtocol's methods, and
-the imports are watched in a fresh interpreter.
+``import erc_codec`` never imports asyncio (the shells run inside a loop that has it already): the
+imports are watched in a fresh interpreter. Kernel drops are made real: a flood into a small
+receive buffer while the loop, and so the endpoint's reader, is not running.
 """
 
 import asyncio
-import inspect
+import math
 import socket
 import subprocess
 import sys
-from collections.abc import Callable
+from pathlib import Path
 
 import pytest
 from google.protobuf.message import Message
@@ -107,29 +107,165 @@ def test_a_serial_stream_is_deframed_and_dispatched() -> None:
     assert stats.discarded_bytes == {"garbage": 6}
 
 
-def parameters(method: Callable[..., object]) -> list[tuple[object, object]]:
-    """How a method can be called: each parameter's kind and default (asyncio passes arguments
-    by position, so the names are free)."""
-    return [(p.kind, p.default) for p in inspect.signature(method).parameters.values()]
+def test_a_frame_cut_off_by_the_end_of_the_stream_is_counted() -> None:
+    async def scenario() -> tuple[erc_codec.DeframerStats, int]:
+        dispatcher = erc_codec.Dispatcher(CODEC)
+        ours, theirs = socket.socketpair()
+        reader, writer = await asyncio.open_connection(sock=ours)
+        whole = erc_codec.frame(CODEC.encode(GPS(latitude=1.0)))
+        theirs.sendall(whole + whole[:-3])  # the second frame loses its last three bytes
+        theirs.close()
+        deframer = await erc_codec.read_serial(reader, dispatcher)
+        writer.close()
+        await writer.wait_closed()
+        assert dispatcher.stats().unhandled == {"gps_info": 1}
+        return deframer.stats(), len(whole)
+
+    stats, length = asyncio.run(scenario())
+    assert stats.frames == 1
+    assert stats.discarded_bytes == {"unfinished": length - 3}
 
 
-@pytest.mark.parametrize("protocol", [asyncio.BaseProtocol, asyncio.DatagramProtocol])
-def test_the_endpoint_has_every_method_of_asyncios_datagram_protocol(protocol: type) -> None:
-    names = [name for name in dir(protocol) if not name.startswith("_")]
-    assert "connection_made" in names
-    for name in names:
-        theirs = getattr(protocol, name)
-        ours = getattr(erc_codec.UdpEndpoint, name, None)
-        assert callable(ours), f"UdpEndpoint lacks {protocol.__name__}.{name}"
-        assert inspect.iscoroutinefunction(ours) == inspect.iscoroutinefunction(theirs), name
-        assert parameters(ours) == parameters(theirs), name
+def rcvbuf_errors() -> int:
+    """Every UDP socket's receive-buffer drops on this machine (``/proc/net/snmp``)."""
+    lines = Path("/proc/net/snmp").read_text().splitlines()
+    names, values = (line.split()[1:] for line in lines if line.startswith("Udp:"))
+    return int(dict(zip(names, values, strict=True))["RcvbufErrors"])
+
+
+def flood(address: tuple[str, int], count: int) -> None:
+    """``count`` datagrams sent at once, the loop (and the endpoint's reader) not running."""
+    data = CODEC.encode(MOTOR(distance_to_go=1.0))
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as raw:
+        for _ in range(count):
+            raw.sendto(data, address)
+
+
+def accounted(stats: "erc_codec.UdpStats") -> int:
+    """The datagrams an endpoint read or knows the kernel dropped."""
+    assert stats.kernel_dropped is not None, "Linux tells the drops"
+    return stats.received + stats.kernel_dropped
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="the kernel's drop count is Linux's")
+def test_every_datagram_is_received_or_counted_as_dropped_by_the_kernel() -> None:
+    async def scenario() -> "list[erc_codec.UdpStats]":
+        dispatcher = erc_codec.Dispatcher(CODEC)
+        endpoint = await erc_codec.open_udp(dispatcher, receive_buffer=1)  # the least there is
+        seen = []
+        sent = 0
+        for count in (2000, 2000, 1):  # the last one, queued after drops, carries their count
+            flood(endpoint.address, count)
+            sent += count
+            await until(lambda total=sent: accounted(endpoint.stats()) >= total)
+            await asyncio.sleep(0.05)  # nothing more comes
+            seen.append(endpoint.stats())
+        endpoint.close()
+        seen.append(endpoint.stats())
+        assert sum(dispatcher.stats().unhandled.values()) == seen[-1].received
+        return seen
+
+    before = rcvbuf_errors()
+    first, second, third, closed = asyncio.run(scenario())
+    after = rcvbuf_errors()
+    assert [accounted(first), accounted(second), accounted(third)] == [2000, 4000, 4001]
+    assert first.received < 10  # a buffer of a few datagrams: the rest were dropped
+    assert third.kernel_dropped == second.kernel_dropped  # counted once, from either source
+    assert closed == third  # the counts survive close
+    assert after - before >= accounted(third) - third.received  # the system saw them too
+    assert third.receive_buffer < 10_000  # Linux's minimum
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="the buffer granted is Linux's arithmetic")
+def test_the_receive_buffer_asked_for_is_granted_up_to_the_systems_cap() -> None:
+    async def scenario() -> tuple[int, int]:
+        default = await erc_codec.open_udp(erc_codec.Dispatcher(CODEC))
+        small = await erc_codec.open_udp(erc_codec.Dispatcher(CODEC), receive_buffer=100_000)
+        granted = default.stats().receive_buffer, small.stats().receive_buffer
+        default.close()
+        small.close()
+        return granted
+
+    cap = int(Path("/proc/sys/net/core/rmem_max").read_text())
+    default, small = asyncio.run(scenario())
+    assert default == 2 * min(4 << 20, cap)  # Linux doubles the request, for its bookkeeping
+    assert small == 2 * min(100_000, cap)
+
+
+def test_what_is_still_queued_at_close_is_counted_as_unread() -> None:
+    async def scenario() -> "erc_codec.UdpStats":
+        dispatcher = erc_codec.Dispatcher(CODEC)
+        endpoint = await erc_codec.open_udp(dispatcher)
+        flood(endpoint.address, 100)
+        endpoint.close()  # before the loop ran the reader
+        assert dispatcher.stats().unhandled == {}
+        return endpoint.stats()
+
+    stats = asyncio.run(scenario())
+    assert (stats.received, stats.unread, stats.kernel_dropped or 0) == (0, 100, 0)
+
+
+def test_an_endpoint_closed_by_its_listener_reads_no_further() -> None:
+    async def scenario() -> "tuple[list[bytes], erc_codec.UdpStats]":
+        heard: list[bytes] = []
+        endpoint: erc_codec.UdpEndpoint
+
+        def on_datagram(data: bytes, sender: object) -> None:
+            heard.append(data)
+            if len(heard) == 3:
+                endpoint.close()
+
+        endpoint = await erc_codec.open_udp(erc_codec.Dispatcher(CODEC), on_datagram=on_datagram)
+        flood(endpoint.address, 10)
+        await until(lambda: len(heard) >= 3)
+        await asyncio.sleep(0.05)
+        return heard, endpoint.stats()
+
+    heard, stats = asyncio.run(scenario())
+    assert len(heard) == 3
+    assert (stats.received, stats.unread) == (3, 7)
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -1.0, 0.0])
+def test_the_poll_interval_is_positive_finite_seconds(bad: float) -> None:
+    async def scenario() -> None:
+        watchdog = erc_codec.Watchdog()
+        await erc_codec.open_udp(erc_codec.Dispatcher(CODEC), watchdog=watchdog, poll_interval=bad)
+
+    with pytest.raises(ValueError, match=r"^poll_interval must be a positive, finite number"):
+        asyncio.run(scenario())
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1 << 31, 4.0, math.inf])
+def test_the_receive_buffer_is_a_whole_number_of_bytes_a_socket_takes(bad: float) -> None:
+    async def scenario() -> None:
+        await erc_codec.open_udp(erc_codec.Dispatcher(CODEC), receive_buffer=bad)  # type: ignore[arg-type]
+
+    with pytest.raises(ValueError, match=r"^receive_buffer must be"):
+        asyncio.run(scenario())
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1.5])
+def test_the_serial_chunk_is_a_whole_number_of_bytes(bad: float) -> None:
+    async def scenario() -> None:
+        ours, theirs = socket.socketpair()
+        theirs.close()  # the stream has ended: a chunk of -1 (read to the end) would not hang
+        reader, writer = await asyncio.open_connection(sock=ours)
+        try:
+            await erc_codec.read_serial(reader, erc_codec.Dispatcher(CODEC), chunk=bad)  # type: ignore[arg-type]
+        finally:
+            writer.close()
+            await writer.wait_closed()
+
+    with pytest.raises(ValueError, match=r"^chunk must be a whole number of at least 1"):
+        asyncio.run(scenario())
 
 
 @pytest.mark.parametrize("package", ["erc_codec", "erc_lint"])
 def test_importing_a_package_does_not_import_asyncio(package: str) -> None:
-    script = (
+    script = (  # nor socket (and selectors), which the UDP endpoint loads when it opens
         f"import sys, {package}\n"
-        "print(sorted(n for n in sys.modules if n == 'asyncio' or n.startswith('asyncio.')))"
+        "print(sorted(n for n in sys.modules if n.split('.')[0] in ('asyncio', 'socket')))"
     )
     result = subprocess.run(  # -I: no PYTHON* variables, no user site, no working directory
         [sys.executable, "-I", "-c", script], capture_output=True, text=True, check=False

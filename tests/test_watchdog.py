@@ -1,5 +1,7 @@
 """Watchdog: timeouts fire once, recoveries follow, the clock is the caller's."""
 
+import math
+
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -70,6 +72,71 @@ def test_unwatched_kinds() -> None:
     assert events == []
     with pytest.raises(ValueError, match="positive"):
         dog.watch("gps_info", period=0)
+
+
+NOT_SECONDS = [math.nan, math.inf, -math.inf, -1.0, 0, 0.0, True, "1"]
+
+
+@pytest.mark.parametrize("bad", NOT_SECONDS)
+def test_periods_and_timeouts_are_positive_finite_seconds(bad: object) -> None:
+    dog = Watchdog()
+    expected = f"must be a positive, finite number of seconds, not {bad!r}"
+    with pytest.raises(ValueError, match=rf"^gps_info: period {expected}$"):
+        dog.watch("gps_info", period=bad)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=rf"^gps_info: timeout {expected}$"):
+        dog.watch("gps_info", period=1.0, timeout=bad)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=rf"^timeout_periods {expected}$"):
+        Watchdog(timeout_periods=bad)  # type: ignore[arg-type]
+    assert dog.state("gps_info") is Liveness.UNCONFIGURED  # nothing was watched
+
+
+def test_a_period_whose_default_timeout_overflows_is_refused() -> None:
+    with pytest.raises(ValueError, match=r"period \* timeout_periods must be .*, not inf"):
+        Watchdog().watch("gps_info", period=1e308)  # three periods: beyond every float
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_a_clock_reading_that_is_not_finite_is_refused(bad: float) -> None:
+    dog, events = recorder()
+    dog.watch("gps_info", period=0.1)
+    dog.seen("gps_info", 1.0)
+    with pytest.raises(ValueError, match=rf"^now must be a .* in seconds, not {bad}$"):
+        dog.seen("gps_info", bad)
+    with pytest.raises(ValueError, match=r"^now must be a finite clock reading"):
+        dog.poll(bad)
+    with pytest.raises(ValueError, match=r"^now must be a finite clock reading"):
+        dog.seen("imu_info", bad)  # unwatched: its rate would be NaN forever
+    assert dog.poll(2.0) == ["gps_info"]  # the refused readings changed nothing: it still fires
+    assert events == [("timeout", "gps_info")]
+    assert dog.rate("imu_info") is None
+
+
+CLOCK = st.one_of(
+    st.floats(0, 5, allow_nan=False), st.sampled_from([math.nan, math.inf, -math.inf])
+)
+
+
+@given(st.lists(st.tuples(st.sampled_from(["seen", "poll"]), CLOCK), max_size=60))
+def test_a_refused_clock_reading_changes_nothing(steps: list[tuple[str, float]]) -> None:
+    """Fed the same readings, minus the ones that are not finite, a twin behaves the same."""
+    dog, events = recorder()
+    twin, twin_events = recorder()
+    for each in (dog, twin):
+        each.watch("gps_info", period=0.25, timeout=0.5)
+    now = 0.0
+    for action, value in steps:
+        if not math.isfinite(value):
+            with pytest.raises(ValueError, match="now must be a finite clock reading"):
+                dog.seen("gps_info", value) if action == "seen" else dog.poll(value)
+            continue
+        now += value
+        for each in (dog, twin):
+            each.seen("gps_info", now) if action == "seen" else each.poll(now)
+        assert dog.state("gps_info") is twin.state("gps_info")
+    assert events == twin_events
+    assert dog.rate("gps_info") == twin.rate("gps_info")
+    dog.seen("gps_info", now)
+    assert dog.poll(now + 0.6) == ["gps_info"]  # and it still fires
 
 
 EVENTS = st.lists(

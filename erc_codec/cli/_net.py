@@ -1,19 +1,22 @@
 """``erc-codec send`` and ``erc-codec listen``: a message onto UDP, and what arrives, shown live.
 
-``send`` is the fleet's ``udp_client`` made general. ``listen`` is an ``open_udp`` endpoint with a
-``Watchdog`` measuring each kind's rate: it prints one JSON line per datagram (or, on a terminal,
-a table per kind with measured rates), counts every datagram that is dropped, by reason, and prints
-the counters when it stops.
+``send`` is the fleet's ``udp_client`` made general. ``listen`` is an ``open_udp`` endpoint: it
+prints one JSON line per datagram (or, on a terminal, a table per kind with the rates a
+``Watchdog`` measures), counts every datagram that is dropped, by reason (those the kernel
+dropped before they could be read, too), and prints the counters when it stops. Its JSON lines
+are written a batch at a time (one write per batch of datagrams read): what listen costs per
+datagram is then mostly the message's conversion to JSON (``benchmarks/bench_listen.py``).
 """
 
 import contextlib
 import json
+import math
 import socket
 import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, TextIO, cast
 
 import click
 from google.protobuf.message import Message
@@ -22,14 +25,34 @@ from .._codec import Codec
 from .._dispatch import Dispatcher, DispatchStats, Drop
 from .._envelope import Mode
 from .._errors import EncodeError
-from .._transport import UdpEndpoint, open_udp
+from .._transport import UdpEndpoint, UdpStats, open_udp
 from .._watchdog import Watchdog
 from ._encode import MODE
-from ._shared import Fatal, emit, envelope_from_json, load, one_line, schema_options, to_dict
+from ._shared import Fatal, envelope_from_json, load, one_line, schema_options, to_dict
 
-__all__ = ["listen", "parse_address", "resolve", "send", "shown"]
+if TYPE_CHECKING:
+    import asyncio
+
+__all__ = ["FINITE", "listen", "parse_address", "resolve", "send", "shown"]
 
 _REDRAW = 0.5  # seconds between two drawings of the table
+_NAP = 3600.0  # the longest sleep between two sends (time.sleep refuses years)
+
+
+class _Finite(click.FloatRange):
+    """A positive, finite number: click's ``FloatRange`` lets ``nan`` and ``inf`` through (NaN
+    fails no comparison with its bounds)."""
+
+    name = "positive number"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number.", param, ctx)
+        return number
+
+
+FINITE = _Finite(min=0, min_open=True)  # --seconds, --rate: a positive, finite number
 
 
 def parse_address(text: str, default_host: str | None = None) -> tuple[str, int]:
@@ -71,7 +94,7 @@ def shown(address: tuple[Any, ...]) -> str:
 @click.argument("kind")
 @click.argument("payload", metavar="JSON")
 @click.option("--count", type=click.IntRange(min=1), default=1, show_default=True)
-@click.option("--rate", type=click.FloatRange(min=0, min_open=True), help="Sends per second.")
+@click.option("--rate", type=FINITE, help="Sends per second.")
 @MODE
 @schema_options
 def send(
@@ -103,7 +126,9 @@ def send(
         start = time.monotonic()
         for i in range(count):
             if rate is not None:
-                time.sleep(max(0.0, start + i / rate - time.monotonic()))
+                due = start + i / rate
+                while (wait := due - time.monotonic()) > 0:
+                    time.sleep(min(wait, _NAP))
             try:
                 sock.sendto(data, target_address)
             except OSError as error:
@@ -114,9 +139,7 @@ def send(
 @click.command()
 @click.argument("address", metavar="[HOST:]PORT")
 @click.option("--count", type=click.IntRange(min=1), help="Stop after this many datagrams.")
-@click.option(
-    "--seconds", type=click.FloatRange(min=0, min_open=True), help="Stop after this long."
-)
+@click.option("--seconds", type=FINITE, help="Stop after this long.")
 @click.option(
     "--format",
     "output",
@@ -136,8 +159,12 @@ def listen(
 ) -> None:
     """Print the datagrams arriving on [HOST:]PORT (host 127.0.0.1 unless given), decoded.
 
-    Port 0 takes any free port; the address actually bound is the first line on stderr. The drop
-    counters are printed when it stops: after --count datagrams, --seconds, or Ctrl-C.
+    Port 0 takes any free port; the address actually bound is the first line on stderr. The
+    counters are printed on stderr when it stops (after --count datagrams, --seconds, or
+    Ctrl-C): datagrams received, handled by kind, undecodable by reason, dropped; and those that
+    never reached it: dropped by the kernel (its receive buffer full: null where the system does
+    not say), unread (still queued when it stopped), with the receive buffer granted, in bytes
+    (4 MiB is asked for; Linux grants up to twice net.core.rmem_max).
     """
     import asyncio
 
@@ -148,41 +175,56 @@ def listen(
     session = _Listening(codec, _Table() if table else None, count)
     with contextlib.suppress(KeyboardInterrupt):  # Ctrl-C ends it as --count would
         asyncio.run(session.run(local, seconds))
+    session.flush()
     stats = session.dispatcher.stats()
+    udp = session.udp or UdpStats(0, 0, 0, 0, 0)  # Ctrl-C before the socket was open
     summary = {
-        "received": session.received,
+        "received": udp.received,
         "handled": stats.handled,
         "undecodable": stats.undecodable,
         "dropped": stats.dropped,
+        "kernel_dropped": udp.kernel_dropped,
+        "unread": udp.unread,
+        "receive_buffer": udp.receive_buffer,
     }
     click.echo(f"counters: {json.dumps(summary)}", err=True)
 
 
 class _Listening:
-    """One ``listen``: an endpoint whose every datagram is shown, a watchdog measuring rates."""
+    """One ``listen``: an endpoint whose every datagram is shown as a JSON line, or counted in a
+    table with the rates a watchdog measures."""
 
     def __init__(self, codec: Codec, view: "_Table | None", count: int | None) -> None:
         self.dispatcher = Dispatcher(codec, on_drop=self._dropped)
         for kind in codec.kinds().values():
             self.dispatcher.register(kind, self._shower(kind))
-        self.watchdog = Watchdog()
-        self.received = 0
+        self.watchdog = Watchdog() if view is not None else None  # rates: for the table only
+        self.udp: UdpStats | None = None  # the endpoint's counters, once it is closed
+        self._to_dict = to_dict  # the fastest conversion there is: what listen can keep up with
         self._view = view
         self._count = count
-        self._source = ""  # the sender of the datagram being dispatched, and its length
+        self._heard = 0
+        self._sender: Any = None  # the sender of the datagram being dispatched, as shown, and
+        self._source = ""  # its length
         self._length = 0
+        self._lines: list[str] = []  # JSON lines not written yet
+        self._out: TextIO = sys.stdout
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._finished: asyncio.Future[None] | None = None  # --count reached, or output failed
 
     async def run(self, local: tuple[Any, ...], seconds: float | None) -> None:
         import asyncio
 
-        loop = asyncio.get_running_loop()
-        finished = loop.create_future()
+        loop = self._loop = asyncio.get_running_loop()
+        finished = self._finished = loop.create_future()
         endpoint: UdpEndpoint | None = None
 
         def heard(data: bytes, sender: Any) -> None:
-            self.received += 1
-            self._source, self._length = shown(sender), len(data)
-            if self._count is not None and self.received >= self._count:
+            self._heard += 1
+            if sender != self._sender:
+                self._sender, self._source = sender, shown(sender)
+            self._length = len(data)
+            if self._count is not None and self._heard >= self._count:
                 if endpoint is not None:
                     endpoint.close()  # this one is still dispatched; none after it is read
                 if not finished.done():
@@ -196,33 +238,58 @@ class _Listening:
             raise Fatal(f"cannot listen on {shown(local)}: {error}") from None
         host, port = endpoint.address
         click.echo(f"listening on {shown((host, port))}", err=True)
-        drawing = loop.create_task(self._draw()) if self._view is not None else None
+        drawing = loop.create_task(self._draw(self._view)) if self._view is not None else None
         try:
             await asyncio.wait([finished], timeout=seconds)
         finally:
             if drawing is not None:
                 drawing.cancel()
             endpoint.close()
+            self.udp = endpoint.stats()
+        if finished.done() and finished.exception() is not None:
+            raise cast(BaseException, finished.exception())  # the output could not be written
         if self._view is not None:
             self._view.render(self.dispatcher.stats(), self.watchdog)
 
-    async def _draw(self) -> None:
+    def flush(self) -> None:
+        """Write the JSON lines not written yet, in one go."""
+        if self._lines:
+            text = "\n".join(self._lines) + "\n"
+            self._lines.clear()
+            self._out.write(text)
+            self._out.flush()
+
+    def _show(self, record: dict[str, object]) -> None:
+        """One JSON line, written with the others of its batch (once the endpoint has read the
+        datagrams waiting and the loop moves on)."""
+        self._lines.append(json.dumps(record))
+        if len(self._lines) == 1:
+            assert self._loop is not None
+            self._loop.call_soon(self._flush_or_fail)
+
+    def _flush_or_fail(self) -> None:
+        try:
+            self.flush()
+        except OSError as error:  # a closed pipe or a full disk ends the command
+            if self._finished is not None and not self._finished.done():
+                self._finished.set_exception(error)
+
+    async def _draw(self, view: "_Table") -> None:
         import asyncio
 
-        assert self._view is not None
         while True:
-            self._view.render(self.dispatcher.stats(), self.watchdog)
+            view.render(self.dispatcher.stats(), self.watchdog)
             await asyncio.sleep(_REDRAW)
 
     def _shower(self, kind: str) -> Callable[[Message], None]:
         def show(message: Message) -> None:
             if self._view is None:
-                emit(
+                self._show(
                     {
                         "from": self._source,
                         "kind": kind,
                         "length": self._length,
-                        "message": to_dict(message),
+                        "message": self._to_dict(message),
                     }
                 )
 
@@ -232,15 +299,15 @@ class _Listening:
         if self._view is None:
             error = one_line(str(drop.error)) if drop.error else f"no handler for {drop.kind}"
             record = {"from": self._source, "error": error, "reason": drop.reason}
-            emit({**record, "length": len(drop.data)})
+            self._show({**record, "length": len(drop.data)})
 
 
 class _Table:
     """A per-kind table of counts and measured rates."""
 
-    def render(self, stats: DispatchStats, watchdog: Watchdog) -> None:
+    def render(self, stats: DispatchStats, watchdog: Watchdog | None) -> None:
         lines = [f"{'kind':<34}{'count':>8}{'rate Hz':>10}"]
         for kind in sorted(stats.handled):
-            rate = watchdog.rate(kind) or 0.0
+            rate = (watchdog.rate(kind) if watchdog is not None else None) or 0.0
             lines.append(f"{kind:<34}{stats.handled[kind]:>8}{rate:>10.1f}")
         click.echo("\x1b[H\x1b[2J" + "\n".join(lines))

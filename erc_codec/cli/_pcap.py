@@ -34,10 +34,14 @@ class CapturedDatagram(NamedTuple):
 
 
 class _Watched:
-    """A capture file that notes reads stopping short inside it: dpkt hands a pcap record cut
-    off by the end of the file over as a shorter (or empty) packet, without a word, and skips a
-    pcapng block cut short if it holds no packet. A short read that is not the last (the end of
-    the file) is a cut, and so is one right before a packet comes out (``short``)."""
+    """A capture file that notes reads stopping short inside it. dpkt hands a pcap record cut
+    off by the end of the file over as a shorter (or empty) packet, without a word, and ends a
+    pcapng capture quietly when a block's first 8 bytes are cut, or when a block cut short holds
+    no packet. The end of the file is whole only where a read of a new record or block finds no
+    byte at all, so: a read that returns some bytes but fewer than asked is a cut; a read that
+    returns none is one too, if another read follows it or a packet comes out after it
+    (``short``); and dpkt asks for everything left (a negative size) only when a block's length
+    is shorter than its own header, which is damage as well."""
 
     def __init__(self, file: BinaryIO) -> None:
         self._file = file
@@ -45,13 +49,14 @@ class _Watched:
         self.short = False
 
     def read(self, size: int = -1) -> bytes:
-        self.cut = self.cut or self.short
+        self.cut = self.cut or self.short or size < 0
         data = self._file.read(size)
-        self.short = 0 <= len(data) < size
+        self.short = len(data) < size
+        self.cut = self.cut or (self.short and len(data) > 0)
         return data
 
     def seek(self, offset: int, whence: int = 0) -> int:
-        self.short = False  # dpkt rereads from the top when a capture is not pcap but pcapng
+        self.cut = self.short = False  # dpkt rereads from the top when a capture is not pcap
         return self._file.seek(offset, whence)
 
     def tell(self) -> int:

@@ -22,6 +22,7 @@ import time
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any, NamedTuple, cast
 
+from .._checks import duration
 from .._errors import DecodeError
 from .._framing import Deframer, frame
 from ._node import Node, Sent
@@ -72,12 +73,6 @@ class _Counters:
 
     def stats(self) -> LinkStats:
         return LinkStats(self.received, self.sent, dict(self.errors), self.unknown_fields)
-
-
-def _checked_tick(tick: float) -> float:
-    if isinstance(tick, bool) or not isinstance(tick, int | float) or not 0 < tick < math.inf:
-        raise ValueError(f"tick must be a positive number of seconds, not {tick!r}")
-    return tick
 
 
 class ProtonUdp:
@@ -218,7 +213,7 @@ async def open_proton_udp(
     something stops it (``ProtonUdp.wait_closed`` raises what)."""
     import asyncio
 
-    tick = _checked_tick(tick)
+    tick = duration("tick", tick)
     local, addresses = _udp_addresses(node)
     addresses.update(peers or {})
     link = ProtonUdp(node, addresses, clock, tick, on_error)
@@ -259,7 +254,7 @@ async def run_proton_serial(
     both and is raised here."""
     import asyncio
 
-    tick = _checked_tick(tick)
+    tick = duration("tick", tick)
     counters = _Counters(on_error)
     deframer = Deframer(max_length=_MAX_FRAME)
 
