@@ -17,7 +17,6 @@ no peer has, the node whose id its header names (any id, 0 included). The local 
 peers' addresses come from the configuration's connections (a udp4 endpoint each) unless given.
 """
 
-import math
 import time
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any, NamedTuple, cast
