@@ -8,14 +8,24 @@ sizes and nanopb limits. Nothing here encodes envelopes or talks to a network.
   own ``path:line:col`` diagnostics);
 - a tree's text before it compiles: ``imports`` (as protoc tokenizes them) and ``declared_names``;
 - compiled files: ``declarations`` (every message and enum, nested ones too, with their source
-  paths) and ``SourceIndex`` (a path's ``Location`` and trailing comment);
+  paths), ``extensions`` and ``services`` (likewise) and ``SourceIndex`` (a path's ``Location``
+  and trailing comment);
 - a loaded schema: ``load_schema`` and ``Schema`` (descriptor pool, classes, locations);
 - nanopb: ``resolve_options`` (``.options`` files and annotations, as the generator resolves them)
   and ``Sizes`` (``<Message>_size`` as the generator computes it, the fixed-size contract's limits);
 - the wire: varints, wire types and ``next_field``, the one tag walker.
 """
 
-from ._descriptors import Declaration, Location, SourceIndex, declarations
+from ._descriptors import (
+    Declaration,
+    Extension,
+    Location,
+    Service,
+    SourceIndex,
+    declarations,
+    extensions,
+    services,
+)
 from ._options import Options, ResolvedOptions, options_class, resolve_options
 from ._protoc import ProtocError, compile_files
 from ._schema import Schema, descriptor_of, enum_of, load_schema, message_of
@@ -46,12 +56,14 @@ __all__ = [
     "VARINT",
     "WIRE_TYPE_NAMES",
     "Declaration",
+    "Extension",
     "FieldSpan",
     "Location",
     "Options",
     "ProtocError",
     "ResolvedOptions",
     "Schema",
+    "Service",
     "Sizes",
     "SourceIndex",
     "WireError",
@@ -61,6 +73,7 @@ __all__ = [
     "descriptor_of",
     "encode_varint",
     "enum_of",
+    "extensions",
     "imports",
     "load_schema",
     "message_of",
@@ -68,5 +81,6 @@ __all__ = [
     "options_class",
     "read_varint",
     "resolve_options",
+    "services",
     "varint_size",
 ]
