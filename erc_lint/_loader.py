@@ -14,6 +14,10 @@ Guarantees:
   the spelling rewritten in place, line for line, so protoc's locations stay the originals');
   otherwise protoc reads the tree where it is.
 
+- Whatever the syntax (proto2, proto3, any edition protoc supports), files compile as they are,
+  with their options of source retention kept (an extension range's ``declaration``s, which
+  reserve extension numbers), for the model to resolve what each element means on the wire.
+
 The loader reports what it met as ``LoadProblem`` records; the rules of the same names turn them
 into findings.
 """
@@ -165,7 +169,8 @@ def _compile(tree: LoadedTree, base: Path, names: list[str], includes: Sequence[
     if not names:
         return
     try:
-        compiled = compile_files(base, names, includes)
+        # Options of source retention too: an extension range's declarations reserve numbers.
+        compiled = compile_files(base, names, includes, retain_options=True)
     except ProtocError as error:
         if len(names) == 1:
             tree.failed.add(names[0])
