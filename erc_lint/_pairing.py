@@ -1,11 +1,16 @@
 """OLD and NEW, paired the way buf pairs them, plus what buf cannot see.
 
 Messages and enums pair by full name; one that is gone from NEW pairs with a new one whose body is
-identical (same fields, numbers, names and types), which makes it a rename, not a deletion. Inside
-a message pair, each OLD field is seen twice in NEW: by number and by name, so a rule can tell a
-field that moved from one that was deleted while another took its number. Inside an enum pair,
-each OLD number is seen once with all its names (more than one with ``allow_alias``), in OLD and
-in NEW, and where NEW put the names that left it.
+identical (same fields, numbers, names and types), which makes it a rename, not a deletion; and one
+that moved to another scope (``Mode`` to ``Status.Mode``: the same short name, the only one gone
+and the only one added) pairs with it when every field or value name both have keeps its number,
+whatever was added or removed on the way (the rules then compare them as they compare any pair).
+Inside a message pair, each OLD field is seen twice in NEW: by number and by name, so a rule can
+tell a field that moved from one that was deleted while another took its number; the message's
+extensions are seen the same way, and so are those of messages the tree extends without defining.
+Inside an enum pair, each OLD number is seen once with all its names (more than one with
+``allow_alias``), in OLD and in NEW, and where NEW put the names that left it. Services pair by
+full name, their methods by name.
 """
 
 import functools
@@ -13,12 +18,12 @@ from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any, Generic, NamedTuple, TypeVar
 
 from ._config import Config
-from ._model import Enum, EnumValue, Field, Message, Revision
+from ._model import Enum, EnumValue, Field, Message, Method, Revision, Service
 
 if TYPE_CHECKING:
     from ._ledger import Ledger
 
-__all__ = ["Change", "FieldPair", "NumberPair", "Paired", "wire_compatible"]
+__all__ = ["Change", "FieldPair", "MethodPair", "NumberPair", "Paired", "wire_compatible"]
 
 Container = TypeVar("Container", Message, Enum)
 
@@ -39,7 +44,8 @@ class Paired(NamedTuple, Generic[Container]):
 
 
 class FieldPair(NamedTuple):
-    """One OLD field and what NEW has at its number and under its name."""
+    """One OLD field (or extension) and what NEW has at its number and under its name (among the
+    extensions of the same message, for an extension)."""
 
     old_owner: Message
     new_owner: Message
@@ -61,8 +67,17 @@ class NumberPair(NamedTuple):
     moved: dict[str, int]  # OLD names NEW has at another number, with that number
 
 
+class MethodPair(NamedTuple):
+    """One method of an OLD service and the method of that name in NEW's service."""
+
+    old_service: Service
+    new_service: Service
+    old: Method
+    new: Method | None
+
+
 class Change:
-    """OLD and NEW, their messages and enums paired."""
+    """OLD and NEW, their messages, enums and services paired."""
 
     def __init__(
         self, old: Revision, new: Revision, config: Config, ledger: "Ledger | None" = None
@@ -97,11 +112,47 @@ class Change:
 
     @functools.cached_property
     def _fields(self) -> list[FieldPair]:
-        return [
+        found = [
             FieldPair(old, new, entry, new.fields.get(entry.number), new.by_name.get(entry.name))
             for old, new in self.messages
             for entry in old.fields.values()
         ]
+        extended = [(old, new) for old, new in self.messages if old.extensions]
+        for name, old in self.old.extended.items():  # messages from outside the tree
+            new = self.new.extended.get(name) or Message(name, "", old.source, ())
+            extended.append((old, new))
+        found += [
+            FieldPair(
+                old,
+                new,
+                entry,
+                new.extensions.get(entry.number),
+                new.extensions_by_name.get(entry.name),
+            )
+            for old, new in extended
+            for entry in old.extensions.values()
+        ]
+        return found
+
+    @functools.cached_property
+    def _methods(self) -> list[MethodPair]:
+        return [
+            MethodPair(old, new, method, new.methods.get(method.name))
+            for name, old in self.old.services.items()
+            if (new := self.new.services.get(name)) is not None
+            for method in old.methods.values()
+        ]
+
+    @functools.cached_property
+    def has_services(self) -> bool:
+        """Whether either revision declares a service (then the RPC rules run by default)."""
+        return bool(self.old.services or self.new.services)
+
+    @functools.cached_property
+    def compares_nanopb(self) -> bool:
+        """Whether either revision sets any nanopb option: without any, every field has nanopb's
+        defaults on both sides and no nanopb option can have changed."""
+        return self.old.has_nanopb_options() or self.new.has_nanopb_options()
 
     @functools.cached_property
     def _numbers(self) -> list[NumberPair]:
@@ -123,10 +174,18 @@ class Change:
         """Every number of every paired enum, with its names before and after."""
         return iter(self._numbers)
 
+    def methods(self) -> Iterator[MethodPair]:
+        """Every method of every service both revisions declare."""
+        return iter(self._methods)
+
+    def same_type(self, old: str, new: str) -> bool:
+        """Whether NEW's message or enum ``new`` is OLD's ``old`` (or its rename)."""
+        return self.renamed.get(old, old) == new
+
     def compatible(self, old: Field, new: Field) -> bool:
         """Whether NEW's field reads OLD's bytes as the same value kind."""
         if old.kind != "scalar" or new.kind != "scalar":
-            return old.kind == new.kind and self.renamed.get(old.type, old.type) == new.type
+            return old.kind == new.kind and self.same_type(old.type, new.type)
         return wire_compatible(old.type, new.type)
 
 
@@ -164,46 +223,110 @@ def _pair(
 ) -> tuple[list[Paired[Container]], list[Container]]:
     """Pairs by full name, then renames: first those ``hints`` name (map entries; what a
     renamed message declares), then by identical body, outermost NEW elements first, so that
-    a message's rename brings its nested types before any other body can claim them. A NEW
-    element is the rename of one OLD element at most; renames are added to ``renamed``.
-    Returns the pairs and OLD's unpaired leftovers."""
-    pairs = [Paired(old[name], new[name]) for name in old if name in new]
-    left = [name for name in old if name not in new]
-    added = [name for name in new if name not in old]
-    hints = dict(hints)
-    done: set[str] = set()
-    taken: set[str] = set()
+    a message's rename brings its nested types before any other body can claim them, last by
+    moves (``_moves``). A NEW element is the rename of one OLD element at most; renames and moves
+    are added to ``renamed``. Returns the pairs and OLD's unpaired leftovers."""
+    pairing = _Pairing(old, new, renamed, hints)
+    pairing.follow_hints()
+    for level in sorted({_level(new, name) for name in pairing.added}):
+        pairing.by_body(level)
+        pairing.follow_hints()
+    for before, after in _moves(old, new, pairing.leftovers(), pairing.added, pairing.taken):
+        pairing.link(before, after)
+        pairing.follow_hints()
+    return pairing.pairs, [old[name] for name in pairing.leftovers()]
 
-    def link(before: str, after: str) -> None:
-        pairs.append(Paired(old[before], new[after]))
-        renamed[before] = after
-        done.add(before)
-        taken.add(after)
-        _nest(hints, old, new, before, after)
 
-    def follow_hints() -> None:
+class _Pairing(Generic[Container]):
+    """One pairing in progress: what is paired, what OLD has left, what NEW added."""
+
+    def __init__(
+        self,
+        old: dict[str, Container],
+        new: dict[str, Container],
+        renamed: dict[str, str],
+        hints: dict[str, str],
+    ) -> None:
+        self.old: dict[str, Container] = old
+        self.new: dict[str, Container] = new
+        self.renamed = renamed
+        self.hints = dict(hints)
+        self.pairs: list[Paired[Container]] = [
+            Paired(old[name], new[name]) for name in old if name in new
+        ]
+        self.left = [name for name in old if name not in new]
+        self.added = [name for name in new if name not in old]
+        self.done: set[str] = set()
+        self.taken: set[str] = set()
+
+    def leftovers(self) -> list[str]:
+        return [name for name in self.left if name not in self.done]
+
+    def link(self, before: str, after: str) -> None:
+        if before in self.done or after in self.taken:  # a move an earlier one brought along
+            return
+        self.pairs.append(Paired(self.old[before], self.new[after]))
+        self.renamed[before] = after
+        self.done.add(before)
+        self.taken.add(after)
+        _nest(self.hints, self.old, self.new, before, after)
+
+    def follow_hints(self) -> None:
         linked = True
         while linked:
             linked = False
-            for name in left:
-                after = hints.get(name)
-                if name not in done and after is not None and after not in taken:
-                    link(name, after)
+            for name in self.leftovers():
+                after = self.hints.get(name)
+                if after is not None and after not in self.taken:
+                    self.link(name, after)
                     linked = True
 
-    follow_hints()
-    for level in sorted({_level(new, name) for name in added}):
+    def by_body(self, level: int) -> None:
+        """Pair what is left with the NEW elements ``level`` deep that have its body."""
         bodies: dict[object, list[str]] = {}
-        for name in added:
-            if name not in taken and _level(new, name) == level:
-                bodies.setdefault(new[name].body(), []).append(name)
-        for name in left:
-            body = old[name].body()
-            twins = [twin for twin in bodies.get(body, []) if twin not in taken]
-            if name not in done and body and len(twins) == 1:
-                link(name, twins[0])
-        follow_hints()
-    return pairs, [old[name] for name in left if name not in done]
+        for name in self.added:
+            if name not in self.taken and _level(self.new, name) == level:
+                bodies.setdefault(self.new[name].body(), []).append(name)
+        for name in self.left:
+            body = self.old[name].body()
+            twins = [twin for twin in bodies.get(body, []) if twin not in self.taken]
+            if name not in self.done and body and len(twins) == 1:
+                self.link(name, twins[0])
+
+
+def _moves(
+    old: dict[str, Container],
+    new: dict[str, Container],
+    left: list[str],
+    added: list[str],
+    taken: set[str],
+) -> list[tuple[str, str]]:
+    """Moves: the only OLD element ``left`` with a short name and the only NEW one ``added``
+    with it (and not ``taken``), when their members agree."""
+    gone: dict[str, list[str]] = {}
+    for name in left:
+        gone.setdefault(name.rsplit(".", 1)[-1], []).append(name)
+    fresh: dict[str, list[str]] = {}
+    for name in added:
+        if name not in taken:
+            fresh.setdefault(name.rsplit(".", 1)[-1], []).append(name)
+    return [
+        (before[0], after[0])
+        for short, before in gone.items()
+        if len(before) == len(after := fresh.get(short, [])) == 1
+        and _agree(old[before[0]], new[after[0]])
+    ]
+
+
+def _agree(old: Message | Enum, new: Message | Enum) -> bool:
+    """Whether two elements of the same kind share a member name and every member name both
+    have keeps its number: what a moved message or enum keeps, whatever it gained or lost."""
+    shared = old.by_name.keys() & new.by_name.keys()
+    if type(old) is not type(new) or not shared:
+        return False
+    before: dict[str, Any] = old.by_name
+    after: dict[str, Any] = new.by_name
+    return all(before[name].number == after[name].number for name in shared)
 
 
 def _level(elements: dict[str, Any], name: str) -> int:
