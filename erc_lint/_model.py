@@ -386,8 +386,11 @@ class Revision:
             text = field.default
         else:
             text = {"bool": "false", "string": "", "bytes": ""}.get(field.type, "0")
-        shown = f'"{text}"' if field.type in ("string", "bytes") else text
-        return text, shown
+        if field.type in ("string", "bytes"):
+            return text, f'"{text}"'
+        if field.type in ("float", "double"):
+            return text, text  # protoc writes them normalized: "1e+10", "inf", "nan"
+        return {"false": 0, "true": 1}.get(text) if field.type == "bool" else int(text), text
 
     def max_size(self, root: str) -> int | None:
         """nanopb's ``<root>_size`` in this revision; ``None`` where nanopb has none (an
