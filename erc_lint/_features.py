@@ -5,17 +5,17 @@ Guarantees:
   ``FeatureSetDefaults``: from the ``edition_defaults`` that descriptor.proto's own
   ``FeatureSet`` declares on each feature (the latest entry at or before the file's edition).
   proto2 and proto3 files are editions ``PROTO2`` and ``PROTO3``.
-- Features inherit as protoc's descriptor pool resolves them: file, then each enclosing message,
-  then the oneof a field is in (or, for an extension, the message declaring it), then the element
-  itself. In proto2 and proto3 files what the syntax says becomes features as protoc infers them:
-  ``required`` is ``LEGACY_REQUIRED``, a ``group`` is ``DELIMITED``, ``[packed = ...]`` is
-  ``PACKED`` or ``EXPANDED``.
 - Only the features that change how bytes are read are kept: presence, enum openness, repeated
-  field encoding, UTF-8 validation, message encoding.
+  field encoding, UTF-8 validation, message encoding. descriptor.proto lets a file and a field set
+  them (and an enum its ``enum_type``), never a message or a oneof: an element's features are
+  its file's with its own merged in, exactly what the descriptor pool's inheritance through
+  messages and oneofs comes to. In proto2 and proto3 files what the syntax says becomes
+  features as protoc infers them: ``required`` is ``LEGACY_REQUIRED``, a ``group`` is
+  ``DELIMITED``, ``[packed = ...]`` is ``PACKED`` or ``EXPANDED``.
 
-tests/test_lint_model.py holds the resolution to a descriptor pool's (``has_presence``,
-``is_required``, ``is_packed``, the ``TYPE_GROUP`` of a delimited field, ``is_closed``) on a tree
-of every construct.
+tests/test_lint_model.py holds the resolution to the protobuf runtime's on a tree of every
+construct (its descriptor pool's ``is_required``, the ``TYPE_GROUP`` of a delimited field,
+``is_closed``; its parser's UTF-8 checks), and holds the features' targets to those above.
 """
 
 import functools
@@ -55,8 +55,8 @@ class Features(NamedTuple):
         return Features(*(getattr(raw, n) if raw.HasField(n) else getattr(self, n) for n in _NAMES))
 
     def of_field(self, field: _FD, edition: int) -> "Features":
-        """A field's features, ``self`` being its parent's (its oneof's, its message's, or for an
-        extension its scope's): its own ``features``, or what its proto2/proto3 syntax implies."""
+        """A field's features, ``self`` being its file's: its own ``features``, or what its
+        proto2/proto3 syntax implies."""
         own = self.merged(field.options.features) if field.HasField("options") else self
         if edition >= descriptor_pb2.EDITION_2023:
             return own

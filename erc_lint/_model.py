@@ -479,25 +479,19 @@ def _add_file(
     file's messages are known."""
     source = SourceIndex(str(revision.root / proto.name), proto)
     edition = edition_of(proto)
-    top = file_features(proto)
+    top = file_features(proto)  # what no field or enum of the file overrides
     here: dict[str, Message] = {}  # this file's messages (another file may define a name too)
-    features: dict[str, Features] = {}  # this file's messages' own, when editions set any
     for declaration in declarations(proto):
-        outer = features.get(declaration.parent or "", top)
-        element = declaration.proto
-        own = outer.merged(element.options.features) if element.HasField("options") else outer
         if declaration.is_message:
-            if own is not top:
-                features[declaration.name] = own
             parent = here.get(declaration.parent or "")
-            message = _message(proto.name, source, declaration, parent, own, edition)
+            message = _message(proto.name, source, declaration, parent, top, edition)
             here[message.name] = message
             _define(revision, message.name, message)
             revision.messages.setdefault(message.name, message)
             for extension in declaration.extensions():
-                pending.append(_extension(source, extension, own, edition))
+                pending.append(_extension(source, extension, top, edition))
         else:
-            _enum(revision, proto.name, source, declaration, own)
+            _enum(revision, proto.name, source, declaration, top)
     for extension in extensions(proto, nested=False):
         pending.append(_extension(source, extension, top, edition))
     for service in services(proto):
@@ -541,21 +535,16 @@ def _message(
     declared = users[0].at if users else None
     model = Message(name, file, source, declared or declaration.path, map_entry)
     oneofs = [oneof.name for oneof in proto.oneof_decl]
-    inside = [  # what each oneof gives its fields (editions may set features on a oneof)
-        features.merged(oneof.options.features) if oneof.HasField("options") else features
-        for oneof in proto.oneof_decl
-    ]
     maps = {f"{name}.{nested.name}" for nested in proto.nested_type if nested.options.map_entry}
     for j, f in enumerate(proto.field):
         real_oneof = f.HasField("oneof_index") and not f.proto3_optional
         if real_oneof:
             model.oneofs.setdefault(oneofs[f.oneof_index], declaration.oneof(f.oneof_index))
-        parent_features = inside[f.oneof_index] if f.HasField("oneof_index") else features
         plain = map_entry or f.type_name.lstrip(".") in maps  # maps are never delimited
         entry = _field(
             name,
             f,
-            parent_features.of_field(f, edition),
+            features.of_field(f, edition),
             source,
             declared or declaration.member(j),
             oneofs[f.oneof_index] if real_oneof else None,
@@ -616,12 +605,12 @@ def _field(
 
 
 def _extension(
-    source: SourceIndex, extension: Extension, parent: Features, edition: int
+    source: SourceIndex, extension: Extension, features: Features, edition: int
 ) -> tuple[Field, str]:
     """An extension as a field of the message it extends (and that message's name)."""
     f = extension.proto
     extendee = f.extendee.lstrip(".")
-    features = parent.of_field(f, edition)
+    features = features.of_field(f, edition)
     return _field(extendee, f, features, source, extension.path, name=extension.name), extendee
 
 
@@ -635,7 +624,8 @@ def _enum(
     """Add a declared enum; its values take global names beside it (C++ scoping)."""
     proto = declaration.proto
     assert isinstance(proto, descriptor_pb2.EnumDescriptorProto)
-    model = Enum(declaration.name, file, source, declaration.path, features.closed)
+    own = features.merged(proto.options.features) if proto.HasField("options") else features
+    model = Enum(declaration.name, file, source, declaration.path, own.closed)
     _define(revision, model.name, model)
     revision.enums.setdefault(model.name, model)
     for j, value in enumerate(proto.value):
