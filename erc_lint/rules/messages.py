@@ -202,10 +202,10 @@ def required_field_added(pair: Paired[Message], change: Change) -> Reports:
     required.
 
     ## Why is this bad?
-    A reader built from NEW refuses a message without every required field: Google protobuf
-    raises a decode error ("missing required fields"), nanopb fails to decode ("missing
-    required field"). Senders built from OLD never send the new field, so every message they
-    send is refused.
+    A reader built from NEW refuses a message without every required field: nanopb fails to
+    decode it ("missing required field"), Google protobuf's C++ and Java parsers reject it
+    (Python's raises once the message is serialized again). Senders built from OLD never send
+    the new field, so every message they send is refused.
 
     ## Example
     Before:
@@ -242,9 +242,10 @@ def required_field_removed(pair: Paired[Message], change: Change) -> Reports:
     `features.field_presence = LEGACY_REQUIRED`) that NEW deleted or no longer requires.
 
     ## Why is this bad?
-    Readers built from OLD refuse a message without every field they hold required (Google
-    protobuf: "missing required fields"; nanopb: "missing required field"). Senders built from
-    NEW may leave the field out, so receivers still running OLD refuse what they send.
+    Readers built from OLD refuse a message without every field they hold required (nanopb:
+    "missing required field"; Google protobuf's C++ and Java parsers: "missing required
+    fields"). Senders built from NEW may leave the field out, so receivers still running OLD
+    refuse what they send.
 
     ## Example
     Before:

@@ -37,7 +37,8 @@ def limit_narrowed(pair: FieldPair, change: Change) -> Reports:
     ## Why is this bad?
     Senders built from OLD may send values up to the old limit. A board built from NEW decodes
     into the smaller struct and fails the whole message when a value does not fit (nanopb:
-    "string overflow", "array overflow", "integer too large"): the datagram is lost, not cut.
+    "string overflow", "bytes overflow", "array overflow", "integer too large"): the datagram
+    is lost, not cut.
 
     ## Example
     Before:
