@@ -6,9 +6,11 @@ import re
 from pathlib import Path
 
 import pytest
+from google.protobuf import descriptor_pool, message_factory
 from lint_support import READING, tree
 
 import erc_lint
+from erc_codec.schema import compile_files
 from erc_lint import RULES, Config, Rule
 from erc_lint.rules._registry import PAIRS
 
@@ -286,3 +288,25 @@ def test_a_packaged_roots_size_is_named_as_nanopb_names_it(tmp_path: Path) -> No
         'Maximum size of message "acme.io.Env" grew from 7 to 12 bytes: receivers built with '
         "the old acme_io_Env_size drop the longer datagrams."
     )
+
+
+def test_packing_is_no_wire_change_so_no_rule_reports_it(tmp_path: Path) -> None:
+    """FIELD_ENCODING_CHANGED leaves packing alone (lint_cases/safe/packing_toggled) because a
+    reader accepts a repeated scalar either way: Google protobuf's, here, and nanopb's decoder
+    alike (a length-delimited record for a packable repeated field is read as packed)."""
+    (tmp_path / "p.proto").write_text(
+        'syntax = "proto2";\nmessage Packed { repeated sint32 v = 1 [packed = true]; }\n'
+        "message Expanded { repeated sint32 v = 1; }\n"
+    )
+    pool = descriptor_pool.DescriptorPool()
+    for proto in compile_files(tmp_path, ["p.proto"], locations=False).file:
+        pool.Add(proto)
+    packed, expanded = (
+        message_factory.GetMessageClass(pool.FindMessageTypeByName(name))
+        for name in ("Packed", "Expanded")
+    )
+    values = [0, -1, 300, -70000]
+    written = packed(v=values).SerializeToString(), expanded(v=values).SerializeToString()
+    assert written[0] != written[1]  # the encodings differ
+    assert expanded.FromString(written[0]) == expanded(v=values)
+    assert packed.FromString(written[1]) == packed(v=values)
