@@ -6,8 +6,9 @@ command line around them (``erc_lint.cli``). Everything not re-exported here is 
 
 One module per job, and data flows one way: ``_inputs`` (a folder, or a git revision whose objects
 ``_git`` reads) → ``_loader`` (compiled files and load problems) → ``_model`` (one revision: its
-messages, enums, names, sizes) → ``_pairing`` (OLD and NEW paired) → ``rules/`` (one pair at a
-time) → ``_report`` (text, JSON, GitHub annotations) → ``cli/``. ``_run`` is one lint run,
+messages, enums, extensions, services, names, sizes; ``_features`` resolves what each element
+means on the wire) → ``_pairing`` (OLD and NEW paired) → ``rules/`` (one pair at a time, in
+categories) → ``_report`` (text, JSON, GitHub annotations) → ``cli/``. ``_run`` is one lint run,
 ``_config`` reads ``[tool.erc-lint]``, ``_ledger`` and ``_history`` keep the number ledger, and
 ``_errors`` holds ``LintError``, the base of every failure to run.
 """

@@ -37,12 +37,12 @@ from erc_codec.schema import (
     resolve_options,
     services,
 )
+from erc_codec.schema import Service as DeclaredService
 
 from ._features import Features, edition_of, file_features
 from ._loader import LoadedTree, LoadProblem, relative
 
 __all__ = [
-    "DELIMITED",
     "Definition",
     "Enum",
     "EnumValue",
@@ -61,14 +61,13 @@ _SCALARS = {
     for name, number in _FD.Type.items()
     if name not in ("TYPE_MESSAGE", "TYPE_ENUM", "TYPE_GROUP")
 }
-_LABELS = {number: name.removeprefix("LABEL_").lower() for name, number in _FD.Label.items()}
 # A proto2 group is a message type as far as the wire and the rules go.
 _KINDS = {_FD.TYPE_MESSAGE: "message", _FD.TYPE_GROUP: "message", _FD.TYPE_ENUM: "enum"}
 _IDEMPOTENCY = descriptor_pb2.MethodOptions.IdempotencyLevel
 _Files = dict[str, descriptor_pb2.FileDescriptorProto]
 # How a message field's encoding is named, as buf names it in a type: a proto2 group, an editions
 # field with ``message_encoding = DELIMITED`` (the same bytes), or a length-prefixed message.
-GROUP, DELIMITED, LENGTH_PREFIXED = "group", "message (delimited encoding)", "message"
+_GROUP, _DELIMITED, _LENGTH_PREFIXED = "group", "message (delimited encoding)", "message"
 
 
 class Field(NamedTuple):
@@ -81,7 +80,7 @@ class Field(NamedTuple):
     oneof: str | None  # the real oneof it belongs to (not a proto3 `optional`'s)
     source: SourceIndex
     at: tuple[int, ...]  # its source-info path (a map entry's fields: their map field's)
-    encoding: str = ""  # a message field's: GROUP, DELIMITED or LENGTH_PREFIXED
+    encoding: str = ""  # a message field's: "group", "message (delimited encoding)", "message"
     default: str | None = None  # an explicit default, as protoc writes it
     utf8: bool = False  # a string field's readers reject what is not UTF-8 (VERIFY)
     json_name: str = ""
@@ -94,7 +93,7 @@ class Field(NamedTuple):
     @property
     def delimited(self) -> bool:
         """Whether the field's message travels between start- and end-group tags."""
-        return self.encoding in (GROUP, DELIMITED)
+        return self.encoding in (_GROUP, _DELIMITED)
 
     @property
     def noun(self) -> str:
@@ -185,9 +184,6 @@ class Message:
     def location(self) -> Location:
         return self.source.where(self.at)
 
-    def extension_range_covers(self, number: int) -> bool:
-        return any(low <= number <= high for low, high in self.extension_ranges)
-
     def oneof(self, name: str | None) -> frozenset[int]:
         """The field numbers of oneof ``name`` (none for ``None``)."""
         return frozenset(f.number for f in self.fields.values() if name and f.oneof == name)
@@ -268,8 +264,9 @@ Definition = Message | Enum | EnumValue
 
 
 class Revision:
-    """One side of a comparison: its messages, enums and global names, and the questions rules
-    ask of them (what a root reaches, nanopb's bounds and sizes, what a broken file declares)."""
+    """One side of a comparison: its messages, enums, services and global names, and the
+    questions rules ask of them (what a root reaches, nanopb's options and sizes, what a field
+    reads as while absent, what a broken file declares)."""
 
     __slots__ = (
         "_failed_names",
@@ -495,23 +492,27 @@ def _add_file(
     for extension in extensions(proto, nested=False):
         pending.append(_extension(source, extension, top, edition))
     for service in services(proto):
-        model = Service(service.name, proto.name, source, service.path)
-        for j, method in enumerate(service.proto.method):
-            model.methods.setdefault(
+        _service(revision, proto.name, source, service)
+
+
+def _service(revision: Revision, file: str, source: SourceIndex, service: DeclaredService) -> None:
+    model = Service(service.name, file, source, service.path)
+    for j, method in enumerate(service.proto.method):
+        model.methods.setdefault(
+            method.name,
+            Method(
+                service.name,
                 method.name,
-                Method(
-                    service.name,
-                    method.name,
-                    method.input_type.lstrip("."),
-                    method.output_type.lstrip("."),
-                    method.client_streaming,
-                    method.server_streaming,
-                    _IDEMPOTENCY.Name(method.options.idempotency_level),
-                    source,
-                    service.method(j),
-                ),
-            )
-        revision.services.setdefault(model.name, model)
+                method.input_type.lstrip("."),
+                method.output_type.lstrip("."),
+                method.client_streaming,
+                method.server_streaming,
+                _IDEMPOTENCY.Name(method.options.idempotency_level),
+                source,
+                service.method(j),
+            ),
+        )
+    revision.services.setdefault(model.name, model)
 
 
 def _define(revision: Revision, name: str, definition: Definition) -> None:
@@ -583,9 +584,9 @@ def _field(
     encoding = ""
     if kind == "message":
         if f.type == _FD.TYPE_GROUP:
-            encoding = GROUP
+            encoding = _GROUP
         else:
-            encoding = DELIMITED if features.delimited and not plain else LENGTH_PREFIXED
+            encoding = _DELIMITED if features.delimited and not plain else _LENGTH_PREFIXED
     return Field(
         owner=owner,
         name=name or f.name,
@@ -605,12 +606,12 @@ def _field(
 
 
 def _extension(
-    source: SourceIndex, extension: Extension, features: Features, edition: int
+    source: SourceIndex, extension: Extension, top: Features, edition: int
 ) -> tuple[Field, str]:
     """An extension as a field of the message it extends (and that message's name)."""
     f = extension.proto
     extendee = f.extendee.lstrip(".")
-    features = features.of_field(f, edition)
+    features = top.of_field(f, edition)
     return _field(extendee, f, features, source, extension.path, name=extension.name), extendee
 
 

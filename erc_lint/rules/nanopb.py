@@ -168,7 +168,7 @@ def layout_changed(pair: Paired[Message], change: Change) -> Reports:
     old, new = pair
     for number, before in old.fields.items():
         after = new.fields.get(number)
-        if after is None or after.type != change.renamed.get(before.type, before.type):
+        if after is None or not _same_type(change, before, after):
             continue
         was = _layout(before, change.old.field_options(before))
         now = _layout(after, change.new.field_options(after))
@@ -248,7 +248,7 @@ def _limit_changes(pair: FieldPair, change: Change) -> list[tuple[str, Limit, Li
     old, now = pair.old, pair.by_number
     if now is None or now.extension or not change.compares_nanopb:
         return []
-    if now.type != change.renamed.get(old.type, old.type) or now.cardinality != old.cardinality:
+    if not _same_type(change, old, now) or now.cardinality != old.cardinality:
         return []
     before = _limits(old, change.old.field_options(old))
     after = _limits(now, change.new.field_options(now))
@@ -300,6 +300,11 @@ def _allocation(field: Field, options: Options) -> str:
         bounded = options.HasField("max_size") or options.HasField("max_length")
         return "static" if bounded else "callback"
     return "static"
+
+
+def _same_type(change: Change, old: Field, new: Field) -> bool:
+    """Whether NEW's field has OLD's type: the same keyword, or the same (or renamed) type."""
+    return old.type == new.type if old.kind == "scalar" else change.same_type(old.type, new.type)
 
 
 def _flag(value: bool) -> str:
