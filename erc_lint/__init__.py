@@ -17,9 +17,10 @@ from ._config import Config
 from ._errors import ConfigError, GitError, LedgerError, LintError
 from ._finding import Finding, Severity
 from ._run import check, lint
-from .rules import RULES, Rule
+from .rules import CATEGORIES, RULES, Rule
 
 __all__ = [
+    "CATEGORIES",
     "RULES",
     "Config",
     "ConfigError",
