@@ -57,15 +57,16 @@ class Features(NamedTuple):
     def of_field(self, field: _FD, edition: int) -> "Features":
         """A field's features, ``self`` being its file's: its own ``features``, or what its
         proto2/proto3 syntax implies."""
-        own = self.merged(field.options.features) if field.HasField("options") else self
+        options = field.options if field.HasField("options") else None
         if edition >= descriptor_pb2.EDITION_2023:
-            return own
+            return self.merged(options.features) if options is not None else self
+        own = self
         if field.label == _FD.LABEL_REQUIRED:
             own = own._replace(field_presence=_FS.LEGACY_REQUIRED)
         if field.type == _FD.TYPE_GROUP:
             own = own._replace(message_encoding=_FS.DELIMITED)
-        if field.options.HasField("packed"):
-            encoding = _FS.PACKED if field.options.packed else _FS.EXPANDED
+        if options is not None and options.HasField("packed"):
+            encoding = _FS.PACKED if options.packed else _FS.EXPANDED
             own = own._replace(repeated_field_encoding=encoding)
         return own
 

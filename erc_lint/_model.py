@@ -541,7 +541,7 @@ def _message(
         real_oneof = f.HasField("oneof_index") and not f.proto3_optional
         if real_oneof:
             model.oneofs.setdefault(oneofs[f.oneof_index], declaration.oneof(f.oneof_index))
-        plain = map_entry or f.type_name.lstrip(".") in maps  # maps are never delimited
+        plain = map_entry or (bool(maps) and f.type_name.lstrip(".") in maps)  # never delimited
         entry = _field(
             name,
             f,
@@ -587,21 +587,21 @@ def _field(
             encoding = _GROUP
         else:
             encoding = _DELIMITED if features.delimited and not plain else _LENGTH_PREFIXED
-    return Field(
-        owner=owner,
-        name=name or f.name,
-        number=f.number,
-        type=type_,
-        kind=kind,
-        cardinality=cardinality,
-        oneof=oneof,
-        source=source,
-        at=at,
-        encoding=encoding,
-        default=f.default_value if f.HasField("default_value") else None,
-        utf8=type_ == "string" and features.verifies_utf8,
-        json_name=f.json_name,
-        extension=name is not None,
+    return Field(  # positionally: bench_lint's 1,000-file tree builds 30,000 of them
+        owner,
+        name or f.name,
+        f.number,
+        type_,
+        kind,
+        cardinality,
+        oneof,
+        source,
+        at,
+        encoding,
+        f.default_value if f.HasField("default_value") else None,
+        type_ == "string" and features.verifies_utf8,
+        f.json_name,
+        name is not None,
     )
 
 

@@ -355,6 +355,8 @@ def default_changed(pair: FieldPair, change: Change) -> Reports:
     taken, old = pair.by_number, pair.old
     if taken is None or taken.cardinality == "repeated" or old.cardinality == "repeated":
         return
+    if old.default is None and taken.default is None and old.kind == "scalar":
+        return  # types that read each other's bytes have equal zero values (0, false, "")
     if taken.kind == "message" or not change.compatible(old, taken):
         return
     before, shown_before = change.old.default(old)

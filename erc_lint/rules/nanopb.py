@@ -246,7 +246,7 @@ def _limit_changes(pair: FieldPair, change: Change) -> list[tuple[str, Limit, Li
     """Each limit (``bytes``, ``count``, ``int``) that both revisions give the field and that
     differs between them."""
     old, now = pair.old, pair.by_number
-    if now is None or now.extension or not change.compares_nanopb:
+    if not change.compares_nanopb or now is None or now.extension:
         return []
     if not _same_type(change, old, now) or now.cardinality != old.cardinality:
         return []
