@@ -23,12 +23,20 @@ from ._model import Enum, EnumValue, Field, Message, Method, Revision, Service
 if TYPE_CHECKING:
     from ._ledger import Ledger
 
-__all__ = ["Change", "FieldPair", "MethodPair", "NumberPair", "Paired", "wire_compatible"]
+__all__ = [
+    "WIRE_GROUPS",
+    "Change",
+    "FieldPair",
+    "MethodPair",
+    "NumberPair",
+    "Paired",
+    "wire_compatible",
+]
 
 Container = TypeVar("Container", Message, Enum)
 
 # Scalar types that share a wire encoding (wire-facts §6); string → bytes is checked apart.
-_WIRE_GROUPS = [
+WIRE_GROUPS = [
     {"int32", "int64", "uint32", "uint64", "bool"},
     {"sint32", "sint64"},
     {"fixed32", "sfixed32"},
@@ -194,7 +202,7 @@ def wire_compatible(old: str, new: str) -> bool:
     (scalar keywords; a message or enum type only matches itself)."""
     if old == new or (old, new) == ("string", "bytes"):
         return True
-    return any(old in group and new in group for group in _WIRE_GROUPS)
+    return any(old in group and new in group for group in WIRE_GROUPS)
 
 
 def _map_entries(old: dict[str, Message], new: dict[str, Message]) -> dict[str, str]:

@@ -12,6 +12,9 @@ from lint_support import READING, tree
 import erc_lint
 from erc_codec.schema import compile_files
 from erc_lint import RULES, Config, Rule
+from erc_lint._loader import load_tree
+from erc_lint._model import build
+from erc_lint._pairing import WIRE_GROUPS, wire_compatible
 from erc_lint.rules._registry import PAIRS
 
 SECTIONS = ["## What it does", "## Why is this bad?", "## Example", "## Use instead"]
@@ -310,3 +313,18 @@ def test_packing_is_no_wire_change_so_no_rule_reports_it(tmp_path: Path) -> None
     assert written[0] != written[1]  # the encodings differ
     assert expanded.FromString(written[0]) == expanded(v=values)
     assert packed.FromString(written[1]) == packed(v=values)
+
+
+def test_implicit_defaults_of_compatible_types_agree(tmp_path: Path) -> None:
+    """FIELD_DEFAULT_CHANGED skips scalar fields without an explicit default on either side:
+    what the model says they read as while absent is the same for every pair of types that read
+    each other's bytes."""
+    scalars = sorted({*(t for group in WIRE_GROUPS for t in group), "string", "bytes"})
+    body = "".join(f"  optional {t} f_{t} = {k};\n" for k, t in enumerate(scalars, 1))
+    (tmp_path / "a.proto").write_text(f'syntax = "proto2";\nmessage A {{\n{body}}}\n')
+    revision = build(load_tree(tmp_path))
+    fields = {f.type: f for f in revision.messages["A"].fields.values()}
+    for old in scalars:
+        for new in scalars:
+            if wire_compatible(old, new):
+                assert revision.default(fields[old])[0] == revision.default(fields[new])[0]
