@@ -159,7 +159,9 @@ class Change:
     @functools.cached_property
     def compares_nanopb(self) -> bool:
         """Whether either revision sets any nanopb option: without any, every field has nanopb's
-        defaults on both sides and no nanopb option can have changed."""
+        defaults on both sides and no nanopb option can have changed. (bench_lint's 30-file
+        ratios: resolving options compiles nanopb's vocabulary, some 20 ms;
+        test_a_tree_without_nanopb_options_resolves_to_defaults holds the shortcut.)"""
         return self.old.has_nanopb_options() or self.new.has_nanopb_options()
 
     @functools.cached_property

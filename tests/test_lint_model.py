@@ -11,6 +11,7 @@ from google.protobuf.message import DecodeError
 from lint_support import READING, tree
 
 import erc_lint
+from erc_codec.schema import options_class
 from erc_lint._loader import load_tree
 from erc_lint._model import build
 
@@ -210,3 +211,21 @@ def test_the_wire_features_are_set_on_files_fields_and_enums_only() -> None:
         assert set(targets) == allowed, name
     targets = FeatureSet.DESCRIPTOR.fields_by_name["enum_type"].GetOptions().targets
     assert set(targets) == {FieldOptions.TARGET_TYPE_FILE, FieldOptions.TARGET_TYPE_ENUM}
+
+
+def test_a_tree_without_nanopb_options_resolves_to_defaults(tmp_path: Path) -> None:
+    """The nanopb rules skip resolving options when no revision has a .options file or imports
+    nanopb.proto: resolved anyway, every field's and oneof's options are the defaults."""
+    files = {**READING}
+    files.pop("reading.options")
+    files["reading.proto"] = files["reading.proto"].replace('import "nanopb.proto";\n', "")
+    files["reading.proto"] = files["reading.proto"].replace(" [(nanopb).int_size = IS_8]", "")
+    revision = build(load_tree(tree(tmp_path / "t", files)))
+    assert not revision.has_nanopb_options()
+    default = options_class()()
+    resolved = revision.nanopb()
+    everything = [*resolved.fields.values(), *resolved.oneofs.values()]
+    assert len(everything) == len(resolved.fields) + 1  # PBEnvelope's oneof too
+    assert all(value == default for value in everything)
+    with_options = tree(tmp_path / "o", READING)
+    assert build(load_tree(with_options)).has_nanopb_options()  # it imports nanopb.proto
