@@ -2,31 +2,37 @@
 
     python benchmarks/bench_lint.py [--quick] [--rounds N] [--keep]
 
-Both contenders run as subprocesses on the same pair of generated trees (written to a temporary
+Both contenders run as subprocesses on the same pairs of generated trees (written to a temporary
 folder, never into the repository): ``erc-lint OLD NEW`` and ``buf breaking NEW --against OLD``
 with a buf configuration limited to the WIRE category (``pip install buf-bin`` ships ``buf``).
-They run interleaved, erc-lint then buf, for N rounds (default 11, ``--quick`` 3); each keeps the
-MEDIAN of its rounds, and the best is printed beside it for information. Before timing, a sanity
-check makes sure both really compare the trees: on OLD against itself both must report nothing, on
-OLD against NEW (which has a changed field type and a deleted field) both must report at least one
-finding and name both fields; anything else stops the script with exit status 2. erc-lint's
-packages are byte-compiled first, as a wheel install leaves them. Each round also times the
-start-up floor, this Python importing erc-lint's dependencies and nothing of its own, which is
-printed for information as a share of buf's time.
+Two pairs of 30 files are timed: a proto3 pair, and a pair of proto2 and edition 2023 files with
+required fields, defaults, groups and delimited fields, closed enums, extension ranges and
+extensions. On each, they run interleaved, erc-lint then buf, for N rounds (default 11,
+``--quick`` 3); each keeps the MEDIAN of its rounds, and the best is printed beside it for
+information. Before timing, a sanity check makes sure both really compare the trees: on OLD
+against itself both must report no error, on OLD against NEW both must report the changes NEW
+makes, naming each member (the proto3 pair: a changed field type and a deleted field; the other: a
+changed default, a deleted field, an extension's changed type, a group made a plain message);
+anything else stops the script with exit status 2. erc-lint's packages are byte-compiled first, as
+a wheel install leaves them. Each round also times the start-up floor, this Python importing
+erc-lint's dependencies and nothing of its own, which is printed for information as a share of
+buf's time.
 
-Targets (from the linter issue):
-- ratio erc-lint/buf ≤ 1.0 on a 30-file tree;
+Targets (from the linter issues):
+- ratio erc-lint/buf ≤ 1.0 on each 30-file pair;
 - erc-lint under 5 s on a 1,000-file tree;
 - linear growth: erc-lint alone is timed at 250, 500 and 1,000 files (median of 5 runs after one
   warm-up, ``--quick`` 1), and its time per file (whole command, start-up included) at 1,000 files
   must be at most 1.5x its time per file at 250 files.
 
-Generated trees are proto3 without a package: files spread over a few ``components/<board>/``
-folders with root-relative imports of one or two earlier files, globally unique names, and in each
-file an enum and three messages of scalar, enum and submessage fields; ``components/common/
-envelope.proto`` holds ``message PBEnvelope { oneof payload { ... } }`` over every fourth file's
-report message. Everything is fixed-size (no repeated, string or bytes fields). The file count
-includes the envelope. Exit status 1 when a target is missed.
+Generated trees have no package: files spread over a few ``components/<board>/`` folders with
+root-relative imports of one or two earlier files, globally unique names, and in each file an enum
+and three messages of scalar, enum and submessage fields; ``components/common/envelope.proto``
+holds ``message PBEnvelope { oneof payload { ... } }`` over every fourth file's report message.
+Everything is fixed-size (no repeated, string or bytes fields). In the proto2 and editions pair,
+files alternate between the two; each sample has a default, each status a required mode, each
+report a group (proto2) or a delimited submessage (editions) and an extension range, which the
+next file extends. The file count includes the envelope. Exit status 1 when a target is missed.
 """
 
 import argparse
@@ -110,10 +116,18 @@ class _File:
 
 @dataclass(frozen=True)
 class Breaking:
-    """Where NEW differs from OLD: the field whose type changed, the field that was deleted."""
+    """Where NEW differs from OLD: each member ("Message.field") both tools must name."""
 
-    changed: str  # "Message.field"
-    deleted: str
+    members: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class _Legacy:
+    """What NEW changes in a proto2 and editions tree (unit indexes), beyond ``_break``'s."""
+
+    default: int  # its sample's default
+    extension: int  # the type of its extension (of the previous unit's report)
+    group: int  # a proto2 unit whose report's group becomes a plain message
 
 
 def _plan(files: int, seed: int) -> list[_File]:
@@ -167,7 +181,25 @@ def _break(plan: list[_File]) -> Breaking:
     gone = victim.fields.pop()
     grown = plan[(2 * len(plan)) // 3].messages[2]  # a Report: one more field (not breaking)
     grown.fields.append(_Field("uint32", "sequence", len(grown.fields) + 1, "added in NEW"))
-    return Breaking(f"{target.name}.{target.fields[0].name}", f"{victim.name}.{gone.name}")
+    return Breaking((f"{target.name}.{target.fields[0].name}", f"{victim.name}.{gone.name}"))
+
+
+def _legacy_break(plan: list[_File]) -> tuple[Breaking, _Legacy]:
+    """NEW's changes to a proto2 and editions plan: a deleted field, and what ``_Legacy`` says."""
+    victim = plan[len(plan) // 3].messages[1]  # a Status: drop its last field, reserve nothing
+    gone = victim.fields.pop()
+    grown = plan[(2 * len(plan)) // 3].messages[2]  # a Report: one more field (not breaking)
+    grown.fields.append(_Field("uint32", "sequence", len(grown.fields) + 1, "added in NEW"))
+    changes = _Legacy(len(plan) // 2, (2 * len(plan)) // 3 + 1, 2 * (len(plan) // 8))
+    extended = plan[changes.extension - 1].messages[2].name
+    return Breaking(
+        (
+            f"{plan[changes.default].messages[0].name}.value",
+            f"{victim.name}.{gone.name}",
+            f"{extended}.unit_{changes.extension:04d}_extra",
+            f"{plan[changes.group].messages[2].name}.reading",
+        )
+    ), changes
 
 
 def _render(unit: _File, plan: list[_File]) -> str:
@@ -195,6 +227,65 @@ def _render(unit: _File, plan: list[_File]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _render_legacy(unit: _File, plan: list[_File], changes: _Legacy | None) -> str:
+    """A unit as proto2 (even indexes) or edition 2023 (odd): the same messages, with a default
+    on each sample's value, a required mode, a group or delimited reading, an extension range,
+    and an extension of the previous unit's report."""
+    proto2 = unit.index % 2 == 0
+    optional = "optional " if proto2 else ""
+    lines = [
+        f"// Generated unit {unit.index} of the erc-lint benchmark's proto2 and editions tree.",
+        "",
+        'syntax = "proto2";' if proto2 else 'edition = "2023";',
+        "",
+    ]
+    lines += [f'import "{plan[other].path}";' for other in unit.imports]
+    upper = unit.enum.removesuffix("Mode").upper()
+    lines += ["", f"enum {unit.enum} {{"]
+    if not proto2:
+        lines.append("  option features.enum_type = CLOSED;")
+    lines += [f"  {upper}_MODE_{mode} = {k};  // {mode.lower()}" for k, mode in enumerate(_MODES)]
+    lines.append("}")
+    sample, status, report = unit.messages
+    default = "2.5" if changes and changes.default == unit.index else "1.5"
+    for message in (sample, status):
+        lines += ["", f"message {message.name} {{"]
+        for f in message.fields:
+            option = ""
+            if message is sample and f.number == 1:
+                option = f" [default = {default}]"
+            elif message is status and f.number == 1:
+                option = "" if proto2 else " [features.field_presence = LEGACY_REQUIRED]"
+            label = "required " if proto2 and message is status and f.number == 1 else optional
+            lines.append(f"  {label}{f.type} {f.name} = {f.number}{option};  // {f.note}")
+        lines.append("}")
+    lines += ["", f"message {report.name} {{"]
+    reading = ["float level = 1;", "uint32 count = 2;"]
+    if proto2 and not (changes and changes.group == unit.index):
+        lines.append("  optional group Reading = 1 {")
+        lines += [f"    optional {line}" for line in reading]
+        lines.append("  }")
+    else:
+        lines.append("  message Reading {")
+        lines += [f"    {optional}{line}" for line in reading]
+        lines.append("  }")
+        delimited = "" if proto2 else " [features.message_encoding = DELIMITED]"
+        lines.append(f"  {optional}Reading reading = 1{delimited};")
+    for f in report.fields[1:]:
+        lines.append(f"  {optional}{f.type} {f.name} = {f.number};  // {f.note}")
+    lines += ["  extensions 100 to 199;", "}"]
+    if unit.index:
+        previous = plan[unit.index - 1].messages[2].name
+        kind = "sint32" if changes and changes.extension == unit.index else "uint32"
+        lines += [
+            "",
+            f"extend {previous} {{",
+            f"  {optional}{kind} unit_{unit.index:04d}_extra = 100;",
+            "}",
+        ]
+    return "\n".join(lines) + "\n"
+
+
 def _envelope(plan: list[_File]) -> str:
     members = plan[::4]
     lines = [
@@ -212,25 +303,36 @@ def _envelope(plan: list[_File]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_tree(root: Path, files: int, *, breaking: bool, seed: int = 20261122) -> Breaking | None:
-    """Write a tree of ``files`` .proto files under ``root``; with ``breaking``, NEW's version."""
+def write_tree(
+    root: Path, files: int, *, breaking: bool, legacy: bool = False, seed: int = 20261122
+) -> Breaking | None:
+    """Write a tree of ``files`` .proto files under ``root`` (proto3, or with ``legacy`` proto2
+    and editions); with ``breaking``, NEW's version."""
     plan = _plan(files, seed)
-    changes = _break(plan) if breaking else None
+    changes: Breaking | None = None
+    legacy_changes: _Legacy | None = None
+    if breaking and legacy:
+        changes, legacy_changes = _legacy_break(plan)
+    elif breaking:
+        changes = _break(plan)
     for unit in plan:
         target = root / unit.path
         target.parent.mkdir(parents=True, exist_ok=True)
-        target.write_text(_render(unit, plan), encoding="utf-8")
+        text = _render_legacy(unit, plan, legacy_changes) if legacy else _render(unit, plan)
+        target.write_text(text, encoding="utf-8")
     envelope = root / "components/common/envelope.proto"
     envelope.parent.mkdir(parents=True, exist_ok=True)
     envelope.write_text(_envelope(plan), encoding="utf-8")
     return changes
 
 
-def write_pair(folder: Path, files: int) -> tuple[Path, Path, Breaking]:
-    """OLD and NEW trees of ``files`` files in ``folder``; NEW carries the breaking changes."""
-    old, new = folder / f"old_{files}", folder / f"new_{files}"
-    write_tree(old, files, breaking=False)
-    changes = write_tree(new, files, breaking=True)
+def write_pair(folder: Path, files: int, legacy: bool = False) -> tuple[Path, Path, Breaking]:
+    """OLD and NEW trees of ``files`` files in ``folder`` (proto3, or with ``legacy`` proto2 and
+    editions); NEW carries the breaking changes."""
+    kind = "legacy" if legacy else "proto3"
+    old, new = folder / f"old_{kind}_{files}", folder / f"new_{kind}_{files}"
+    write_tree(old, files, breaking=False, legacy=legacy)
+    changes = write_tree(new, files, breaking=True, legacy=legacy)
     assert changes is not None
     assert len(list(old.rglob("*.proto"))) == files == len(list(new.rglob("*.proto")))
     return old, new, changes
@@ -323,7 +425,7 @@ def sanity_check(tools: Tools, old: Path, new: Path, changes: Breaking) -> str:
                 f"{tool} OLD NEW exited {done.returncode} with {len(found)} findings",
                 done.stdout + done.stderr,
             )
-        for change in (changes.changed, changes.deleted):
+        for change in changes.members:
             message, member = change.split(".")
             if not any(f'"{message}"' in text and f'"{member}"' in text for _, text in found):
                 _fail(f"{tool} OLD NEW did not report {change}", done.stdout)
@@ -410,24 +512,31 @@ def main() -> int:
 
     folder = Path(tempfile.mkdtemp(prefix="bench-lint-"))
     try:
-        old, new, changes = write_pair(folder, _RATIO_FILES)
-        print(f"sanity ({_RATIO_FILES} files): {sanity_check(tools, old, new, changes)}")
-        ours, theirs, floor = interleaved(tools, old, new, rounds)
-        factor = ours.median / theirs.median
-        ratio_ok = factor <= _TARGET_RATIO
+        pairs = {"proto3": False, "proto2+editions": True}
+        measured: dict[str, tuple[Times, Times, Times]] = {}
+        for name, legacy in pairs.items():
+            old, new, changes = write_pair(folder, _RATIO_FILES, legacy=legacy)
+            summary = sanity_check(tools, old, new, changes)
+            print(f"sanity ({name}, {_RATIO_FILES} files): {summary}")
+            measured[name] = interleaved(tools, old, new, rounds)
         print()
         print(
-            f"{'files':>6}{'erc-lint s':>12}{'(best)':>8}{'buf s':>8}{'(best)':>8}"
+            f"{'pair':<16}{'files':>6}{'erc-lint s':>12}{'(best)':>8}{'buf s':>8}{'(best)':>8}"
             f"{'ratio':>8}{'target':>8}  ok"
         )
-        print(
-            f"{_RATIO_FILES:>6}{ours.median:>12.3f}{ours.best:>8.3f}{theirs.median:>8.3f}"
-            f"{theirs.best:>8.3f}{factor:>7.2f}x{_TARGET_RATIO:>7.2f}x  "
-            f"{'yes' if ratio_ok else 'NO'}"
-        )
+        factors = {}
+        for name, (ours, theirs, _) in measured.items():
+            factors[name] = factor = ours.median / theirs.median
+            print(
+                f"{name:<16}{_RATIO_FILES:>6}{ours.median:>12.3f}{ours.best:>8.3f}"
+                f"{theirs.median:>8.3f}{theirs.best:>8.3f}{factor:>7.2f}x{_TARGET_RATIO:>7.2f}x  "
+                f"{'yes' if factor <= _TARGET_RATIO else 'NO'}"
+            )
+        ratio_ok = all(factor <= _TARGET_RATIO for factor in factors.values())
+        _, theirs, floor = measured["proto3"]
         print(
             f"start-up floor (Python with click, protobuf and grpcio-tools imported, nothing of "
-            f"erc-lint's): {floor.median:.3f} s, {floor.median / theirs.median:.2f}x buf"
+            f"erc-lint's): {floor.median:.3f} s, {floor.median / theirs.median:.2f}x buf (proto3)"
         )
 
         print()
@@ -452,10 +561,11 @@ def main() -> int:
         time_ok = largest < _TARGET_SECONDS
         growth_ok = growth <= _TARGET_GROWTH
         print()
-        print(
-            f"ratio at {_RATIO_FILES} files: {factor:.2f}x (≤ {_TARGET_RATIO:.2f}x): "
-            f"{'yes' if ratio_ok else 'NO'}"
-        )
+        for name, factor in factors.items():
+            print(
+                f"ratio at {_RATIO_FILES} files, {name}: {factor:.2f}x (≤ {_TARGET_RATIO:.2f}x): "
+                f"{'yes' if factor <= _TARGET_RATIO else 'NO'}"
+            )
         print(
             f"erc-lint at {_SCALING_FILES[-1]} files: {largest:.2f} s (< {_TARGET_SECONDS:.0f} s):"
             f" {'yes' if time_ok else 'NO'}"

@@ -6,8 +6,9 @@ command line around them (``erc_lint.cli``). Everything not re-exported here is 
 
 One module per job, and data flows one way: ``_inputs`` (a folder, or a git revision read by the
 codec's schema layer, ``erc_codec.schema.open_tree``) → ``_loader`` (compiled files and load
-problems) → ``_model`` (one revision: its messages, enums, names, sizes) → ``_pairing`` (OLD and
-NEW paired) → ``rules/`` (one pair at a time) → ``_report`` (text, JSON, GitHub annotations) →
+problems) → ``_model`` (one revision: its messages, enums, extensions, services, names, sizes;
+``_features`` resolves what each element means on the wire) → ``_pairing`` (OLD and NEW paired)
+→ ``rules/`` (one pair at a time, in categories) → ``_report`` (text, JSON, GitHub annotations) →
 ``cli/``. ``_run`` is one lint run, ``_config`` reads ``[tool.erc-lint]``, ``_ledger`` and
 ``_history`` keep the number ledger, and ``_errors`` holds ``LintError``, the base of the
 linter's own failures to run (``GitError``, for a revision that cannot be read, is the schema
@@ -18,9 +19,10 @@ from ._config import Config
 from ._errors import ConfigError, GitError, LedgerError, LintError
 from ._finding import Finding, Severity
 from ._run import check, lint
-from .rules import RULES, Rule
+from .rules import CATEGORIES, RULES, Rule
 
 __all__ = [
+    "CATEGORIES",
     "RULES",
     "Config",
     "ConfigError",

@@ -1,7 +1,14 @@
-"""``[tool.erc-lint]`` in a pyproject.toml: embedded roots, rules to ignore, paths to exclude."""
+"""``[tool.erc-lint]`` in a pyproject.toml: embedded roots and their size budgets, the rules to
+run (``use`` and ``except``, rule IDs or categories; ``ignore``, rule IDs), paths to exclude.
+
+Every value is checked as it is read: a wrong type, a name that is no rule or category, a budget
+for a message that is not a root, is a ``ConfigError`` naming the file, the line and the key.
+"""
 
 import sys
+from collections.abc import Collection, Mapping
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any, NamedTuple
 
 from erc_codec.schema import FileError, file_exists, read_text
@@ -29,17 +36,31 @@ LEDGER_LIMIT = 64 * 1024 * 1024
 _ROOTS = ("PBEnvelope",)  # embedded roots unless the configuration names others
 
 
+_KEYS = ("roots", "ignore", "exclude", "use", "except", "budget")
+_LISTS = ("roots", "ignore", "exclude", "use", "except")
+
+
 class Config(NamedTuple):
     roots: tuple[str, ...] = _ROOTS  # embedded roots: fixed-size from here down
     ignore: frozenset[str] = frozenset()  # rule IDs
     exclude: tuple[str, ...] = ()  # fnmatch patterns on paths relative to a tree's root
     source: str | None = None  # the file it was read from
     roots_line: int = 0  # the line of that file that sets roots (0: the default roots)
+    use: tuple[str, ...] = ()  # rule IDs and categories to run (none: the default categories)
+    except_: tuple[str, ...] = ()  # rule IDs and categories not to run (``except``)
+    budget: Mapping[str, int] = MappingProxyType({})  # root → most bytes its size may be
+    budget_line: int = 0  # the line that sets budget
 
     @property
     def roots_chosen(self) -> bool:
-        """Whether someone named the roots (a typo there must not pass in silence)."""
-        return self.roots_line > 0 or self.roots != _ROOTS
+        """Whether someone named the roots, or gave one a budget (a typo there must not pass in
+        silence)."""
+        return self.roots_line > 0 or self.roots != _ROOTS or bool(self.budget)
+
+    @property
+    def roots_where(self) -> int:
+        """The line that names the roots: ``roots``, else ``budget`` (0: neither)."""
+        return self.roots_line or self.budget_line
 
 
 def find_config(*folders: Path) -> Path | None:
@@ -51,8 +72,14 @@ def find_config(*folders: Path) -> Path | None:
     return None
 
 
-def read_config(path: Path | None, known_rules: set[str], explicit: bool = False) -> Config:
-    """The configuration in ``path`` (defaults when None); an ``explicit`` file must have one."""
+def read_config(
+    path: Path | None,
+    known_rules: Collection[str],
+    explicit: bool = False,
+    categories: Collection[str] = (),
+) -> Config:
+    """The configuration in ``path`` (defaults when None); an ``explicit`` file must have one.
+    ``use`` and ``except`` may name ``known_rules`` and ``categories``; ``ignore`` rules only."""
     if path is None:
         return Config()
     table = _table(path)
@@ -60,25 +87,66 @@ def read_config(path: Path | None, known_rules: set[str], explicit: bool = False
         if explicit:
             raise ConfigError(f"{path}: no [tool.erc-lint] table")
         return Config()
-    unknown = set(table) - {"roots", "ignore", "exclude"}
+    unknown = set(table) - set(_KEYS)
     if unknown:
         raise ConfigError(f"{path}: unknown [tool.erc-lint] key {sorted(unknown)[0]!r}")
     values: dict[str, list[str]] = {}
-    for key in ("roots", "ignore", "exclude"):
+    for key in _LISTS:
         value = table.get(key, [])
         if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-            raise ConfigError(f"{path}: [tool.erc-lint] {key} must be a list of strings")
+            raise ConfigError(f"{_at(path, key)} [tool.erc-lint] {key} must be a list of strings")
         values[key] = value
-    strange = set(values["ignore"]) - known_rules
-    if strange:
-        raise ConfigError(f"{path}: [tool.erc-lint] ignore names no rule {sorted(strange)[0]!r}")
+    for key, allowed, what in (
+        ("ignore", set(known_rules), "rule"),
+        ("use", {*known_rules, *categories}, "rule or category"),
+        ("except", {*known_rules, *categories}, "rule or category"),
+    ):
+        strange = [name for name in values[key] if name not in allowed]
+        if strange:
+            raise ConfigError(
+                f"{_at(path, key)} [tool.erc-lint] {key} names no {what} {strange[0]!r}"
+            )
+    roots = tuple(values["roots"]) if "roots" in table else _ROOTS
     return Config(
-        roots=tuple(values["roots"]) if "roots" in table else _ROOTS,
+        roots=roots,
         ignore=frozenset(values["ignore"]),
         exclude=tuple(values["exclude"]),
         source=str(path),
         roots_line=_line_of(path, "roots") if "roots" in table else 0,
+        use=tuple(values["use"]),
+        except_=tuple(values["except"]),
+        budget=_budget(path, table.get("budget"), roots),
+        budget_line=_line_of(path, "budget") if "budget" in table else 0,
     )
+
+
+def _budget(path: Path, value: object, roots: tuple[str, ...]) -> Mapping[str, int]:
+    """``budget = { Root = bytes, ... }``: each key a root, each value a positive byte count."""
+    if value is None:
+        return MappingProxyType({})
+    where = _at(path, "budget")
+    if not isinstance(value, dict):
+        raise ConfigError(f"{where} [tool.erc-lint] budget must be a table, {{ Root = bytes }}")
+    for root, limit in value.items():
+        if isinstance(limit, dict):  # a dotted key, `acme.Env = 300`, reads as nested tables
+            raise ConfigError(
+                f'{where} [tool.erc-lint] budget: quote a dotted root name ("{root}.…" = bytes)'
+            )
+        if not isinstance(limit, int) or isinstance(limit, bool) or limit <= 0:
+            raise ConfigError(
+                f"{where} [tool.erc-lint] budget for {root!r} must be a positive number of bytes"
+            )
+        if root not in roots:
+            raise ConfigError(
+                f"{where} [tool.erc-lint] budget names {root!r}, which is not one of the roots "
+                f"({', '.join(roots)})"
+            )
+    return MappingProxyType(dict(value))
+
+
+def _at(path: Path, key: str) -> str:
+    """``path:line:`` of the line setting ``key``, for an error message."""
+    return f"{path}:{_line_of(path, key)}:"
 
 
 def _line_of(path: Path, key: str) -> int:

@@ -13,6 +13,9 @@ Guarantees:
   load problem. Only when a spelling needs rewriting is the tree copied to a scratch folder (with
   the spelling rewritten in place, line for line, so protoc's locations stay the originals');
   otherwise protoc reads the tree where it is.
+- Whatever the syntax (proto2, proto3, any edition protoc supports), files compile as they are,
+  with their options of source retention kept (an extension range's ``declaration``s, which
+  reserve extension numbers), for the model to resolve what each element means on the wire.
 
 Every ``.proto`` under the root is read through ``erc_codec.schema.read_text`` (a FIFO, a device
 or a file over 16 MiB stops the run, naming it); symlinked folders are not entered.
@@ -176,7 +179,8 @@ def _compile(
     if not names:
         return
     try:
-        compiled = compile_files(base, names, includes, read=read)
+        # Options of source retention too: an extension range's declarations reserve numbers.
+        compiled = compile_files(base, names, includes, read=read, retain_options=True)
     except ProtocError as error:
         if len(names) == 1:
             tree.failed.add(names[0])

@@ -1,33 +1,48 @@
-"""One revision of a proto tree as the rules see it: messages, enums, their members and locations,
-and what nanopb makes of them (maximum sizes, bounds).
+"""One revision of a proto tree as the rules see it: messages, enums, services, their members and
+locations, and what nanopb makes of them (maximum sizes, bounds, options).
 
-Built from the descriptors the loader compiled. Every element has the ``Location`` of its
-definition, read from protoc's source info when first asked for (nearly none ever are: only
-findings need one); names are full names (``Outer.Inner``; a package, if a file has one, in front).
-Sizes and nanopb options are computed when a rule first asks, once per revision (and root).
+Built from the descriptors the loader compiled, whatever their syntax: proto2, proto3 and every
+edition protoc compiles read the same. What decides how bytes are read is resolved per element as
+protoc resolves it (``_features``): a field is ``required`` when its presence is
+``LEGACY_REQUIRED`` (proto2's ``required`` or the editions feature), a message field is a group
+when it is ``DELIMITED``, an enum is closed or open, a string field verifies UTF-8 or not.
+Extensions are fields of the message they extend (``Message.extensions``), located where they are
+declared; a message the tree extends without defining it is held in ``Revision.extended``.
+
+Every element has the ``Location`` of its definition, read from protoc's source info when first
+asked for (nearly none ever are: only findings need one); names are full names (``Outer.Inner``;
+a package, if a file has one, in front). Sizes and nanopb options are computed when a rule first
+asks, once per revision (and root).
 """
 
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 from google.protobuf import descriptor_pb2
 
 from erc_codec import SchemaError
 from erc_codec.schema import (
     Declaration,
+    Extension,
     FileError,
     Location,
+    Options,
+    ResolvedOptions,
     Schema,
     Sizes,
     SourceIndex,
     declarations,
     declared_names,
+    extensions,
     file_exists,
     read_file,
     resolve_options,
+    services,
 )
+from erc_codec.schema import Service as DeclaredService
 
+from ._features import Features, edition_of, file_features
 from ._loader import LoadedTree, LoadProblem, relative
 
 __all__ = [
@@ -36,7 +51,9 @@ __all__ = [
     "EnumValue",
     "Field",
     "Message",
+    "Method",
     "Revision",
+    "Service",
     "build",
     "type_of",
 ]
@@ -47,26 +64,44 @@ _SCALARS = {
     for name, number in _FD.Type.items()
     if name not in ("TYPE_MESSAGE", "TYPE_ENUM", "TYPE_GROUP")
 }
-_LABELS = {number: name.removeprefix("LABEL_").lower() for name, number in _FD.Label.items()}
 # A proto2 group is a message type as far as the wire and the rules go.
 _KINDS = {_FD.TYPE_MESSAGE: "message", _FD.TYPE_GROUP: "message", _FD.TYPE_ENUM: "enum"}
+_IDEMPOTENCY = descriptor_pb2.MethodOptions.IdempotencyLevel
 _Files = dict[str, descriptor_pb2.FileDescriptorProto]
+# How a message field's encoding is named, as buf names it in a type: a proto2 group, an editions
+# field with ``message_encoding = DELIMITED`` (the same bytes), or a length-prefixed message.
+_GROUP, _DELIMITED, _LENGTH_PREFIXED = "group", "message (delimited encoding)", "message"
 
 
 class Field(NamedTuple):
-    owner: str
-    name: str
+    owner: str  # the message it is a field of (an extension: the message it extends)
+    name: str  # an extension's is its full name (``Scope.ext``), as buf names it
     number: int
     type: str  # "float", "sint32", … or the full name of a message or enum
     kind: str  # "scalar", "message" or "enum"
-    cardinality: str  # "optional", "repeated" or "required"
+    cardinality: str  # "optional", "repeated" or "required" (presence LEGACY_REQUIRED)
     oneof: str | None  # the real oneof it belongs to (not a proto3 `optional`'s)
     source: SourceIndex
     at: tuple[int, ...]  # its source-info path (a map entry's fields: their map field's)
+    encoding: str = ""  # a message field's: "group", "message (delimited encoding)", "message"
+    default: str | None = None  # an explicit default, as protoc writes it
+    utf8: bool = False  # a string field's readers reject what is not UTF-8 (VERIFY)
+    json_name: str = ""
+    extension: bool = False
 
     @property
     def location(self) -> Location:
         return self.source.where(self.at)
+
+    @property
+    def delimited(self) -> bool:
+        """Whether the field's message travels between start- and end-group tags."""
+        return self.encoding in (_GROUP, _DELIMITED)
+
+    @property
+    def noun(self) -> str:
+        """How a message names it: ``Field`` or ``Extension`` (buf's words)."""
+        return "Extension" if self.extension else "Field"
 
 
 class EnumValue(NamedTuple):
@@ -108,7 +143,21 @@ class Reserved:
 
 
 class Message:
-    __slots__ = ("at", "by_name", "fields", "file", "map_entry", "name", "reserved", "source")
+    __slots__ = (
+        "at",
+        "by_name",
+        "extension_ranges",
+        "extensions",
+        "extensions_by_name",
+        "fields",
+        "file",
+        "map_entry",
+        "name",
+        "oneofs",
+        "reserved",
+        "reserved_extensions",
+        "source",
+    )
 
     kind = "message"
 
@@ -128,6 +177,11 @@ class Message:
         self.fields: dict[int, Field] = {}
         self.by_name: dict[str, Field] = {}
         self.reserved = Reserved()
+        self.oneofs: dict[str, tuple[int, ...]] = {}  # real oneofs, with their source paths
+        self.extension_ranges: list[tuple[int, int]] = []  # inclusive
+        self.reserved_extensions: set[int] = set()  # declared `reserved: true` in a range
+        self.extensions: dict[int, Field] = {}  # the tree's extensions of this message
+        self.extensions_by_name: dict[str, Field] = {}
 
     @property
     def location(self) -> Location:
@@ -150,15 +204,18 @@ class Message:
 
 
 class Enum:
-    __slots__ = ("at", "by_name", "file", "name", "reserved", "source", "values")
+    __slots__ = ("at", "by_name", "closed", "file", "name", "reserved", "source", "values")
 
     kind = "enum"
 
-    def __init__(self, name: str, file: str, source: SourceIndex, at: tuple[int, ...]) -> None:
+    def __init__(
+        self, name: str, file: str, source: SourceIndex, at: tuple[int, ...], closed: bool = False
+    ) -> None:
         self.name = name
         self.file = file
         self.source = source
         self.at = at
+        self.closed = closed  # an undeclared number is an unknown field, not a value
         self.values: dict[int, EnumValue] = {}  # the first name of each number
         self.by_name: dict[str, EnumValue] = {}
         self.reserved = Reserved()
@@ -175,23 +232,68 @@ class Enum:
         return [v.name for v in self.by_name.values() if v.number == number]
 
 
+class Method(NamedTuple):
+    service: str
+    name: str
+    input: str  # full names of the request and response messages
+    output: str
+    client_streaming: bool
+    server_streaming: bool
+    idempotency: str  # "IDEMPOTENCY_UNKNOWN", "NO_SIDE_EFFECTS" or "IDEMPOTENT"
+    source: SourceIndex
+    at: tuple[int, ...]
+
+    @property
+    def location(self) -> Location:
+        return self.source.where(self.at)
+
+
+class Service:
+    __slots__ = ("at", "file", "methods", "name", "source")
+
+    def __init__(self, name: str, file: str, source: SourceIndex, at: tuple[int, ...]) -> None:
+        self.name = name
+        self.file = file
+        self.source = source
+        self.at = at
+        self.methods: dict[str, Method] = {}
+
+    @property
+    def location(self) -> Location:
+        return self.source.where(self.at)
+
+
 Definition = Message | Enum | EnumValue
 
 
 class Revision:
-    """One side of a comparison: its messages, enums and global names, and the questions rules
-    ask of them (what a root reaches, nanopb's bounds and sizes, what a broken file declares)."""
+    """One side of a comparison: its messages, enums, services and global names, and the
+    questions rules ask of them (what a root reaches, nanopb's options and sizes, what a field
+    reads as while absent, what a broken file declares)."""
 
-    __slots__ = ("_bounds", "_failed_names", "_files", "definitions", "enums", "messages", "tree")
+    __slots__ = (
+        "_failed_names",
+        "_files",
+        "_nanopb",
+        "definitions",
+        "enums",
+        "extended",
+        "messages",
+        "services",
+        "tree",
+    )
 
     def __init__(self, tree: LoadedTree) -> None:
         self.tree = tree
         self.messages: dict[str, Message] = {}
         self.enums: dict[str, Enum] = {}
+        self.services: dict[str, Service] = {}
+        # Messages the tree extends but does not define, each holding only its extensions here.
+        self.extended: dict[str, Message] = {}
         # Every global name a definition takes (C++ scoping: enum values beside their enum).
         self.definitions: dict[str, list[Definition]] = {}
         self._files: dict[str, _Files] = {}  # by root: what protoc resolved its types in
-        self._bounds: dict[str, Any] | None = None  # nanopb's options by field, when first asked
+        self._nanopb: ResolvedOptions | None = None  # nanopb's options, when first asked
         self._failed_names: frozenset[str] | None = None  # what files that failed declare
 
     @property
@@ -239,11 +341,56 @@ class Revision:
     def bounded(self, field: Field) -> bool:
         """Whether nanopb gives a string or bytes field a maximum length (``max_size`` or
         ``max_length``, from a ``.options`` file or an annotation)."""
-        if self._bounds is None:
-            files = tuple(self.tree.imported.values())
-            self._bounds = resolve_options(self.root, files).fields
-        bound = self._bounds.get(f"{field.owner}.{field.name}")
+        bound = self.nanopb().fields.get(f"{field.owner}.{field.name}")
         return bound is not None and (bound.HasField("max_size") or bound.HasField("max_length"))
+
+    def nanopb(self) -> ResolvedOptions:
+        """nanopb's options for every message, field and oneof of the tree (and what it
+        imports), resolved from ``.options`` files and annotations as the generator does."""
+        if self._nanopb is None:
+            self._nanopb = resolve_options(self.root, tuple(self.tree.imported.values()))
+        return self._nanopb
+
+    def has_nanopb_options(self) -> bool:
+        """Whether anything in the tree sets a nanopb option: a ``.options`` file beside one of
+        its files, or a file importing nanopb.proto (annotations). Without either, every option
+        of every field is nanopb's default, and resolving them would show nothing."""
+        return any(
+            "nanopb.proto" in file.dependency
+            or (self.root / Path(file.name).with_suffix(".options")).is_file()
+            for file in self.tree.imported.values()
+        )
+
+    def field_options(self, field: Field) -> Options:
+        """nanopb's resolved options for a field (defaults where nothing applies)."""
+        return self.nanopb().fields[f"{field.owner}.{field.name}"]
+
+    def oneof_options(self, message: str, oneof: str) -> Options:
+        """nanopb's resolved options for a oneof (its message's and file's included)."""
+        return self.nanopb().oneofs[f"{message}.{oneof}"]
+
+    def default(self, field: Field) -> tuple[object, str]:
+        """What a reader of ``field`` holds while the field is absent, as a value to compare and
+        as buf writes it: the explicit default, else the type's own (an enum's first value)."""
+        if field.kind == "enum":
+            enum = self.enums.get(field.type)
+            short = field.type.rsplit(".", 1)[-1]
+            if enum is None:
+                return field.default, f"{short}.{field.default}"
+            named = enum.by_name.get(field.default or "")
+            value = named or next(iter(enum.by_name.values()), None)
+            if value is None:
+                return None, f"{short}.?"
+            return value.number, f"{short}.{value.name}"
+        if field.default is not None:
+            text = field.default
+        else:
+            text = {"bool": "false", "string": "", "bytes": ""}.get(field.type, "0")
+        if field.type in ("string", "bytes"):
+            return text, f'"{text}"'
+        if field.type in ("float", "double"):
+            return text, text  # protoc writes them normalized: "1e+10", "inf", "nan"
+        return {"false": 0, "true": 1}.get(text) if field.type == "bool" else int(text), text
 
     def max_size(self, root: str) -> int | None:
         """nanopb's ``<root>_size`` in this revision; ``None`` where nanopb has none (an
@@ -313,22 +460,64 @@ class Revision:
 def build(tree: LoadedTree) -> Revision:
     """The model of a loaded tree."""
     revision = Revision(tree)
+    pending: list[tuple[Field, str]] = []  # extensions and the messages they extend
     for proto in tree.files.values():
-        _add_file(revision, proto)
+        _add_file(revision, proto, pending)
+    for entry, extendee in pending:
+        extended = revision.messages.get(extendee)
+        if extended is None:
+            extended = revision.extended.get(extendee)
+        if extended is None:
+            extended = revision.extended[extendee] = Message(extendee, "", entry.source, ())
+        extended.extensions.setdefault(entry.number, entry)
+        extended.extensions_by_name.setdefault(entry.name, entry)
     return revision
 
 
-def _add_file(revision: Revision, proto: descriptor_pb2.FileDescriptorProto) -> None:
+def _add_file(
+    revision: Revision, proto: descriptor_pb2.FileDescriptorProto, pending: list[tuple[Field, str]]
+) -> None:
+    """Add a file's messages, enums and services; its extensions go to ``pending`` until every
+    file's messages are known."""
     source = SourceIndex(str(revision.root / proto.name), proto)
+    edition = edition_of(proto)
+    top = file_features(proto)  # what no field or enum of the file overrides
     here: dict[str, Message] = {}  # this file's messages (another file may define a name too)
     for declaration in declarations(proto):
         if declaration.is_message:
-            message = _message(proto.name, source, declaration, here.get(declaration.parent or ""))
+            parent = here.get(declaration.parent or "")
+            message = _message(proto.name, source, declaration, parent, top, edition)
             here[message.name] = message
             _define(revision, message.name, message)
             revision.messages.setdefault(message.name, message)
+            for extension in declaration.extensions():
+                pending.append(_extension(source, extension, top, edition))
         else:
-            _enum(revision, proto.name, source, declaration)
+            _enum(revision, proto.name, source, declaration, top)
+    for extension in extensions(proto, nested=False):
+        pending.append(_extension(source, extension, top, edition))
+    for service in services(proto):
+        _service(revision, proto.name, source, service)
+
+
+def _service(revision: Revision, file: str, source: SourceIndex, service: DeclaredService) -> None:
+    model = Service(service.name, file, source, service.path)
+    for j, method in enumerate(service.proto.method):
+        model.methods.setdefault(
+            method.name,
+            Method(
+                service.name,
+                method.name,
+                method.input_type.lstrip("."),
+                method.output_type.lstrip("."),
+                method.client_streaming,
+                method.server_streaming,
+                _IDEMPOTENCY.Name(method.options.idempotency_level),
+                source,
+                service.method(j),
+            ),
+        )
+    revision.services.setdefault(model.name, model)
 
 
 def _define(revision: Revision, name: str, definition: Definition) -> None:
@@ -336,7 +525,12 @@ def _define(revision: Revision, name: str, definition: Definition) -> None:
 
 
 def _message(
-    file: str, source: SourceIndex, declaration: Declaration, parent: Message | None
+    file: str,
+    source: SourceIndex,
+    declaration: Declaration,
+    parent: Message | None,
+    features: Features,
+    edition: int,
 ) -> Message:
     """The model of a declared message. A map entry and its key and value have no source of their
     own: they are located at the map field of ``parent`` that uses the entry."""
@@ -347,33 +541,97 @@ def _message(
     declared = users[0].at if users else None
     model = Message(name, file, source, declared or declaration.path, map_entry)
     oneofs = [oneof.name for oneof in proto.oneof_decl]
+    maps = {f"{name}.{nested.name}" for nested in proto.nested_type if nested.options.map_entry}
     for j, f in enumerate(proto.field):
         real_oneof = f.HasField("oneof_index") and not f.proto3_optional
-        type_, kind = type_of(f)
-        entry = Field(
-            owner=name,
-            name=f.name,
-            number=f.number,
-            type=type_,
-            kind=kind,
-            cardinality=_LABELS[f.label],
-            oneof=oneofs[f.oneof_index] if real_oneof else None,
-            source=source,
-            at=declared or declaration.member(j),
+        if real_oneof:
+            model.oneofs.setdefault(oneofs[f.oneof_index], declaration.oneof(f.oneof_index))
+        plain = map_entry or (bool(maps) and f.type_name.lstrip(".") in maps)  # never delimited
+        entry = _field(
+            name,
+            f,
+            features.of_field(f, edition),
+            source,
+            declared or declaration.member(j),
+            oneofs[f.oneof_index] if real_oneof else None,
+            plain,
         )
         model.fields.setdefault(f.number, entry)
         model.by_name.setdefault(f.name, entry)
     # protoc's message ranges end before ``end``; enum ranges include it
     model.reserved.ranges.extend((r.start, r.end - 1) for r in proto.reserved_range)
     model.reserved.names.update(proto.reserved_name)
+    for extension_range in proto.extension_range:
+        model.extension_ranges.append((extension_range.start, extension_range.end - 1))
+        model.reserved_extensions.update(
+            d.number for d in extension_range.options.declaration if d.reserved
+        )
     return model
 
 
-def _enum(revision: Revision, file: str, source: SourceIndex, declaration: Declaration) -> None:
+def _field(
+    owner: str,
+    f: descriptor_pb2.FieldDescriptorProto,
+    features: Features,
+    source: SourceIndex,
+    at: tuple[int, ...],
+    oneof: str | None = None,
+    plain: bool = False,
+    name: str | None = None,
+) -> Field:
+    """The model of a field (or, given its full ``name``, an extension) with its resolved
+    features; ``plain``: a map entry or a map field, never delimited."""
+    type_, kind = type_of(f)
+    if f.label == _FD.LABEL_REPEATED:
+        cardinality = "repeated"
+    else:
+        cardinality = "required" if features.required else "optional"
+    encoding = ""
+    if kind == "message":
+        if f.type == _FD.TYPE_GROUP:
+            encoding = _GROUP
+        else:
+            encoding = _DELIMITED if features.delimited and not plain else _LENGTH_PREFIXED
+    return Field(  # positionally: bench_lint's 1,000-file tree builds 30,000 of them
+        owner,
+        name or f.name,
+        f.number,
+        type_,
+        kind,
+        cardinality,
+        oneof,
+        source,
+        at,
+        encoding,
+        f.default_value if f.HasField("default_value") else None,
+        type_ == "string" and features.verifies_utf8,
+        f.json_name,
+        name is not None,
+    )
+
+
+def _extension(
+    source: SourceIndex, extension: Extension, top: Features, edition: int
+) -> tuple[Field, str]:
+    """An extension as a field of the message it extends (and that message's name)."""
+    f = extension.proto
+    extendee = f.extendee.lstrip(".")
+    features = top.of_field(f, edition)
+    return _field(extendee, f, features, source, extension.path, name=extension.name), extendee
+
+
+def _enum(
+    revision: Revision,
+    file: str,
+    source: SourceIndex,
+    declaration: Declaration,
+    features: Features,
+) -> None:
     """Add a declared enum; its values take global names beside it (C++ scoping)."""
     proto = declaration.proto
     assert isinstance(proto, descriptor_pb2.EnumDescriptorProto)
-    model = Enum(declaration.name, file, source, declaration.path)
+    own = features.merged(proto.options.features) if proto.HasField("options") else features
+    model = Enum(declaration.name, file, source, declaration.path, own.closed)
     _define(revision, model.name, model)
     revision.enums.setdefault(model.name, model)
     for j, value in enumerate(proto.value):

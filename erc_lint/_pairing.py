@@ -1,27 +1,43 @@
 """OLD and NEW, paired the way buf pairs them, plus what buf cannot see.
 
 Messages and enums pair by full name; one that is gone from NEW pairs with a new one whose body is
-identical (same fields, numbers, names and types), which makes it a rename, not a deletion. Inside
-a message pair, each OLD field is seen twice in NEW: by number and by name, so a rule can tell a
-field that moved from one that was deleted while another took its number. Inside an enum pair,
-each OLD number is seen once with all its names (more than one with ``allow_alias``), in OLD and
-in NEW, and where NEW put the names that left it.
+identical (same fields, numbers, names and types), which makes it a rename, not a deletion; and one
+that moved to another scope (``Mode`` to ``Status.Mode``: the same short name, the only one gone
+and the only one added) pairs with it when every field or value name both have keeps its number,
+whatever was added or removed on the way (the rules then compare them as they compare any pair).
+Inside a message pair, each OLD field is seen twice in NEW: by number and by name, so a rule can
+tell a field that moved from one that was deleted while another took its number; the message's
+extensions are seen the same way, and so are those of messages the tree extends without defining.
+Inside an enum pair, each OLD number is seen once with all its names (more than one with
+``allow_alias``), in OLD and in NEW, and where NEW put the names that left it. Services pair by
+full name, their methods by name.
 """
 
 import functools
-from collections.abc import Callable, Iterator
-from typing import TYPE_CHECKING, Any, NamedTuple, TypeVar
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Generic, NamedTuple, TypeVar
 
 from ._config import Config
-from ._model import Enum, EnumValue, Field, Message, Revision
+from ._model import Enum, EnumValue, Field, Message, Method, Revision, Service
 
 if TYPE_CHECKING:
     from ._ledger import Ledger
 
-__all__ = ["Change", "EnumPair", "FieldPair", "MessagePair", "NumberPair", "wire_compatible"]
+__all__ = [
+    "WIRE_GROUPS",
+    "Change",
+    "FieldPair",
+    "MethodPair",
+    "NumberPair",
+    "Paired",
+    "wire_compatible",
+]
+
+Container = TypeVar("Container", Message, Enum)
 
 # Scalar types that share a wire encoding (wire-facts §6); string → bytes is checked apart.
-_WIRE_GROUPS = [
+WIRE_GROUPS = [
     {"int32", "int64", "uint32", "uint64", "bool"},
     {"sint32", "sint64"},
     {"fixed32", "sfixed32"},
@@ -29,27 +45,22 @@ _WIRE_GROUPS = [
 ]
 
 
-# Two named tuples, not one generic: Python 3.10 cannot make a NamedTuple generic.
-class MessagePair(NamedTuple):
-    """A message of OLD and the same one in NEW (by full name, or renamed)."""
+# A dataclass, not a NamedTuple: Python 3.10 cannot make a NamedTuple generic.
+@dataclass(frozen=True, slots=True)
+class Paired(Generic[Container]):
+    """A message or enum of OLD and the same one in NEW (by full name, or renamed)."""
 
-    old: Message
-    new: Message
+    old: Container
+    new: Container
 
-
-class EnumPair(NamedTuple):
-    """An enum of OLD and the same one in NEW (by full name, or renamed)."""
-
-    old: Enum
-    new: Enum
-
-
-_Container = TypeVar("_Container", Message, Enum)
-_Pair = TypeVar("_Pair", MessagePair, EnumPair)
+    def __iter__(self) -> Iterator[Container]:  # ``old, new = pair``, as with a tuple
+        yield self.old
+        yield self.new
 
 
 class FieldPair(NamedTuple):
-    """One OLD field and what NEW has at its number and under its name."""
+    """One OLD field (or extension) and what NEW has at its number and under its name (among the
+    extensions of the same message, for an extension)."""
 
     old_owner: Message
     new_owner: Message
@@ -71,8 +82,17 @@ class NumberPair(NamedTuple):
     moved: dict[str, int]  # OLD names NEW has at another number, with that number
 
 
+class MethodPair(NamedTuple):
+    """One method of an OLD service and the method of that name in NEW's service."""
+
+    old_service: Service
+    new_service: Service
+    old: Method
+    new: Method | None
+
+
 class Change:
-    """OLD and NEW, their messages and enums paired."""
+    """OLD and NEW, their messages, enums and services paired."""
 
     def __init__(
         self, old: Revision, new: Revision, config: Config, ledger: "Ledger | None" = None
@@ -84,13 +104,13 @@ class Change:
         # OLD full name → NEW full name of each renamed message or enum
         self.renamed: dict[str, str] = {}
         hints = _map_entries(old.messages, new.messages)
-        self.messages: list[MessagePair]
-        self.messages, gone = _pair(MessagePair, old.messages, new.messages, self.renamed, hints)
+        self.messages: list[Paired[Message]]
+        self.messages, gone = _pair(old.messages, new.messages, self.renamed, hints)
         hints = {}  # the enums that renamed messages declare
         for before, after in self.renamed.items():
             _nest(hints, old.enums, new.enums, before, after)
-        self.enums: list[EnumPair]
-        self.enums, _ = _pair(EnumPair, old.enums, new.enums, self.renamed, hints)
+        self.enums: list[Paired[Enum]]
+        self.enums, _ = _pair(old.enums, new.enums, self.renamed, hints)
         # A message whose file no longer compiles is unknown in NEW, not gone: COMPILE says so.
         self.deleted_messages = [m for m in gone if m.file not in self.new.tree.failed]
 
@@ -107,11 +127,49 @@ class Change:
 
     @functools.cached_property
     def _fields(self) -> list[FieldPair]:
-        return [
+        found = [
             FieldPair(old, new, entry, new.fields.get(entry.number), new.by_name.get(entry.name))
             for old, new in self.messages
             for entry in old.fields.values()
         ]
+        extended = [(old, new) for old, new in self.messages if old.extensions]
+        for name, old in self.old.extended.items():  # messages from outside the tree
+            new = self.new.extended.get(name) or Message(name, "", old.source, ())
+            extended.append((old, new))
+        found += [
+            FieldPair(
+                old,
+                new,
+                entry,
+                new.extensions.get(entry.number),
+                new.extensions_by_name.get(entry.name),
+            )
+            for old, new in extended
+            for entry in old.extensions.values()
+        ]
+        return found
+
+    @functools.cached_property
+    def _methods(self) -> list[MethodPair]:
+        return [
+            MethodPair(old, new, method, new.methods.get(method.name))
+            for name, old in self.old.services.items()
+            if (new := self.new.services.get(name)) is not None
+            for method in old.methods.values()
+        ]
+
+    @functools.cached_property
+    def has_services(self) -> bool:
+        """Whether either revision declares a service (then the RPC rules run by default)."""
+        return bool(self.old.services or self.new.services)
+
+    @functools.cached_property
+    def compares_nanopb(self) -> bool:
+        """Whether either revision sets any nanopb option: without any, every field has nanopb's
+        defaults on both sides and no nanopb option can have changed. (bench_lint's 30-file
+        ratios: resolving options compiles nanopb's vocabulary, some 20 ms;
+        test_a_tree_without_nanopb_options_resolves_to_defaults holds the shortcut.)"""
+        return self.old.has_nanopb_options() or self.new.has_nanopb_options()
 
     @functools.cached_property
     def _numbers(self) -> list[NumberPair]:
@@ -133,10 +191,18 @@ class Change:
         """Every number of every paired enum, with its names before and after."""
         return iter(self._numbers)
 
+    def methods(self) -> Iterator[MethodPair]:
+        """Every method of every service both revisions declare."""
+        return iter(self._methods)
+
+    def same_type(self, old: str, new: str) -> bool:
+        """Whether NEW's message or enum ``new`` is OLD's ``old`` (or its rename)."""
+        return self.renamed.get(old, old) == new
+
     def compatible(self, old: Field, new: Field) -> bool:
         """Whether NEW's field reads OLD's bytes as the same value kind."""
         if old.kind != "scalar" or new.kind != "scalar":
-            return old.kind == new.kind and self.renamed.get(old.type, old.type) == new.type
+            return old.kind == new.kind and self.same_type(old.type, new.type)
         return wire_compatible(old.type, new.type)
 
 
@@ -145,7 +211,7 @@ def wire_compatible(old: str, new: str) -> bool:
     (scalar keywords; a message or enum type only matches itself)."""
     if old == new or (old, new) == ("string", "bytes"):
         return True
-    return any(old in group and new in group for group in _WIRE_GROUPS)
+    return any(old in group and new in group for group in WIRE_GROUPS)
 
 
 def _map_entries(old: dict[str, Message], new: dict[str, Message]) -> dict[str, str]:
@@ -167,54 +233,117 @@ def _map_entries(old: dict[str, Message], new: dict[str, Message]) -> dict[str, 
 
 
 def _pair(
-    make: Callable[[_Container, _Container], _Pair],
-    old: dict[str, _Container],
-    new: dict[str, _Container],
+    old: dict[str, Container],
+    new: dict[str, Container],
     renamed: dict[str, str],
     hints: dict[str, str],
-) -> tuple[list[_Pair], list[_Container]]:
+) -> tuple[list[Paired[Container]], list[Container]]:
     """Pairs by full name, then renames: first those ``hints`` name (map entries; what a
     renamed message declares), then by identical body, outermost NEW elements first, so that
-    a message's rename brings its nested types before any other body can claim them. A NEW
-    element is the rename of one OLD element at most; renames are added to ``renamed``.
-    Returns the pairs (each made by ``make``) and OLD's unpaired leftovers."""
-    pairs = [make(old[name], new[name]) for name in old if name in new]
-    left = [name for name in old if name not in new]
-    added = [name for name in new if name not in old]
-    hints = dict(hints)
-    done: set[str] = set()
-    taken: set[str] = set()
+    a message's rename brings its nested types before any other body can claim them, last by
+    moves (``_moves``). A NEW element is the rename of one OLD element at most; renames and moves
+    are added to ``renamed``. Returns the pairs and OLD's unpaired leftovers."""
+    pairing = _Pairing(old, new, renamed, hints)
+    pairing.follow_hints()
+    for level in sorted({_level(new, name) for name in pairing.added}):
+        pairing.by_body(level)
+        pairing.follow_hints()
+    for before, after in _moves(old, new, pairing.leftovers(), pairing.added, pairing.taken):
+        pairing.link(before, after)
+        pairing.follow_hints()
+    return pairing.pairs, [old[name] for name in pairing.leftovers()]
 
-    def link(before: str, after: str) -> None:
-        pairs.append(make(old[before], new[after]))
-        renamed[before] = after
-        done.add(before)
-        taken.add(after)
-        _nest(hints, old, new, before, after)
 
-    def follow_hints() -> None:
+class _Pairing(Generic[Container]):
+    """One pairing in progress: what is paired, what OLD has left, what NEW added."""
+
+    def __init__(
+        self,
+        old: dict[str, Container],
+        new: dict[str, Container],
+        renamed: dict[str, str],
+        hints: dict[str, str],
+    ) -> None:
+        self.old: dict[str, Container] = old
+        self.new: dict[str, Container] = new
+        self.renamed = renamed
+        self.hints = dict(hints)
+        self.pairs: list[Paired[Container]] = [
+            Paired(old[name], new[name]) for name in old if name in new
+        ]
+        self.left = [name for name in old if name not in new]
+        self.added = [name for name in new if name not in old]
+        self.done: set[str] = set()
+        self.taken: set[str] = set()
+
+    def leftovers(self) -> list[str]:
+        return [name for name in self.left if name not in self.done]
+
+    def link(self, before: str, after: str) -> None:
+        if before in self.done or after in self.taken:  # a move an earlier one brought along
+            return
+        self.pairs.append(Paired(self.old[before], self.new[after]))
+        self.renamed[before] = after
+        self.done.add(before)
+        self.taken.add(after)
+        _nest(self.hints, self.old, self.new, before, after)
+
+    def follow_hints(self) -> None:
         linked = True
         while linked:
             linked = False
-            for name in left:
-                after = hints.get(name)
-                if name not in done and after is not None and after not in taken:
-                    link(name, after)
+            for name in self.leftovers():
+                after = self.hints.get(name)
+                if after is not None and after not in self.taken:
+                    self.link(name, after)
                     linked = True
 
-    follow_hints()
-    for level in sorted({_level(new, name) for name in added}):
+    def by_body(self, level: int) -> None:
+        """Pair what is left with the NEW elements ``level`` deep that have its body."""
         bodies: dict[object, list[str]] = {}
-        for name in added:
-            if name not in taken and _level(new, name) == level:
-                bodies.setdefault(new[name].body(), []).append(name)
-        for name in left:
-            body = old[name].body()
-            twins = [twin for twin in bodies.get(body, []) if twin not in taken]
-            if name not in done and body and len(twins) == 1:
-                link(name, twins[0])
-        follow_hints()
-    return pairs, [old[name] for name in left if name not in done]
+        for name in self.added:
+            if name not in self.taken and _level(self.new, name) == level:
+                bodies.setdefault(self.new[name].body(), []).append(name)
+        for name in self.left:
+            body = self.old[name].body()
+            twins = [twin for twin in bodies.get(body, []) if twin not in self.taken]
+            if name not in self.done and body and len(twins) == 1:
+                self.link(name, twins[0])
+
+
+def _moves(
+    old: dict[str, Container],
+    new: dict[str, Container],
+    left: list[str],
+    added: list[str],
+    taken: set[str],
+) -> list[tuple[str, str]]:
+    """Moves: the only OLD element ``left`` with a short name and the only NEW one ``added``
+    with it (and not ``taken``), when their members agree."""
+    gone: dict[str, list[str]] = {}
+    for name in left:
+        gone.setdefault(name.rsplit(".", 1)[-1], []).append(name)
+    fresh: dict[str, list[str]] = {}
+    for name in added:
+        if name not in taken:
+            fresh.setdefault(name.rsplit(".", 1)[-1], []).append(name)
+    return [
+        (before[0], after[0])
+        for short, before in gone.items()
+        if len(before) == len(after := fresh.get(short, [])) == 1
+        and _agree(old[before[0]], new[after[0]])
+    ]
+
+
+def _agree(old: Message | Enum, new: Message | Enum) -> bool:
+    """Whether two elements of the same kind share a member name and every member name both
+    have keeps its number: what a moved message or enum keeps, whatever it gained or lost."""
+    shared = old.by_name.keys() & new.by_name.keys()
+    if type(old) is not type(new) or not shared:
+        return False
+    before: dict[str, Any] = old.by_name
+    after: dict[str, Any] = new.by_name
+    return all(before[name].number == after[name].number for name in shared)
 
 
 def _level(elements: dict[str, Any], name: str) -> int:

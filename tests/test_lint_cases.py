@@ -41,7 +41,9 @@ RULE_CASES = [
 SAFE_CASES = cases(SAFE)
 UPDATE = os.environ.get("ERC_UPDATE_EXPECTED") == "1"
 # One finding in text format: ``path:line:col: RULE[ (warning)] message``.
-FINDING = re.compile(r"^(?P<path>[^:\s]+):\d+:\d+: (?P<rule>[A-Z_]+)(?P<warning> \(warning\))? \S")
+FINDING = re.compile(
+    r"^(?P<path>[^:\s]+):\d+:\d+: (?P<rule>[A-Z][A-Z0-9_]*)(?P<warning> \(warning\))? \S"
+)
 
 
 def erc_lint(cwd: Path, *args: str) -> subprocess.CompletedProcess[str]:

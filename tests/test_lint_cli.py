@@ -12,6 +12,7 @@ import pytest
 from lint_support import erc_lint_cli, tree
 
 import erc_lint
+from erc_lint.rules import CATEGORIES
 
 
 def test_exit_codes(tmp_path: Path) -> None:
@@ -29,9 +30,14 @@ def test_exit_codes(tmp_path: Path) -> None:
     assert "Traceback" not in missing.stderr
 
 
-def test_rules_lists_every_rule() -> None:
-    listed = erc_lint_cli("rules").stdout.splitlines()
-    assert [line.split()[0] for line in listed] == list(erc_lint.RULES)
+def test_rules_lists_every_rule_then_every_category() -> None:
+    rules, categories = erc_lint_cli("rules").stdout.split("\n\n")
+    listed = [line.split() for line in rules.splitlines()]
+    assert [line[0] for line in listed] == list(erc_lint.RULES)
+    for line, rule in zip(listed, erc_lint.RULES.values(), strict=True):
+        assert ",".join(rule.categories) in line
+    assert [line.split()[0] for line in categories.splitlines()] == list(CATEGORIES)
+    assert "[default]" in categories.splitlines()[0]  # WIRE
 
 
 @pytest.mark.parametrize(

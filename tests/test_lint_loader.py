@@ -184,3 +184,25 @@ def test_the_loader_returns_load_problems_not_findings(tmp_path: Path) -> None:
         'Import "shape.proto" is ambiguous: it matches a/shape.proto, b/shape.proto.',
     )
     assert loaded.failed == {"broken.proto", "user.proto"}
+
+
+def test_editions_compile_up_to_what_the_bundled_protoc_supports(tmp_path: Path) -> None:
+    """grpcio-tools' protoc (libprotoc 35) compiles editions 2023 and 2024; a later edition is
+    protoc's own COMPILE finding, as the README says."""
+    files = {
+        f"e{edition}.proto": f'edition = "{edition}";\nmessage E{edition} {{ int32 x = 1; }}\n'
+        for edition in ("2023", "2024")
+    }
+    files["unstable.proto"] = 'edition = "UNSTABLE";\nmessage Later { int32 x = 1; }\n'
+    root = tmp_path / "t"
+    root.mkdir()
+    for name, text in files.items():
+        (root / name).write_text(text)
+    loaded = load_tree(root)
+    assert set(loaded.files) == {"e2023.proto", "e2024.proto"}
+    (problem,) = loaded.problems
+    assert (problem.location.path, problem.location.line) == (str(root / "unstable.proto"), 1)
+    assert problem.text == (
+        "unstable.proto: is a file using edition UNSTABLE, which is later than the protoc "
+        "maximum supported edition 2024."
+    )

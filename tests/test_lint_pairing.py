@@ -149,3 +149,52 @@ def test_a_renamed_messages_nested_types_are_not_claimed_by_lookalikes(tmp_path:
         ("MESSAGE_DELETED", 'Previously present message "Foo" was deleted.'),
         ("MESSAGE_RENAMED", 'Message "Outer" was renamed to "Outer2"; its fields are unchanged.'),
     ]
+
+
+def test_a_type_moved_to_another_scope_pairs_when_its_numbers_and_names_agree(
+    tmp_path: Path,
+) -> None:
+    """An enum moved into a message keeps its meaning (a value added on the way is no change);
+    one whose shared names moved to other numbers is another enum; a short name that more than
+    one type left or took pairs nothing."""
+    users = "message User { Mode m = 1; }\n"
+    old = tree(tmp_path / "old", {"a.proto": "enum Mode { A = 0; B = 1; }\n" + users})
+    moved = "message User {\n  enum Mode { A = 0; B = 1; C = 2; }\n  Mode m = 1;\n}\n"
+    assert erc_lint.lint(old, tree(tmp_path / "moved", {"a.proto": moved})) == []
+    changed = moved.replace("B = 1; C = 2;", "C = 1; B = 2;")
+    assert rules(erc_lint.lint(old, tree(tmp_path / "changed", {"a.proto": changed}))) == [
+        "FIELD_TYPE_CHANGED"
+    ]
+    # P.Mode and R.Mode both left; a top-level Mode is no more the move of one than the other.
+    nested = "message {0} {{\n  enum Mode {{ A = 0; B = 1; }}\n  Mode m = 1;\n}}\n"
+    old_two = tree(tmp_path / "old_two", {"a.proto": nested.format("P") + nested.format("R")})
+    top = (
+        "enum Mode { A = 0; B = 1; C = 2; }\nmessage P { Mode m = 1; }\nmessage R { Mode m = 1; }\n"
+    )
+    new_two = tree(tmp_path / "new_two", {"a.proto": top})
+    assert rules(erc_lint.lint(old_two, new_two)) == ["FIELD_TYPE_CHANGED"] * 2
+
+
+def test_a_moved_message_brings_what_it_declares(tmp_path: Path) -> None:
+    old = tree(
+        tmp_path / "old",
+        {
+            "a.proto": "message Joint {\n  enum Kind { K0 = 0; K1 = 1; }\n  Kind kind = 1;\n"
+            "  float angle = 2;\n}\nmessage Arm { Joint shoulder = 1; }\n"
+        },
+    )
+    new = tree(
+        tmp_path / "new",
+        {
+            "a.proto": "message Arm {\n  message Joint {\n    enum Kind { K0 = 0; K1 = 1; }\n"
+            "    Kind kind = 1;\n    double angle = 2;\n  }\n  Joint shoulder = 1;\n}\n"
+        },
+    )
+    assert [(f.rule, f.message) for f in erc_lint.lint(old, new)] == [
+        ("MESSAGE_RENAMED", 'Message "Joint" was moved to "Arm.Joint".'),
+        (
+            "FIELD_TYPE_CHANGED",
+            'Field "2" with name "angle" on message "Arm.Joint" changed type from "float" to '
+            '"double".',
+        ),
+    ]

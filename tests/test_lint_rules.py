@@ -6,10 +6,15 @@ import re
 from pathlib import Path
 
 import pytest
+from google.protobuf import descriptor_pool, message_factory
 from lint_support import READING, tree
 
 import erc_lint
+from erc_codec.schema import compile_files
 from erc_lint import RULES, Config, Rule
+from erc_lint._loader import load_tree
+from erc_lint._model import build
+from erc_lint._pairing import WIRE_GROUPS, wire_compatible
 from erc_lint.rules._registry import PAIRS
 
 SECTIONS = ["## What it does", "## Why is this bad?", "## Example", "## Use instead"]
@@ -33,7 +38,7 @@ def test_every_rule_explains_itself(rule: Rule) -> None:
 def test_every_rule_is_handed_one_pair_and_the_change(rule: Rule) -> None:
     assert rule.pairs in PAIRS or rule.pairs == "tree"
     assert list(inspect.signature(rule.check).parameters)[1:] == ["change"]
-    assert re.fullmatch(r"[A-Z]+(_[A-Z]+)*", rule.id)
+    assert re.fullmatch(r"[A-Z][A-Z0-9]*(_[A-Z0-9]+)*", rule.id)
     assert rule.severity in ("error", "warning")
     assert rule.pairs != "tree" or rule.severity == "error"  # graded by OLD instead
 
@@ -41,6 +46,7 @@ def test_every_rule_is_handed_one_pair_and_the_change(rule: Rule) -> None:
 # Examples that need more than one file of each revision: a configuration, a ledger, a second file.
 SETUP = {
     "EMBEDDED_ROOT_MISSING",
+    "ENVELOPE_OVER_BUDGET",
     "IMPORT_AMBIGUOUS",
     "LEDGER_NUMBER_REUSED",
     "MESSAGE_DELETED",
@@ -53,14 +59,17 @@ FENCED = re.compile(r"^(Before|After)\b[^\n]*\n```proto\n(.*?)```", re.DOTALL | 
     "rule", [r for r in RULES.values() if r.id not in SETUP], ids=lambda r: r.id
 )
 def test_every_rules_example_shows_the_rule(rule: Rule, tmp_path: Path) -> None:
-    """The example a rule explains itself with is true: linted, before against after, it fires."""
+    """The example a rule explains itself with is true: linted, before against after, it fires
+    (alone: the example shows the rule, not what it shares a category with). An example without
+    a syntax line is proto3."""
     doc = inspect.cleandoc(rule.check.__doc__ or "")
     blocks = dict(FENCED.findall(doc.split("## Example", 1)[1]))
     assert set(blocks) == {"Before", "After"}, rule.id
     for side, text in blocks.items():
         (tmp_path / side).mkdir()
-        (tmp_path / side / "example.proto").write_text(f'syntax = "proto3";\n{text}')
-    found = erc_lint.lint(tmp_path / "Before", tmp_path / "After")
+        header = "" if text.startswith(("syntax", "edition")) else 'syntax = "proto3";\n'
+        (tmp_path / side / "example.proto").write_text(header + text)
+    found = erc_lint.lint(tmp_path / "Before", tmp_path / "After", Config(use=(rule.id,)))
     assert rule.id in {finding.rule for finding in found}, found
 
 
@@ -282,3 +291,40 @@ def test_a_packaged_roots_size_is_named_as_nanopb_names_it(tmp_path: Path) -> No
         'Maximum size of message "acme.io.Env" grew from 7 to 12 bytes: receivers built with '
         "the old acme_io_Env_size drop the longer datagrams."
     )
+
+
+def test_packing_is_no_wire_change_so_no_rule_reports_it(tmp_path: Path) -> None:
+    """FIELD_ENCODING_CHANGED leaves packing alone (lint_cases/safe/packing_toggled) because a
+    reader accepts a repeated scalar either way: Google protobuf's, here, and nanopb's decoder
+    alike (a length-delimited record for a packable repeated field is read as packed)."""
+    (tmp_path / "p.proto").write_text(
+        'syntax = "proto2";\nmessage Packed { repeated sint32 v = 1 [packed = true]; }\n'
+        "message Expanded { repeated sint32 v = 1; }\n"
+    )
+    pool = descriptor_pool.DescriptorPool()
+    for proto in compile_files(tmp_path, ["p.proto"], locations=False).file:
+        pool.Add(proto)
+    packed, expanded = (
+        message_factory.GetMessageClass(pool.FindMessageTypeByName(name))
+        for name in ("Packed", "Expanded")
+    )
+    values = [0, -1, 300, -70000]
+    written = packed(v=values).SerializeToString(), expanded(v=values).SerializeToString()
+    assert written[0] != written[1]  # the encodings differ
+    assert expanded.FromString(written[0]) == expanded(v=values)
+    assert packed.FromString(written[1]) == packed(v=values)
+
+
+def test_implicit_defaults_of_compatible_types_agree(tmp_path: Path) -> None:
+    """FIELD_DEFAULT_CHANGED skips scalar fields without an explicit default on either side:
+    what the model says they read as while absent is the same for every pair of types that read
+    each other's bytes."""
+    scalars = sorted({*(t for group in WIRE_GROUPS for t in group), "string", "bytes"})
+    body = "".join(f"  optional {t} f_{t} = {k};\n" for k, t in enumerate(scalars, 1))
+    (tmp_path / "a.proto").write_text(f'syntax = "proto2";\nmessage A {{\n{body}}}\n')
+    revision = build(load_tree(tmp_path))
+    fields = {f.type: f for f in revision.messages["A"].fields.values()}
+    for old in scalars:
+        for new in scalars:
+            if wire_compatible(old, new):
+                assert revision.default(fields[old])[0] == revision.default(fields[new])[0]

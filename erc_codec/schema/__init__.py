@@ -15,14 +15,24 @@ sizes and nanopb limits. Nothing here encodes envelopes or talks to a network.
   own ``path:line:col`` diagnostics);
 - a tree's text before it compiles: ``imports`` (as protoc tokenizes them) and ``declared_names``;
 - compiled files: ``declarations`` (every message and enum, nested ones too, with their source
-  paths) and ``SourceIndex`` (a path's ``Location`` and trailing comment);
+  paths), ``extensions`` and ``services`` (likewise) and ``SourceIndex`` (a path's ``Location``
+  and trailing comment);
 - a loaded schema: ``load_schema`` and ``Schema`` (descriptor pool, classes, locations);
 - nanopb: ``resolve_options`` (``.options`` files and annotations, as the generator resolves them)
   and ``Sizes`` (``<Message>_size`` as the generator computes it, the fixed-size contract's limits);
 - the wire: varints, wire types and ``next_field``, the one tag walker.
 """
 
-from ._descriptors import Declaration, Location, SourceIndex, declarations
+from ._descriptors import (
+    Declaration,
+    Extension,
+    Location,
+    Service,
+    SourceIndex,
+    declarations,
+    extensions,
+    services,
+)
 from ._files import SOURCE_LIMIT, FileError, file_exists, proto_files, read_file, read_text
 from ._git import MAX_DEPTH, MAX_FILES, GitError, Repository
 from ._options import Options, ResolvedOptions, options_class, resolve_options
@@ -60,6 +70,7 @@ __all__ = [
     "VARINT",
     "WIRE_TYPE_NAMES",
     "Declaration",
+    "Extension",
     "FieldSpan",
     "FileError",
     "GitError",
@@ -70,6 +81,7 @@ __all__ = [
     "Repository",
     "ResolvedOptions",
     "Schema",
+    "Service",
     "Sizes",
     "SourceIndex",
     "TreeSource",
@@ -80,6 +92,7 @@ __all__ = [
     "descriptor_of",
     "encode_varint",
     "enum_of",
+    "extensions",
     "file_exists",
     "imports",
     "load_schema",
@@ -93,5 +106,6 @@ __all__ = [
     "read_text",
     "read_varint",
     "resolve_options",
+    "services",
     "varint_size",
 ]

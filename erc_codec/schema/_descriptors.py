@@ -1,10 +1,12 @@
 """The one walk over a compiled file's declarations, and where protoc says each one stands.
 
 ``declarations(file)`` yields every message and enum a ``FileDescriptorProto`` declares, nested
-ones included, each with its full name and its path in the file's ``SourceCodeInfo``; a
-``SourceIndex`` turns such a path into a ``Location`` (and the comment trailing it). The numbers
-those paths are made of (the field numbers of descriptor.proto's own messages) live here and
-nowhere else: a path to a member comes from ``Declaration.member(j)``.
+ones included, each with its full name and its path in the file's ``SourceCodeInfo``;
+``extensions(file)`` every extension it declares (at the top or inside a message) and
+``services(file)`` its services, each with its path too; a ``SourceIndex`` turns such a path into
+a ``Location`` (and the comment trailing it). The numbers those paths are made of (the field
+numbers of descriptor.proto's own messages) live here and nowhere else: a path to a member comes
+from ``Declaration.member(j)``, ``Declaration.oneof(j)`` or ``Service.method(j)``.
 """
 
 from collections.abc import Iterator, Sequence
@@ -12,13 +14,23 @@ from typing import NamedTuple
 
 from google.protobuf import descriptor_pb2
 
-__all__ = ["Declaration", "Location", "SourceIndex", "declarations"]
+__all__ = [
+    "Declaration",
+    "Extension",
+    "Location",
+    "Service",
+    "SourceIndex",
+    "declarations",
+    "extensions",
+    "services",
+]
 
-# Field numbers of FileDescriptorProto, DescriptorProto and EnumDescriptorProto, as SourceCodeInfo
-# paths are made of them.
-_FILE_MESSAGE, _FILE_ENUM = 4, 5
-_MESSAGE_FIELD, _MESSAGE_NESTED, _MESSAGE_ENUM, _MESSAGE_ONEOF = 2, 3, 4, 8
+# Field numbers of FileDescriptorProto, DescriptorProto, EnumDescriptorProto and
+# ServiceDescriptorProto, as SourceCodeInfo paths are made of them.
+_FILE_MESSAGE, _FILE_ENUM, _FILE_SERVICE, _FILE_EXTENSION = 4, 5, 6, 7
+_MESSAGE_FIELD, _MESSAGE_NESTED, _MESSAGE_ENUM, _MESSAGE_EXTENSION, _MESSAGE_ONEOF = 2, 3, 4, 6, 8
 _ENUM_VALUE = 2
+_SERVICE_METHOD = 2
 
 Proto = descriptor_pb2.DescriptorProto | descriptor_pb2.EnumDescriptorProto
 
@@ -54,6 +66,21 @@ class Declaration(NamedTuple):
     def oneof(self, index: int) -> tuple[int, ...]:
         """The source path of a message's ``index``-th oneof."""
         return (*self.path, _MESSAGE_ONEOF, index)
+
+    def extensions(self) -> "list[Extension]":
+        """The extensions declared inside a message (none for an enum)."""
+        message = self.proto
+        if not isinstance(message, descriptor_pb2.DescriptorProto) or not message.extension:
+            return []
+        return [
+            Extension(
+                f"{self.name}.{extension.name}",
+                extension,
+                (*self.path, _MESSAGE_EXTENSION, j),
+                self.name,
+            )
+            for j, extension in enumerate(message.extension)
+        ]
 
 
 def declarations(file: descriptor_pb2.FileDescriptorProto) -> Iterator[Declaration]:
@@ -102,6 +129,48 @@ def _message(
             for j, enum in enumerate(message.enum_type)
         ]
         pending.extend(reversed(inside))
+
+
+class Extension(NamedTuple):
+    """An extension a file declares: ``extend Extendee { ... }`` at the top or inside a message."""
+
+    name: str  # full name: the package (if any), the message it is declared in, its own name
+    proto: descriptor_pb2.FieldDescriptorProto  # its ``extendee``: the full name it extends
+    path: tuple[int, ...]
+    scope: str | None  # the full name of the message it is declared in, None at the top
+
+
+def extensions(
+    file: descriptor_pb2.FileDescriptorProto, nested: bool = True
+) -> Iterator[Extension]:
+    """Every extension of ``file``: those at its top first, then (unless ``nested`` is false)
+    those of each message in the order ``declarations`` walks them (a caller walking the
+    declarations anyway asks each one, ``Declaration.extensions()``)."""
+    package = f"{file.package}." if file.package else ""
+    for i, extension in enumerate(file.extension):
+        yield Extension(package + extension.name, extension, (_FILE_EXTENSION, i), None)
+    if nested:
+        for declaration in declarations(file):
+            yield from declaration.extensions()
+
+
+class Service(NamedTuple):
+    """A service a file declares."""
+
+    name: str  # full name: the package (if any) and its own name
+    proto: descriptor_pb2.ServiceDescriptorProto
+    path: tuple[int, ...]
+
+    def method(self, index: int) -> tuple[int, ...]:
+        """The source path of the service's ``index``-th method."""
+        return (*self.path, _SERVICE_METHOD, index)
+
+
+def services(file: descriptor_pb2.FileDescriptorProto) -> Iterator[Service]:
+    """Every service of ``file``, in order."""
+    package = f"{file.package}." if file.package else ""
+    for i, service in enumerate(file.service):
+        yield Service(package + service.name, service, (_FILE_SERVICE, i))
 
 
 class SourceIndex:

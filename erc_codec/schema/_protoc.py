@@ -71,6 +71,7 @@ def compile_files(
     defaults: bool = True,
     imports: bool = True,
     read: Mapping[str, Iterable[str]] | None = None,
+    retain_options: bool = False,
 ) -> descriptor_pb2.FileDescriptorSet:
     """Compile ``files`` (paths relative to ``root``) with their imports and, unless told
     otherwise, source locations.
@@ -81,7 +82,9 @@ def compile_files(
     nanopb.proto, ours come as known files too, after the caller's (which win). The result
     lists every file once, each after the files it imports (``imports=False``: ``files``
     alone). ``defaults=False`` leaves our well-known files and nanopb.proto out altogether:
-    ``known`` holds what the files import.
+    ``known`` holds what the files import. ``retain_options`` keeps the options protoc strips
+    from its output by default, those of source retention (an extension range's
+    ``declaration``s among them).
 
     Every file protoc will read from disk is read first, where protoc will find it, and must
     be a regular file within ``SOURCE_LIMIT`` (else ``FileError``); ``read`` spares that for
@@ -104,6 +107,7 @@ def compile_files(
             f"--descriptor_set_out={out}",
             *(["--include_imports"] if imports else []),
             *(["--include_source_info"] if locations else []),
+            *(["--retain_options"] if retain_options else []),
             *files,
         ]
         if known is not None:

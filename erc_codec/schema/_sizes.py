@@ -6,7 +6,9 @@ submessages their own size plus its length prefix, strings ``varint(max_size) + 
 bytes ``varint(max_size) + max_size``, repeated fields ``(tag + item) * max_count`` (plus one when
 ``max_count`` is 1), and nothing for ignored fields. A message with a field nanopb cannot bound (a
 string, bytes or repeated field with no limit, a callback or pointer field, a type that contains
-itself) has no size, exactly where nanopb writes "depends on runtime parameters".
+itself) has no size, exactly where nanopb writes "depends on runtime parameters". nanopb reads the
+descriptors as written: an editions field with ``message_encoding = DELIMITED`` is sized as the
+message field it is written as, and a proto2 ``group`` has no size (the generator refuses groups).
 """
 
 from google.protobuf import descriptor_pb2
@@ -51,14 +53,19 @@ class Sizes:
     def __init__(self, schema: Schema) -> None:
         self._schema = schema
         self._options: ResolvedOptions = resolve_options(schema.tree, schema.files)
-        self._optional = {
-            f"{declaration.name}.{field.name}"
-            for proto in schema.files
-            for declaration in declarations(proto)
-            if isinstance(declaration.proto, descriptor_pb2.DescriptorProto)
-            for field in declaration.proto.field
-            if field.proto3_optional
-        }
+        self._optional: set[str] = set()  # proto3 `optional` fields (not in a real oneof)
+        self._proto2_groups: set[str] = (
+            set()
+        )  # proto2 groups (an editions DELIMITED field reads as one)
+        for proto in schema.files:
+            for declaration in declarations(proto):
+                if isinstance(declaration.proto, descriptor_pb2.DescriptorProto):
+                    for field in declaration.proto.field:
+                        dotted = f"{declaration.name}.{field.name}"
+                        if field.proto3_optional:
+                            self._optional.add(dotted)
+                        if field.type == _T.TYPE_GROUP:
+                            self._proto2_groups.add(dotted)
         self._memo: dict[str, int | None] = {}
 
     # -- field limits --------------------------------------------------------------------------
@@ -159,6 +166,8 @@ class Sizes:
 
     def _problem(self, field: FieldDescriptor) -> str | None:
         """Why ``field`` itself (not what it contains) has no static size, if it hasn't."""
+        if field.full_name in self._proto2_groups:
+            return "proto2 group (nanopb's generator refuses groups)"
         options = self.options(field)
         if options.type in (_FT_CALLBACK, _FT_POINTER):
             return f"nanopb type {'FT_CALLBACK' if options.type == _FT_CALLBACK else 'FT_POINTER'}"
@@ -213,7 +222,7 @@ class Sizes:
         options = self.options(field)
         kind = options.type_override if options.HasField("type_override") else field.type
         payload: int | None
-        if kind == _T.TYPE_MESSAGE:
+        if kind in (_T.TYPE_MESSAGE, _T.TYPE_GROUP):  # a group here: written DELIMITED
             sub = self._size(message_of(field), stack)
             payload = None if sub is None else sub + varint_size(sub)
         elif kind in (_T.TYPE_STRING, _T.TYPE_BYTES):

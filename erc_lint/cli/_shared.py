@@ -16,7 +16,7 @@ from .._errors import LintError
 from .._finding import Finding
 from .._inputs import open_input
 from .._report import FORMATS, render
-from ..rules import RULES
+from ..rules import CATEGORIES, RULES
 
 __all__ = [
     "FILE",
@@ -92,7 +92,7 @@ def settings(config: Path | None, folder: Path | None) -> Config:
     """``--config``, else the configuration in the tree's folder (if it has one), else here."""
     folders = [folder] if folder is not None and folder.is_dir() else []
     found = config or find_config(*folders, Path.cwd())
-    return read_config(found, set(RULES), explicit=config is not None)
+    return read_config(found, set(RULES), explicit=config is not None, categories=set(CATEGORIES))
 
 
 @contextmanager

@@ -1,6 +1,6 @@
 """The rules: importing this package registers them all, in the order ``erc-lint rules`` lists."""
 
-from . import enums, fields, messages, tree  # noqa: F401 - registration
-from ._registry import RULES, Report, Rule, run
+from . import enums, extensions, fields, messages, nanopb, services, tree  # noqa: F401 - registration
+from ._registry import CATEGORIES, DEFAULT_CATEGORIES, RULES, Report, Rule, run, select
 
-__all__ = ["RULES", "Report", "Rule", "run"]
+__all__ = ["CATEGORIES", "DEFAULT_CATEGORIES", "RULES", "Report", "Rule", "run", "select"]

@@ -1,15 +1,21 @@
-"""The rule registry: every rule is an ID, a one-line purpose, a default severity and one small
-function, registered by the helper that says what the function is handed (buf's pair check
-functions): one pair at a time, never the whole change.
+"""The rule registry: every rule is an ID, a one-line purpose, a default severity, the categories
+it belongs to and one small function, registered by the helper that says what the function is
+handed (buf's pair check functions): one pair at a time, never the whole change.
 
-- ``field_rule``: each field of each paired message (``FieldPair``: the OLD field and what NEW has
-  at its number and under its name);
+- ``field_rule``: each field (and extension) of each paired message (``FieldPair``: the OLD field
+  and what NEW has at its number and under its name);
 - ``enum_number_rule``: each number of each paired enum (``NumberPair``: its names before and
   after; aliases make enum values a matter of numbers, not names);
-- ``message_rule``: each paired message; ``definition_rule``: each paired message and enum;
-  ``deleted_message_rule``: each OLD message NEW no longer has;
+- ``message_rule``: each paired message; ``enum_rule``: each paired enum; ``definition_rule``:
+  each paired message and enum; ``deleted_message_rule``: each OLD message NEW no longer has;
+- ``method_rule``: each method of each paired service (``MethodPair``);
 - ``tree_rule``: one revision (run on OLD and on NEW: a report whose key OLD has too is old damage,
   a warning; one only NEW has is an error).
+
+Categories select rules as buf's do (``CATEGORIES``; ``use`` and ``except`` in the configuration
+name categories or rule IDs): a pair rule is ``WIRE`` (and so ``WIRE_JSON``) unless it says
+otherwise, a tree rule ``TREE``, a method rule ``RPC``. ``select`` decides what a run applies, and
+how severely: a rule whose ``errors_in`` holds a category the configuration uses is an error.
 
 A rule function takes its pair and the ``Change`` (both revisions, the configuration, the ledger)
 for context and yields ``Report``s; ``run`` adds the rule's ID and severity. A rule never loops over
@@ -22,11 +28,15 @@ from typing import Any, NamedTuple, TypeVar
 
 from erc_codec.schema import Location
 
+from .._config import Config
+from .._errors import ConfigError
 from .._finding import Finding, Severity
-from .._model import Message, Revision
-from .._pairing import Change, EnumPair, FieldPair, MessagePair, NumberPair
+from .._model import Enum, Message, Revision
+from .._pairing import Change, FieldPair, MethodPair, NumberPair, Paired
 
 __all__ = [
+    "CATEGORIES",
+    "DEFAULT_CATEGORIES",
     "RULES",
     "Report",
     "Reports",
@@ -34,11 +44,26 @@ __all__ = [
     "definition_rule",
     "deleted_message_rule",
     "enum_number_rule",
+    "enum_rule",
     "field_rule",
     "message_rule",
+    "method_rule",
     "run",
+    "select",
     "tree_rule",
 ]
+
+# What each category holds, as `erc-lint rules` explains it.
+CATEGORIES = {
+    "WIRE": "what changes how the binary wire is read (buf's WIRE, and what buf does not see)",
+    "WIRE_JSON": "WIRE and protobuf JSON: FIELD_RENAMED and ENUM_VALUE_RENAMED become errors",
+    "NANOPB": "what nanopb's generated code and sizes make of a change (options, sizes, budgets)",
+    "RPC": "services: what clients and servers of each method send each other",
+    "TREE": "one revision on its own: compile errors, names, embedded roots, the ledger",
+}
+# Without `use`: what an embedded fleet needs, and RPC when either revision declares a service.
+DEFAULT_CATEGORIES = ("WIRE", "NANOPB", "TREE")
+_WIRE = ("WIRE", "WIRE_JSON")
 
 
 class Report(NamedTuple):
@@ -55,9 +80,11 @@ _Check = TypeVar("_Check", bound=Callable[..., Reports])
 # What each helper's rules are handed (and the change, for context).
 _FieldCheck = Callable[[FieldPair, Change], Reports]
 _NumberCheck = Callable[[NumberPair, Change], Reports]
-_MessageCheck = Callable[[MessagePair, Change], Reports]
-_DefinitionCheck = Callable[[MessagePair | EnumPair, Change], Reports]
+_MessageCheck = Callable[[Paired[Message], Change], Reports]
+_EnumCheck = Callable[[Paired[Enum], Change], Reports]
+_DefinitionCheck = Callable[[Paired[Any], Change], Reports]  # a message or an enum pair
 _DeletedCheck = Callable[[Message, Change], Reports]
+_MethodCheck = Callable[[MethodPair, Change], Reports]
 _TreeCheck = Callable[[Revision, Change], Reports]
 
 
@@ -67,6 +94,8 @@ class Rule(NamedTuple):
     severity: Severity  # a tree rule's is "error", a warning where OLD has the damage too
     pairs: str  # what ``check`` is handed: a key of PAIRS, or "tree" (one revision)
     check: Callable[..., Reports]  # (pair, change) or (revision, change); its docstring: the docs
+    categories: tuple[str, ...] = _WIRE  # keys of CATEGORIES
+    errors_in: tuple[str, ...] = ()  # categories whose use makes this rule an error
 
 
 RULES: dict[str, Rule] = {}
@@ -76,79 +105,134 @@ PAIRS: dict[str, Callable[[Change], Iterable[Any]]] = {
     "field": Change.fields,
     "enum number": Change.numbers,
     "message": lambda change: change.messages,
+    "enum": lambda change: change.enums,
     "message or enum": lambda change: [*change.messages, *change.enums],
     "deleted message": lambda change: change.deleted_messages,
+    "method": Change.methods,
 }
 
 
-def _register(id: str, purpose: str, severity: Severity, pairs: str) -> Callable[[_Check], _Check]:
+def _register(
+    id: str,
+    purpose: str,
+    severity: Severity,
+    pairs: str,
+    categories: tuple[str, ...],
+    errors_in: tuple[str, ...] = (),
+) -> Callable[[_Check], _Check]:
+    assert set(categories) | set(errors_in) <= set(CATEGORIES), id
+
     def register(check: _Check) -> _Check:
-        RULES[id] = Rule(id, purpose, severity, pairs, check)
+        RULES[id] = Rule(id, purpose, severity, pairs, check, categories, errors_in)
         return check
 
     return register
 
 
 def field_rule(
-    id: str, purpose: str, severity: Severity = "error"
+    id: str,
+    purpose: str,
+    severity: Severity = "error",
+    categories: tuple[str, ...] = _WIRE,
+    errors_in: tuple[str, ...] = (),
 ) -> Callable[[_FieldCheck], _FieldCheck]:
-    """Register a rule handed each field of each paired message."""
-    return _register(id, purpose, severity, "field")
+    """Register a rule handed each field (and extension) of each paired message."""
+    return _register(id, purpose, severity, "field", categories, errors_in)
 
 
 def enum_number_rule(
-    id: str, purpose: str, severity: Severity = "error"
+    id: str,
+    purpose: str,
+    severity: Severity = "error",
+    categories: tuple[str, ...] = _WIRE,
+    errors_in: tuple[str, ...] = (),
 ) -> Callable[[_NumberCheck], _NumberCheck]:
     """Register a rule handed each number of each paired enum."""
-    return _register(id, purpose, severity, "enum number")
+    return _register(id, purpose, severity, "enum number", categories, errors_in)
 
 
 def message_rule(
-    id: str, purpose: str, severity: Severity = "error"
+    id: str, purpose: str, severity: Severity = "error", categories: tuple[str, ...] = _WIRE
 ) -> Callable[[_MessageCheck], _MessageCheck]:
     """Register a rule handed each paired message."""
-    return _register(id, purpose, severity, "message")
+    return _register(id, purpose, severity, "message", categories)
+
+
+def enum_rule(
+    id: str, purpose: str, severity: Severity = "error", categories: tuple[str, ...] = _WIRE
+) -> Callable[[_EnumCheck], _EnumCheck]:
+    """Register a rule handed each paired enum."""
+    return _register(id, purpose, severity, "enum", categories)
 
 
 def definition_rule(
-    id: str, purpose: str, severity: Severity = "error"
+    id: str, purpose: str, severity: Severity = "error", categories: tuple[str, ...] = _WIRE
 ) -> Callable[[_DefinitionCheck], _DefinitionCheck]:
     """Register a rule handed each paired message and each paired enum."""
-    return _register(id, purpose, severity, "message or enum")
+    return _register(id, purpose, severity, "message or enum", categories)
 
 
 def deleted_message_rule(
-    id: str, purpose: str, severity: Severity = "error"
+    id: str, purpose: str, severity: Severity = "error", categories: tuple[str, ...] = _WIRE
 ) -> Callable[[_DeletedCheck], _DeletedCheck]:
     """Register a rule handed each OLD message that NEW no longer has (not even renamed)."""
-    return _register(id, purpose, severity, "deleted message")
+    return _register(id, purpose, severity, "deleted message", categories)
 
 
-def tree_rule(id: str, purpose: str) -> Callable[[_TreeCheck], _TreeCheck]:
+def method_rule(
+    id: str, purpose: str, severity: Severity = "error"
+) -> Callable[[_MethodCheck], _MethodCheck]:
+    """Register a rule handed each method of each service both revisions declare."""
+    return _register(id, purpose, severity, "method", ("RPC",))
+
+
+def tree_rule(
+    id: str, purpose: str, categories: tuple[str, ...] = ("TREE",)
+) -> Callable[[_TreeCheck], _TreeCheck]:
     """Register a rule handed one revision, OLD and then NEW."""
-    return _register(id, purpose, "error", "tree")
+    return _register(id, purpose, "error", "tree", categories)
+
+
+def select(config: Config, has_services: bool = False) -> dict[str, Severity]:
+    """The rules a run applies, each with its severity: those of ``use`` (rule IDs and
+    categories; without it ``DEFAULT_CATEGORIES``, and RPC when ``has_services``), less those
+    of ``except_`` and ``ignore``."""
+    known = RULES.keys() | CATEGORIES.keys()
+    strange = [name for name in (*config.use, *config.except_) if name not in known]
+    strange += [name for name in config.ignore if name not in RULES]
+    if strange:
+        raise ConfigError(f"[tool.erc-lint] names no rule or category {sorted(strange)[0]!r}")
+    used = set(config.use or (*DEFAULT_CATEGORIES, *(("RPC",) if has_services else ())))
+    dropped = set(config.except_) | config.ignore
+    return {
+        rule.id: "error" if set(rule.errors_in) & used else rule.severity
+        for rule in RULES.values()
+        if (rule.id in used or set(rule.categories) & used)
+        and rule.id not in dropped
+        and not set(rule.categories) & dropped
+    }
 
 
 def run(change: Change) -> list[Finding]:
-    """Every finding of every rule the configuration does not ignore, sorted by location."""
+    """Every finding of every rule the configuration selects, sorted by location."""
     found: list[Finding] = []
+    selected = select(change.config, change.has_services)
     for rule in RULES.values():
-        if rule.id in change.config.ignore:
+        severity = selected.get(rule.id)
+        if severity is None:
             continue
         if rule.pairs == "tree":
             existing = {report.key for report in rule.check(change.old, change)}
             for report in rule.check(change.new, change):
-                severity: Severity = "warning" if report.key in existing else "error"
-                found.append(Finding.at(report.location, rule.id, report.message, severity))
+                graded: Severity = "warning" if report.key in existing else "error"
+                found.append(Finding.at(report.location, rule.id, report.message, graded))
             continue
         for pair in PAIRS[rule.pairs](change):
             for report in rule.check(pair, change):
                 found.append(
-                    Finding.at(
-                        report.location, rule.id, report.message, rule.severity, report.in_old
-                    )
+                    Finding.at(report.location, rule.id, report.message, severity, report.in_old)
                 )
-    if "COMPILE" not in change.config.ignore:
+    if "COMPILE" in selected:
         found += _uncompared(change)
     return sorted(set(found))
 

@@ -1,8 +1,10 @@
-"""Rules on the values of enums that exist in both revisions (or were renamed), one number at a
-time: with ``allow_alias`` a number has several names, and what travels is the number."""
+"""Rules on enums that exist in both revisions (or were renamed or moved): their values one number
+at a time (with ``allow_alias`` a number has several names, and what travels is the number), and
+what the enum does with a number it does not declare."""
 
-from .._pairing import Change, NumberPair
-from ._registry import Report, Reports, enum_number_rule
+from .._model import Enum
+from .._pairing import Change, NumberPair, Paired
+from ._registry import Report, Reports, enum_number_rule, enum_rule
 
 
 @enum_number_rule("ENUM_VALUE_RENUMBERED", "An enum value kept its name but changed number.")
@@ -137,6 +139,7 @@ def deleted(number: NumberPair, change: Change) -> Reports:
     "ENUM_VALUE_RENAMED",
     "An enum number kept its meaning under a new name: harmless on the wire, breaks code.",
     severity="warning",
+    errors_in=("WIRE_JSON",),
 )
 def renamed(number: NumberPair, change: Change) -> Reports:
     """## What it does
@@ -166,7 +169,8 @@ def renamed(number: NumberPair, change: Change) -> Reports:
 
     ## Use instead
     Keep the old name beside the new one as an alias:
-    `option allow_alias = true; DRIVE_MODE_RUN = 1; DRIVE_MODE_DRIVE = 1;`.
+    `option allow_alias = true; DRIVE_MODE_RUN = 1; DRIVE_MODE_DRIVE = 1;`. With `WIRE_JSON` in
+    `use` it is an error.
     """
     taken, by_name = number.by_number, number.new_owner.by_name
     if taken is None or all(name in by_name for name in number.before):
@@ -178,6 +182,54 @@ def renamed(number: NumberPair, change: Change) -> Reports:
         f'Enum value "{taken.number}" on enum "{number.new_owner.name}" changed name from '
         f"{_quoted(number.before)} to {_quoted(number.after)}.",
     )
+
+
+@enum_rule("ENUM_OPENNESS_CHANGED", "An enum changed between open and closed.")
+def openness_changed(pair: Paired[Enum], change: Change) -> Reports:
+    """## What it does
+    Reports an enum that changed between open and closed: proto2 enums are closed, proto3 enums
+    open, and editions choose with `features.enum_type` (moving a file between syntaxes moves
+    its enums too).
+
+    ## Why is this bad?
+    The two read a number the enum does not declare differently. An open enum keeps it as the
+    field's value; a closed one puts the whole field among the message's unknown fields, so the
+    field reads as absent (its default) and, repeated, loses that element. Once a sender built
+    with a newer enum sends a value this one lacks, receivers built from OLD and from NEW act on
+    different values.
+
+    ## Example
+    Before:
+    ```proto
+    edition = "2023";
+    enum Gear {
+      GEAR_NEUTRAL = 0;
+      GEAR_LOW = 1;
+    }
+    ```
+    After:
+    ```proto
+    edition = "2023";
+    enum Gear {
+      option features.enum_type = CLOSED;
+      GEAR_NEUTRAL = 0;
+      GEAR_LOW = 1;
+    }
+    ```
+
+    ## Use instead
+    Keep the enum's openness: in an editions file, set `features.enum_type` to what the enum had
+    (`CLOSED` for an enum from proto2, `OPEN` from proto3).
+    """
+    old, new = pair
+    if old.closed != new.closed:
+        yield Report(
+            new.location, f'Enum "{new.name}" changed from {_openness(old)} to {_openness(new)}.'
+        )
+
+
+def _openness(enum: Enum) -> str:
+    return "closed" if enum.closed else "open"
 
 
 def _quoted(names: list[str]) -> str:

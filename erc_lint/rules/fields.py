@@ -1,6 +1,9 @@
 """Rules on the fields of messages that exist in both revisions (or were renamed), one field
-pair at a time: the OLD field and what NEW has at its number and under its name."""
+pair at a time: the OLD field and what NEW has at its number and under its name. An extension is
+a field of the message it extends, and these rules judge it as buf does, in buf's words
+(``Extension "100" with name "ext" on message "Host"``); its deletion is ``EXTENSION_DELETED``'s."""
 
+from .._model import Field
 from .._pairing import Change, FieldPair
 from ._registry import Report, Reports, field_rule
 
@@ -38,7 +41,7 @@ def renumbered(pair: FieldPair, change: Change) -> Reports:
     if now is not None and now.number != pair.old.number:
         yield Report(
             now.location,
-            f'Field "{pair.old.name}" on message "{pair.new_owner.name}" changed number from '
+            f'{now.noun} "{pair.old.name}" on message "{pair.new_owner.name}" changed number from '
             f'"{pair.old.number}" to "{now.number}".',
         )
 
@@ -82,7 +85,7 @@ def number_reused(pair: FieldPair, change: Change) -> Reports:
     if pair.by_name is not None or not change.compatible(pair.old, taken):
         yield Report(
             taken.location,
-            f'Field "{pair.old.number}" on message "{pair.new_owner.name}" changed from '
+            f'{taken.noun} "{pair.old.number}" on message "{pair.new_owner.name}" changed from '
             f'"{pair.old.name}" ("{pair.old.type}") to "{taken.name}" ("{taken.type}").',
         )
 
@@ -126,8 +129,7 @@ def type_changed(pair: FieldPair, change: Change) -> Reports:
     if taken is not None and taken.name == pair.old.name and not change.compatible(pair.old, taken):
         yield Report(
             taken.location,
-            f'Field "{pair.old.number}" with name "{pair.old.name}" on message '
-            f'"{pair.new_owner.name}" changed type from "{pair.old.type}" to "{taken.type}".',
+            f'{_field(taken, pair)} changed type from "{pair.old.type}" to "{taken.type}".',
         )
 
 
@@ -162,6 +164,8 @@ def deleted(pair: FieldPair, change: Change) -> Reports:
     Reserve the number and the name: `reserved 3; reserved "satellites";`, or restore the field.
     """
     gone = pair.by_number is None and pair.by_name is None
+    if pair.old.extension:
+        return  # EXTENSION_DELETED: an extension's number is not reserved this way
     if gone and not pair.new_owner.reserved.covers(pair.old.number):
         yield Report(
             pair.old.location,
@@ -171,18 +175,18 @@ def deleted(pair: FieldPair, change: Change) -> Reports:
         )
 
 
-@field_rule("FIELD_CARDINALITY_CHANGED", "A field changed between singular, repeated and required.")
+@field_rule("FIELD_CARDINALITY_CHANGED", "A field changed between singular and repeated.")
 def cardinality_changed(pair: FieldPair, change: Change) -> Reports:
     """## What it does
     Reports a field that kept its number and a compatible type but changed between singular
-    (`optional` or proto3's implicit presence), `repeated` and proto2's `required`.
+    (`optional`, proto3's implicit presence, or `required`) and `repeated` (a change between
+    `optional` and `required` is `REQUIRED_FIELD_ADDED`'s or `REQUIRED_FIELD_REMOVED`'s).
 
     ## Why is this bad?
     Senders and receivers disagree on how many values the number carries. A repeated scalar of
     proto3 is sent packed, one length-delimited record, which a receiver built with the singular
     field cannot read (a wrong wire type: nanopb fails the whole message, Google protobuf drops
-    the field); several values where one is expected keep only the last; and a proto2 reader
-    rejects a message that lacks a field it holds `required`.
+    the field); several values where one is expected keep only the last.
 
     ## Example
     Before:
@@ -205,12 +209,11 @@ def cardinality_changed(pair: FieldPair, change: Change) -> Reports:
     taken = pair.by_number
     if taken is None or not change.compatible(pair.old, taken):
         return
-    if taken.cardinality != pair.old.cardinality:
+    if (taken.cardinality == "repeated") != (pair.old.cardinality == "repeated"):
         yield Report(
             taken.location,
-            f'Field "{pair.old.number}" with name "{taken.name}" on message '
-            f'"{pair.new_owner.name}" changed cardinality from "{pair.old.cardinality}" to '
-            f'"{taken.cardinality}".',
+            f"{_field(taken, pair, taken.name)} changed cardinality from "
+            f'"{pair.old.cardinality}" to "{taken.cardinality}".',
         )
 
 
@@ -262,16 +265,14 @@ def oneof_changed(pair: FieldPair, change: Change) -> Reports:
         move = f'moved out of oneof "{old.oneof}"'
     else:
         move = f'moved from oneof "{old.oneof}" to oneof "{taken.oneof}"'
-    yield Report(
-        taken.location,
-        f'Field "{old.number}" with name "{taken.name}" on message "{pair.new_owner.name}" {move}.',
-    )
+    yield Report(taken.location, f"{_field(taken, pair, taken.name)} {move}.")
 
 
 @field_rule(
     "FIELD_RENAMED",
     "A field kept its number and type under a new name: fine on the wire, breaks JSON and code.",
     severity="warning",
+    errors_in=("WIRE_JSON",),
 )
 def renamed(pair: FieldPair, change: Change) -> Reports:
     """## What it does
@@ -300,7 +301,8 @@ def renamed(pair: FieldPair, change: Change) -> Reports:
 
     ## Use instead
     Keep the name, or rename it everywhere it is used at once: code, JSON readers and `.options`
-    files. Add `FIELD_RENAMED` to `ignore` if names do not matter to any user of the tree.
+    files. Add `FIELD_RENAMED` to `except` if names do not matter to any user of the tree; with
+    `WIRE_JSON` in `use` it is an error.
     """
     taken = pair.by_number
     if taken is None or taken.name == pair.old.name or pair.by_name is not None:
@@ -308,6 +310,219 @@ def renamed(pair: FieldPair, change: Change) -> Reports:
     if change.compatible(pair.old, taken):
         yield Report(
             taken.location,
-            f'Field "{pair.old.number}" on message "{pair.new_owner.name}" changed name from '
-            f'"{pair.old.name}" to "{taken.name}".',
+            f'{taken.noun} "{pair.old.number}" on message "{pair.new_owner.name}" changed name '
+            f'from "{pair.old.name}" to "{taken.name}".',
         )
+
+
+@field_rule(
+    "FIELD_DEFAULT_CHANGED",
+    "A field with presence reads as another value while absent: its default changed.",
+)
+def default_changed(pair: FieldPair, change: Change) -> Reports:
+    """## What it does
+    Reports a singular scalar or enum field that kept its number and type while the value a
+    reader holds for it when it is absent changed: its `default` (proto2 and editions fields
+    with explicit presence), or for an enum without one, the first value the enum declares.
+
+    ## Why is this bad?
+    The bytes are identical: a default is never sent. A sender leaves the field out when it
+    holds no value (or, in proto2 code, one it never set), and each receiver fills in its own
+    default. A board built from OLD that omits the field means 5; a receiver built from NEW
+    reads 6, with nothing on the wire to tell it otherwise.
+
+    ## Example
+    Before:
+    ```proto
+    syntax = "proto2";
+    message Heater {
+      optional int32 target_celsius = 1 [default = 5];
+    }
+    ```
+    After:
+    ```proto
+    syntax = "proto2";
+    message Heater {
+      optional int32 target_celsius = 1 [default = 6];
+    }
+    ```
+
+    ## Use instead
+    Keep the default. Another default is another field: `reserved 1; reserved
+    "target_celsius"; optional int32 target_celsius_v2 = 2 [default = 6];`, or send the value
+    always (make the senders set it).
+    """
+    taken, old = pair.by_number, pair.old
+    if taken is None or taken.cardinality == "repeated" or old.cardinality == "repeated":
+        return
+    if old.default is None and taken.default is None and old.kind == "scalar":
+        # bench_lint's 1,000-file tree: types that read each other's bytes have equal zero
+        # values (0, false, ""); test_implicit_defaults_of_compatible_types_agree holds it.
+        return
+    if taken.kind == "message" or not change.compatible(old, taken):
+        return
+    before, shown_before = change.old.default(old)
+    after, shown_after = change.new.default(taken)
+    if before != after:
+        yield Report(
+            taken.location,
+            f"{_field(taken, pair)} changed default value from {shown_before} to {shown_after}.",
+        )
+
+
+@field_rule(
+    "FIELD_ENCODING_CHANGED",
+    "A message field changed between a group (delimited) and a length-prefixed message.",
+)
+def encoding_changed(pair: FieldPair, change: Change) -> Reports:
+    """## What it does
+    Reports a message field that kept its number and type but changed how its message travels:
+    between start- and end-group tags (a proto2 `group`, or an editions field with
+    `features.message_encoding = DELIMITED`) and a length-prefixed record (a plain message
+    field). A proto2 group and a `DELIMITED` field are the same bytes, and are not reported.
+    (Packing, `repeated_field_encoding`, is not reported: every reader, nanopb's and Google's,
+    accepts a repeated scalar packed or not.)
+
+    ## Why is this bad?
+    The field's wire type changes, from 3 (start group) to 2 (length-delimited) or back. A
+    receiver built with the other encoding meets a wire type it does not expect: nanopb fails
+    to decode the whole message ("wrong wire type"), Google protobuf keeps the field as unknown
+    bytes and the message reads as if it were absent.
+
+    ## Example
+    Before:
+    ```proto
+    syntax = "proto2";
+    message Survey {
+      optional group Sample = 1 {
+        optional float depth = 2;
+      }
+    }
+    ```
+    After:
+    ```proto
+    syntax = "proto2";
+    message Survey {
+      message Sample {
+        optional float depth = 2;
+      }
+      optional Sample sample = 1;
+    }
+    ```
+
+    ## Use instead
+    Keep the encoding: in an editions file, write the field with
+    `[features.message_encoding = DELIMITED]`. A length-prefixed message is a new field:
+    `reserved 1; reserved "sample"; optional Sample sample_v2 = 3;`.
+    """
+    taken, old = pair.by_number, pair.old
+    if taken is None or old.kind != "message" or not change.compatible(old, taken):
+        return
+    if taken.delimited != old.delimited:
+        yield Report(
+            taken.location,
+            f'{_field(taken, pair)} changed type from "{old.encoding}" to "{taken.encoding}".',
+        )
+
+
+@field_rule(
+    "FIELD_UTF8_VALIDATION_CHANGED",
+    "A string field's readers now reject, or no longer reject, what is not UTF-8.",
+    severity="warning",
+)
+def utf8_validation_changed(pair: FieldPair, change: Change) -> Reports:
+    """## What it does
+    Reports a string field that kept its number whose UTF-8 validation changed: proto3 and
+    editions strings are `VERIFY` by default, proto2 strings `NONE`, and editions set it with
+    `features.utf8_validation`. It is a warning: only a value that is not UTF-8 breaks.
+
+    ## Why is this bad?
+    A reader that verifies fails to parse the whole message when the string holds bytes that
+    are not UTF-8 (Google protobuf raises a decode error). Senders built with `NONE` may send
+    such bytes, so turning validation on rejects what OLD's senders send; turning it off lets
+    NEW's senders write what OLD's verifying readers reject. nanopb does not validate unless
+    built with `PB_VALIDATE_UTF8`.
+
+    ## Example
+    Before:
+    ```proto
+    edition = "2023";
+    message Label {
+      string text = 1;
+    }
+    ```
+    After:
+    ```proto
+    edition = "2023";
+    message Label {
+      string text = 1 [features.utf8_validation = NONE];
+    }
+    ```
+
+    ## Use instead
+    Keep the validation (moving a file from proto2 to proto3 or editions, set
+    `features.utf8_validation = NONE` where proto2 had it); arbitrary bytes belong in a `bytes`
+    field.
+    """
+    taken, old = pair.by_number, pair.old
+    if taken is None or taken.type != "string" or old.type != "string":
+        return
+    if taken.utf8 != old.utf8:
+        yield Report(
+            taken.location,
+            f"{_field(taken, pair)} changed UTF8 validation from {_utf8(old)} to {_utf8(taken)}.",
+        )
+
+
+@field_rule(
+    "FIELD_JSON_NAME_CHANGED",
+    "A field kept its name but not its JSON name (json_name): protobuf JSON breaks.",
+    categories=("WIRE_JSON",),
+)
+def json_name_changed(pair: FieldPair, change: Change) -> Reports:
+    """## What it does
+    Reports a field that kept its number and name while its JSON name changed (a `json_name`
+    option added, changed or dropped). Only in category `WIRE_JSON`: the binary wire is
+    unchanged.
+
+    ## Why is this bad?
+    Protobuf JSON names each field by its JSON name. A JSON reader built from one revision
+    does not know the other's key: it rejects the document (or, ignoring unknown fields, drops
+    the value), so the base station's JSON logs and bridges stop reading each other.
+
+    ## Example
+    Before:
+    ```proto
+    message Fix {
+      double lat = 1 [json_name = "latitude"];
+    }
+    ```
+    After:
+    ```proto
+    message Fix {
+      double lat = 1 [json_name = "lat"];
+    }
+    ```
+
+    ## Use instead
+    Keep the JSON name (`[json_name = "latitude"]`).
+    """
+    taken, old = pair.by_number, pair.old
+    if taken is not None and taken.name == old.name and taken.json_name != old.json_name:
+        yield Report(
+            taken.location,
+            f'{_field(taken, pair)} changed option "json_name" from "{old.json_name}" to '
+            f'"{taken.json_name}".',
+        )
+
+
+def _field(now: Field, pair: FieldPair, name: str | None = None) -> str:
+    """``Field "2" with name "x" on message "M"``: how buf starts a message about a field."""
+    return (
+        f'{now.noun} "{pair.old.number}" with name "{name or pair.old.name}" on message '
+        f'"{pair.new_owner.name}"'
+    )
+
+
+def _utf8(field: Field) -> str:
+    return "VERIFY" if field.utf8 else "NONE"

@@ -1,8 +1,11 @@
-"""Rules on whole messages and enums: deletions, renames, reservations, the envelope's size. Each
-is handed one message or enum of OLD and its partner in NEW (or, for deletions, none)."""
+"""Rules on whole messages and enums: deletions, renames, reservations, required fields, the
+envelope's size. Each is handed one message or enum of OLD and its partner in NEW (or, for
+deletions, none)."""
+
+from typing import Any
 
 from .._model import Message
-from .._pairing import Change, EnumPair, MessagePair
+from .._pairing import Change, Paired
 from ._registry import Report, Reports, definition_rule, deleted_message_rule, message_rule
 
 
@@ -41,10 +44,10 @@ def deleted(message: Message, change: Change) -> Reports:
 
 @message_rule(
     "MESSAGE_RENAMED",
-    "A message changed its name but not its fields: harmless on the wire, breaks code.",
+    "A message was renamed (same fields) or moved to another scope: fine on the wire, breaks code.",
     severity="warning",
 )
-def renamed(pair: MessagePair, change: Change) -> Reports:
+def renamed(pair: Paired[Message], change: Change) -> Reports:
     """## What it does
     Reports a message of OLD that NEW has under another name with an identical body (the same
     fields, numbers, names and types). What it declares is renamed with it and compared under
@@ -80,13 +83,15 @@ def renamed(pair: MessagePair, change: Change) -> Reports:
     outer, _, inner = old.name.rpartition(".")
     if outer and change.renamed.get(outer) == new.name.removesuffix(f".{inner}"):
         return  # declared inside a renamed message: that rename says it
-    yield Report(
-        new.location, f'Message "{old.name}" was renamed to "{new.name}"; its fields are unchanged.'
-    )
+    if old.body() == new.body():
+        text = f'Message "{old.name}" was renamed to "{new.name}"; its fields are unchanged.'
+    else:  # moved to another scope: its fields are compared there
+        text = f'Message "{old.name}" was moved to "{new.name}".'
+    yield Report(new.location, text)
 
 
 @definition_rule("RESERVED_REMOVED", "A reserved number or name is no longer reserved.")
-def reserved_removed(pair: MessagePair | EnumPair, change: Change) -> Reports:
+def reserved_removed(pair: Paired[Any], change: Change) -> Reports:
     """## What it does
     Reports a reserved number range (or any part of it) or a reserved name of a message or enum
     that NEW no longer reserves, with the first number that became free.
@@ -137,8 +142,9 @@ def reserved_removed(pair: MessagePair | EnumPair, change: Change) -> Reports:
     "ENVELOPE_SIZE_GROWN",
     "An embedded root's nanopb maximum size grew: receivers built with the old size drop more.",
     severity="warning",
+    categories=("NANOPB",),
 )
-def envelope_size_grown(pair: MessagePair, change: Change) -> Reports:
+def envelope_size_grown(pair: Paired[Message], change: Change) -> Reports:
     """## What it does
     Reports an embedded root (`roots` of `[tool.erc-lint]`, `PBEnvelope` by default) whose
     maximum encoded size, as nanopb's generator computes it, is larger in NEW than in OLD.
@@ -178,8 +184,99 @@ def envelope_size_grown(pair: MessagePair, change: Change) -> Reports:
         return  # nothing nanopb sizes the root from has changed
     before, after = change.old.max_size(root), change.new.max_size(root)
     if before is not None and after is not None and after > before:
+        budget = change.config.budget.get(root)
+        room = f" (budget {budget} bytes: headroom {budget - after})" if budget else ""
         yield Report(
             pair.new.location,
-            f'Maximum size of message "{root}" grew from {before} to {after} bytes: receivers '
-            f"built with the old {root.replace('.', '_')}_size drop the longer datagrams.",
+            f'Maximum size of message "{root}" grew from {before} to {after} bytes{room}: '
+            f"receivers built with the old {root.replace('.', '_')}_size drop the longer "
+            "datagrams.",
         )
+
+
+@message_rule("REQUIRED_FIELD_ADDED", "A message has a required field it did not have before.")
+def required_field_added(pair: Paired[Message], change: Change) -> Reports:
+    """## What it does
+    Reports a field NEW holds `required` (proto2's label, or editions'
+    `features.field_presence = LEGACY_REQUIRED`) whose number OLD had not, or had but not
+    required.
+
+    ## Why is this bad?
+    A reader built from NEW refuses a message without every required field: nanopb fails to
+    decode it ("missing required field"), Google protobuf's C++ and Java parsers reject it
+    (Python's raises once the message is serialized again). Senders built from OLD never send
+    the new field, so every message they send is refused.
+
+    ## Example
+    Before:
+    ```proto
+    syntax = "proto2";
+    message Battery {
+      optional float volts = 1;
+    }
+    ```
+    After:
+    ```proto
+    syntax = "proto2";
+    message Battery {
+      optional float volts = 1;
+      required float amps = 2;
+    }
+    ```
+
+    ## Use instead
+    Add the field as `optional` (in editions, with explicit presence, the default), and treat
+    its absence in the receivers.
+    """
+    old, new = pair
+    for number, field in sorted(new.fields.items()):
+        before = old.fields.get(number)
+        if field.cardinality == "required" and (before is None or before.cardinality != "required"):
+            yield Report(field.location, _required(new, number, "added"))
+
+
+@message_rule("REQUIRED_FIELD_REMOVED", "A required field was deleted or is no longer required.")
+def required_field_removed(pair: Paired[Message], change: Change) -> Reports:
+    """## What it does
+    Reports a field OLD holds `required` (proto2's label, or editions'
+    `features.field_presence = LEGACY_REQUIRED`) that NEW deleted or no longer requires.
+
+    ## Why is this bad?
+    Readers built from OLD refuse a message without every field they hold required (nanopb:
+    "missing required field"; Google protobuf's C++ and Java parsers: "missing required
+    fields"). Senders built from NEW may leave the field out, so receivers still running OLD
+    refuse what they send.
+
+    ## Example
+    Before:
+    ```proto
+    syntax = "proto2";
+    message Battery {
+      required float volts = 1;
+    }
+    ```
+    After:
+    ```proto
+    syntax = "proto2";
+    message Battery {
+      optional float volts = 1;
+    }
+    ```
+
+    ## Use instead
+    Keep the field required until no receiver built from OLD is left, or have NEW's senders
+    always set it.
+    """
+    old, new = pair
+    for number, field in sorted(old.fields.items()):
+        now = new.fields.get(number)
+        if field.cardinality == "required" and (now is None or now.cardinality != "required"):
+            yield Report(now.location if now else new.location, _required(new, number, "deleted"))
+
+
+def _required(message: Message, number: int, what: str) -> str:
+    return (
+        f'Message "{message.name}" had required field "{number}" {what}. Required fields must '
+        "always be sent, so if one side does not know about the required field, this will "
+        "result in a breakage."
+    )

@@ -128,14 +128,15 @@ def name_collision(revision: Revision, change: Change) -> Reports:
 )
 def embedded_root_missing(revision: Revision, change: Change) -> Reports:
     """## What it does
-    Reports an embedded root named in `[tool.erc-lint] roots` that is no message of the tree
-    (nor declared in a file that does not compile, which `COMPILE` reports), located at the
-    configuration's `roots` line.
+    Reports an embedded root named in `[tool.erc-lint] roots` (or given a `budget`) that is no
+    message of the tree (nor declared in a file that does not compile, which `COMPILE` reports),
+    located at the configuration's `roots` line (or `budget` line).
 
     ## Why is this bad?
-    The embedded rules (`EMBEDDED_REPEATED`, `EMBEDDED_UNBOUNDED`, `ENVELOPE_SIZE_GROWN`) start
-    from the roots: a root that names nothing, a typo or a message renamed since, turns them off
-    in silence, and an unbounded field or a grown envelope then reaches the boards unseen.
+    The embedded rules (`EMBEDDED_REPEATED`, `EMBEDDED_UNBOUNDED`, `ENVELOPE_SIZE_GROWN`,
+    `ENVELOPE_OVER_BUDGET`) start from the roots: a root that names nothing, a typo or a
+    message renamed since, turns them off in silence, and an unbounded field or a grown
+    envelope then reaches the boards unseen.
 
     ## Example
     Before: `roots = ["RoverEnvelope"]`, and
@@ -153,7 +154,7 @@ def embedded_root_missing(revision: Revision, change: Change) -> Reports:
     config = change.config
     if not config.roots_chosen or not revision.tree.files:
         return
-    where = Location(config.source or str(revision.root), max(config.roots_line, 1), 1)
+    where = Location(config.source or str(revision.root), max(config.roots_where, 1), 1)
     for root in config.roots:
         if root not in revision.messages and not revision.declared_in_failed_file(root):
             yield Report(
@@ -167,6 +168,7 @@ def embedded_root_missing(revision: Revision, change: Change) -> Reports:
 @tree_rule(
     "EMBEDDED_REPEATED",
     "A repeated field in a message an embedded root reaches: embedded boards need fixed sizes.",
+    categories=("TREE", "NANOPB"),
 )
 def embedded_repeated(revision: Revision, change: Change) -> Reports:
     """## What it does
@@ -210,6 +212,7 @@ def embedded_repeated(revision: Revision, change: Change) -> Reports:
 @tree_rule(
     "EMBEDDED_UNBOUNDED",
     "A string or bytes field without nanopb max_size in a message an embedded root reaches.",
+    categories=("TREE", "NANOPB"),
 )
 def embedded_unbounded(revision: Revision, change: Change) -> Reports:
     """## What it does
