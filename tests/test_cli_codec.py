@@ -292,6 +292,16 @@ def test_a_decoded_line_encodes_back_to_its_datagram(codec: erc_codec.Codec) -> 
     assert piped.out == datagram + "\n", piped
 
 
+def test_decode_prints_a_truncated_datagram_as_an_error() -> None:
+    """620b...4048 is 620b...404802 (fix_quality DGPS_FIX) cut by a byte: not a stripped form."""
+    done = run("decode", stdin=b"620b09d8817346941e4a4048\n620b09d8817346941e4a404802\n")
+    assert done.code == 1
+    cut, whole = records(done.out)
+    assert cut["reason"] == "truncated"
+    assert "SensorBoardGPSInfo.fix_quality = NO_FIX" in cut["error"]
+    assert whole["message"]["fix_quality"] == "DGPS_FIX"
+
+
 def test_another_schema_with_proto_and_root(codec: erc_codec.Codec) -> None:
     tree = ["--proto", str(PRESENCE), "--root", "Env"]
     done = run("encode", "counter", '{"id": 7, "count": 0}', *tree)
