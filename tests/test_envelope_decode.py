@@ -4,10 +4,11 @@ Stripped datagrams get back the zeros their last field needs, padded ones lose t
 explicitly present zeros survive both; anything else is a DecodeError saying what and where.
 """
 
+import array
 import contextlib
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import pytest
 from datagrams import (
@@ -515,3 +516,38 @@ def test_every_form_of_strings_maps_and_optional_fields_decodes(
     decoded = codec.decode(datagram)
     assert decoded.kind == kind
     assert decoded.message == message
+
+
+# -- any bytes-like object ---------------------------------------------------------------------
+
+
+def _views(data: bytes) -> list[object]:
+    return [
+        bytearray(data),
+        memoryview(data),
+        memoryview(bytearray(b"xy" + data))[2:],
+        array.array("B", data),
+    ]
+
+
+def test_decode_and_peek_take_any_bytes_like_object(codec: Codec) -> None:
+    """bytes, bytearray, memoryview (once an AttributeError on the padded path), array: the
+    same outcome as the bytes."""
+    samples = [*valid_datagrams(codec), *(h(c[2]) for c in TRUNCATED if c[1] == "rover")]
+    samples += [h("b2 01 00"), h("22 00 00 01"), b""]
+    for data in samples:
+        expected = _cut_outcome(codec, data)
+        for view in _views(data):
+            assert _cut_outcome(codec, cast(bytes, view)) == expected, (type(view), data.hex())
+            assert codec.peek(cast(bytes, view)) == codec.peek(data)
+    wide = array.array("H", [0x0022])  # a buffer of 2-byte items: its bytes, 22 00
+    assert codec.decode(cast(bytes, wide)).kind == "arm_movement_feedback"
+
+
+@pytest.mark.parametrize("value", ["22", 34, None, [0x22, 0x00]])
+def test_decode_refuses_what_is_not_bytes(codec: Codec, value: object) -> None:
+    name = type(value).__name__
+    with pytest.raises(TypeError, match=rf"a datagram is bytes .*not {name}"):
+        codec.decode(cast(bytes, value))
+    with pytest.raises(TypeError, match=rf"not {name}"):
+        codec.peek(cast(bytes, value))
