@@ -10,7 +10,8 @@ What this module guarantees:
   where a tag is expected ends the message, provided nothing but zeros follows it.
 - It restores only zeros some encoder could have written: a restoration giving a field without
   presence its default is a datagram cut short, reason ``truncated`` (see ``_truncation``).
-- ``decode`` takes any bytes-like object (a ``str`` is a ``TypeError``).
+- ``encode`` never produces a datagram ``decode`` refuses, and ``decode`` takes any bytes-like
+  object (a ``str`` is a ``TypeError``).
 - Every failure is a ``DecodeError``/``EncodeError`` saying what and where (offset, field path).
 
 Both directions run per datagram, so the common case is the protobuf call plus a few byte
@@ -157,19 +158,23 @@ class Envelope:
         """The datagram carrying ``message`` (a payload, or a whole envelope) in ``mode``."""
         member = self._members.get(type(message))
         if member is None:
-            data = self._encode_other(message)
-        else:
-            headers, screen, check, serialize = member
-            body = serialize(message)
-            if check is not None and (screen is None or screen(body)):
-                check(message)
-            try:
-                header = headers[len(body)]
-            except IndexError:
-                raise self._too_long(message, headers, body) from None
-            if mode == "strip":  # a body is empty or ends in a field, never in its tag
-                return header + body.rstrip(b"\0") if body else header.rstrip(b"\0")
-            data = header + body
+            return self._encode_other(message, mode)
+        headers, screen, check, serialize = member
+        body = serialize(message)
+        if check is not None and (screen is None or screen(body)):
+            check(message)
+        try:
+            header = headers[len(body)]
+        except IndexError:
+            raise self._too_long(message, headers, body) from None
+        if mode == "strip":  # a body is empty or ends in a field, never in its tag
+            return header + body.rstrip(b"\0") if body else header.rstrip(b"\0")
+        if mode == "exact":
+            return header + body
+        return self._in_form(header + body, mode)
+
+    def _in_form(self, data: bytes, mode: Mode) -> bytes:
+        """An exact datagram in transmission form ``mode``."""
         if mode == "strip":
             return data.rstrip(b"\0")
         if mode == "exact":
@@ -178,7 +183,7 @@ class Envelope:
             return data + bytes(self._max_size - len(data))
         raise EncodeError(f"unknown mode {mode!r}: use 'strip', 'exact' or 'pad'")
 
-    def _encode_other(self, message: Message) -> bytes:
+    def _encode_other(self, message: Message, mode: Mode) -> bytes:
         """An envelope, a payload of a class built elsewhere (generated code), or an error."""
         name = message.DESCRIPTOR.full_name
         if name == self._name:
@@ -191,7 +196,17 @@ class Envelope:
             data = message.SerializeToString()
             if len(data) > self._max_size:
                 raise self._too_long(message, [b""], data)
-            return data
+            datagram = self._in_form(data, mode)
+            # An envelope parsed from bytes keeps the fields this schema does not know, and some
+            # (a group at the top level) are what decode refuses: never send those.
+            try:
+                self.decode(datagram)
+            except DecodeError as error:
+                raise EncodeError(
+                    f"{self._name} cannot be sent: its own decoder would refuse the datagram "
+                    f"({error}; unknown fields from a newer sender?)"
+                ) from None
+            return datagram
         member = self._by_name.get(name, ())
         if not member:
             raise EncodeError(
@@ -206,7 +221,7 @@ class Envelope:
         body = message.SerializeToString()
         if len(body) >= len(headers):
             raise self._too_long(message, headers, body)
-        return headers[len(body)] + body
+        return self._in_form(headers[len(body)] + body, mode)
 
     def _too_long(self, message: Message, headers: list[bytes], body: bytes) -> EncodeError:
         """The error for a ``body`` too long to fit, ``headers`` being its member's (or ``[b""]``
