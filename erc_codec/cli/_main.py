@@ -9,6 +9,7 @@ from ._net import listen, send
 from ._proton import proton
 from ._record import record, replay
 from ._sizes import sizes
+from ._wireshark import wireshark
 
 __all__ = ["main"]
 
@@ -19,5 +20,5 @@ def main() -> None:
     """Encode, decode and size the ERC rover's PBEnvelope datagrams."""
 
 
-for _command in (sizes, decode, encode, send, listen, record, replay, proton):
+for _command in (sizes, decode, encode, send, listen, record, replay, proton, wireshark):
     main.add_command(_command)
