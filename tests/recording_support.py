@@ -1,12 +1,21 @@
-"""Captures the recording tests (and bench_record.py) write: classic pcap, Ethernet, IPv4, UDP.
+"""What the recording tests share: captures they write, and the tools they need.
 
-Imported as conftest is (``from captures import write_pcap``); it holds no tests. Written with
-struct, byte by byte, so a test of the pcap readers does not lean on one of them to make its input.
+Imported as conftest is (``from recording_support import write_pcap``); it holds no tests.
+Captures are classic pcap (Ethernet, IPv4, UDP), written with struct byte by byte, so a test of
+the pcap readers does not lean on one of them to make its input. ``need`` imports a library of
+the test extra (or finds a program CI installs): without it a test skips and says why, except
+under ERC_REQUIRE_INTEROP=1 (CI), where it fails.
 """
 
+import importlib
+import os
+import shutil
 import struct
 from collections.abc import Iterable
 from pathlib import Path
+from types import ModuleType
+
+import pytest
 
 _ETHERNET = bytes.fromhex("0200000000020200000000010800")
 _PCAP_HEADER = struct.pack("<IHHiIII", 0xA1B2C3D4, 2, 4, 0, 0, 65535, 1)  # µs, LINKTYPE_ETHERNET
@@ -56,3 +65,27 @@ def write_pcap(
             file.write(data)
             times.append(micros / 1e6)
     return times
+
+
+def _missing(reason: str) -> None:
+    if os.environ.get("ERC_REQUIRE_INTEROP") == "1":
+        pytest.fail(f"ERC_REQUIRE_INTEROP=1 but {reason}")
+    pytest.skip(reason)
+
+
+def need(module: str) -> ModuleType:
+    """Import ``module`` (of the test extra), or skip (fail under ERC_REQUIRE_INTEROP=1)."""
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        _missing(f"{module} is not installed (pip install -e '.[test]')")
+        raise  # not reached: skip and fail raise
+
+
+def need_program(name: str, install: str) -> str:
+    """The path of program ``name``, or skip (fail under ERC_REQUIRE_INTEROP=1)."""
+    found = shutil.which(name)
+    if found is None:
+        _missing(f"{name} is not installed ({install})")
+        raise AssertionError("not reached")
+    return found
