@@ -73,7 +73,7 @@ class FoxgloveView:
         port: int = 8765,
         interval: float = 1.0,
     ) -> None:
-        foxglove = require("foxglove", "foxglove-sdk", "foxglove", "a Foxglove view")
+        foxglove = require("foxglove", "foxglove-sdk", "foxglove", "serving Foxglove")
         import threading  # here, not at import: erc_codec's own start-up stays small
 
         self._foxglove = foxglove

@@ -18,6 +18,7 @@ The file must be seekable (the library goes back to write its indexes).
 """
 
 import os
+import struct
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO, Literal, NamedTuple
@@ -85,8 +86,8 @@ class McapWriter:
         chunk_size: int = 1 << 20,
         compression: Compression = "zstd",
     ) -> None:
-        writer_module = _mcap("mcap.writer", "McapWriter")
-        well_known = _mcap("mcap.well_known", "McapWriter")
+        writer_module = _mcap("mcap.writer", "writing MCAP")
+        well_known = _mcap("mcap.well_known", "writing MCAP")
         self._codec = codec or Codec.default()
         self._encoding = well_known.MessageEncoding.Protobuf
         self._schema_encoding = well_known.SchemaEncoding.Protobuf
@@ -237,9 +238,9 @@ def read_mcap(path: str | os.PathLike[str]) -> Iterator[Recorded]:
     the tree is now): ``Recorded(log_time, kind, message)``; a drop comes as kind ``None`` with a
     ``DroppedDatagram`` (``reason``, ``error``, ``length``, ``data``, ``source``,
     ``destination``). Chunk CRCs are checked; a damaged file is a ``CodecError``."""
-    reader_module = _mcap("mcap.reader", "read_mcap")
-    decoder_module = _mcap("mcap_protobuf.decoder", "read_mcap")
-    errors = (_mcap("mcap.exceptions", "read_mcap").McapError, ProtobufDecodeError)
+    reader_module = _mcap("mcap.reader", "reading MCAP")
+    decoder_module = _mcap("mcap_protobuf.decoder", "reading MCAP")
+    errors = _damage()
     try:
         with Path(path).open("rb") as file:
             reader = reader_module.make_reader(
@@ -256,8 +257,8 @@ def read_mcap(path: str | os.PathLike[str]) -> Iterator[Recorded]:
 def recorded_payloads(path: str | os.PathLike[str]) -> Iterator[tuple[int, str | None, bytes]]:
     """``(log_time, kind, payload bytes)`` of every member message of an MCAP file, and
     ``(log_time, None, datagram as received)`` of every drop, in log-time order, undecoded."""
-    reader_module = _mcap("mcap.reader", "replay")
-    errors = (_mcap("mcap.exceptions", "replay").McapError, ProtobufDecodeError)
+    reader_module = _mcap("mcap.reader", "reading MCAP")
+    errors = _damage()
     parse_drop = dropped_datagram().FromString
     try:
         with Path(path).open("rb") as file:
@@ -272,3 +273,12 @@ def recorded_payloads(path: str | os.PathLike[str]) -> Iterator[tuple[int, str |
                     yield message.log_time, None, drop.data
     except errors as error:
         raise CodecError(f"{path} is not a readable MCAP recording: {error}") from None
+
+
+def _damage() -> tuple[type[Exception], ...]:
+    """What the readers raise on a damaged file: their own errors, a CRC that does not match
+    (a ValueError), records cut short, chunks that do not decompress, payloads that do not
+    parse."""
+    zstd: Any = _mcap("zstandard", "reading MCAP")
+    mcap_error = _mcap("mcap.exceptions", "reading MCAP").McapError
+    return (mcap_error, ValueError, struct.error, EOFError, zstd.ZstdError, ProtobufDecodeError)

@@ -338,7 +338,11 @@ def replay(
     right after the one before). Each payload is re-encoded in --mode (the
     fleet's strip by default); a datagram that did not decode is sent as
     received only with --drops. The last line on stderr says what was sent
-    (by kind), what was not and why, and how late the latest send ran.
+    (by kind), how late the latest send ran ("latest_ms"), and what was
+    skipped: "drops" (without --drops), "drops_without_bytes" (JSON lines
+    keep none), "other_kinds" (--kind), "unknown_kind" (not in this schema),
+    "not_valid" (a payload or line that does not parse) or "not_sendable"
+    (a payload a fixed-size receiver would drop).
 
     \b
     Exit status: 0 sent; 1 the file ends in damage after what was sent, or
@@ -366,7 +370,7 @@ def replay(
             click.echo(f"replayed: {json.dumps(player.summary())}", err=True)
             raise click.ClickException(one_line(str(error))) from None
     click.echo(f"replayed: {json.dumps(player.summary())}", err=True)
-    sys.exit(1 if player.skipped.get("not valid") else 0)
+    sys.exit(1 if player.skipped.get("not_valid") else 0)
 
 
 class _Player:
@@ -393,7 +397,8 @@ class _Player:
         self.skipped[why] = self.skipped.get(why, 0) + 1
 
     def play(self, entries: Iterator[_Entry], send: Callable[[bytes], object]) -> None:
-        start = time.monotonic()
+        """Send every entry; the clock starts at the first one with a time."""
+        start = began = time.monotonic()
         try:
             for entry in entries:
                 data = self._datagram(entry)
@@ -401,7 +406,7 @@ class _Player:
                     continue
                 if entry.time is not None:
                     if self.first is None:
-                        self.first = entry.time
+                        self.first, start = entry.time, time.monotonic()
                     self.last = entry.time
                     if self._speed:
                         due = start + (entry.time - self.first) / 1e9 / self._speed
@@ -412,21 +417,21 @@ class _Player:
                 send(data)
                 self.bytes += len(data)
         finally:
-            self.elapsed = time.monotonic() - start
+            self.elapsed = time.monotonic() - began
 
     def _datagram(self, entry: _Entry) -> bytes | None:
         """The bytes to send for an entry, or None (counted under why)."""
         if entry.kind is None:
             if not self._with_drops:
-                self.skip("drops (send them with --drops)")
+                self.skip("drops")
                 return None
             if not entry.data:
-                self.skip("drops without their bytes")
+                self.skip("drops_without_bytes")
                 return None
             self.sent["drops"] = self.sent.get("drops", 0) + 1
             return entry.data
         if self._kinds and entry.kind not in self._kinds:
-            self.skip("other kinds (--kind)")
+            self.skip("other_kinds")
             return None
         envelope = self._envelope()
         assert entry.message is not None
@@ -434,7 +439,7 @@ class _Player:
         try:
             data = self._codec.encode(envelope, self._mode)
         except EncodeError:
-            self.skip("not sendable (a fixed-size receiver would drop it)")
+            self.skip("not_sendable")
             return None
         self.sent[entry.kind] = self.sent.get(entry.kind, 0) + 1
         return data
@@ -482,12 +487,12 @@ def _from_mcap(
             continue
         payload = classes.get(kind)
         if payload is None:
-            skip(f"kinds this schema lacks ({kind})")
+            skip("unknown_kind")
             continue
         try:
             yield _Entry(log_time, kind, payload.FromString(data), b"")
         except ProtobufDecodeError:
-            skip("not valid")
+            skip("not_valid")
 
 
 def _from_capture(capture: Capture, codec: Codec) -> Iterator[_Entry]:
@@ -528,15 +533,15 @@ def _from_json_lines(path: Path, codec: Codec, skip: Callable[[str], None]) -> I
                 yield _Entry(at, None, None, b"")
                 continue
             if not isinstance(kind, str) or kind not in kinds:
-                skip("not valid")
+                skip("not_valid")
                 continue
             if not isinstance(record.get("message"), dict):
-                skip("not valid")
+                skip("not_valid")
                 continue
             message = codec.payload_class(kind)()
             try:
                 json_format.ParseDict(record["message"], message)
             except json_format.ParseError:
-                skip("not valid")
+                skip("not_valid")
                 continue
             yield _Entry(at, kind, message, b"")
