@@ -552,7 +552,7 @@ show_message = function(tree, tvb, s, message)
                 item = tree:add(f.hf, "")
                 item:set_text(f.name .. ": ")
             elseif f.type == T.BYTES then
-                item = tree:add(f.hf, ByteArray.new())
+                item = tree:add(f.hf, tvb(0, 0))
                 item:set_text(f.name .. ": ")
             else
                 item = tree:add(f.hf, 0)

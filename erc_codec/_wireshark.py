@@ -30,8 +30,8 @@ _F = FieldDescriptor
 def wireshark_dissector(codec: Codec | None = None, ports: Iterable[int] = DEFAULT_PORTS) -> str:
     """The Lua source of a dissector for ``codec``'s envelope on UDP ``ports``.
 
-    Refused with a ``SchemaError``: proto2 groups and editions files, which the dissector's
-    parser does not know (no fleet schema has them)."""
+    Refused with a ``SchemaError``: a tree of editions files, whose per-field features the
+    dissector's parser does not read (no fleet schema has them)."""
     codec = codec or Codec.default()
     ports = sorted(set(ports))
     if not ports or any(not 0 < port < 65536 for port in ports):
@@ -99,8 +99,6 @@ _HEADER = """\
 
 def _field(field: FieldDescriptor, index: dict[str, int], proto3: bool) -> list[str]:
     """A field's entries in the Lua table (its enum's index is the caller's to add)."""
-    if field.type == _F.TYPE_GROUP:
-        raise SchemaError(f"{field.full_name} is a proto2 group: not supported")
     entries = [f"number = {field.number}", f"name = {_lua(field.name)}", f"type = {field.type}"]
     if field.is_repeated:
         entries.append("repeated = true")
