@@ -61,7 +61,7 @@ def test_record_writes_what_arrives(codec: erc_codec.Codec, tmp_path: Path, stop
     recorder, port = start_recorder(out, *args)
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
         sender.bind(("127.0.0.1", 0))
-        source = "127.0.0.1:%d" % sender.getsockname()[1]
+        source = f"127.0.0.1:{sender.getsockname()[1]}"
         before = time.time_ns()
         for data in sent:
             sender.sendto(data, ("127.0.0.1", port))
@@ -85,7 +85,9 @@ def test_record_writes_what_arrives(codec: erc_codec.Codec, tmp_path: Path, stop
     messages = read_back(out)
     assert len(messages) == len(sent)
     times = [m.message.log_time for m in messages]
-    assert before <= times[0] and times == sorted(times) and times[-1] <= after
+    assert before <= times[0]
+    assert times == sorted(times)
+    assert times[-1] <= after
     assert [m.message.sequence for m in messages] == list(range(1, len(sent) + 1))
     for data, read in zip(sent, messages, strict=True):
         if read.channel.topic == "/erc-codec/drops":
@@ -144,7 +146,7 @@ class Catcher:
         self.sock.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
         self.sock.bind(("127.0.0.1", 0))
         self.sock.settimeout(10)
-        self.address = "127.0.0.1:%d" % self.sock.getsockname()[1]
+        self.address = f"127.0.0.1:{self.sock.getsockname()[1]}"
 
     def take(self, count: int) -> list[tuple[float, bytes]]:
         got = []
@@ -306,7 +308,8 @@ def test_replay_of_something_else_is_one_line(tmp_path: Path) -> None:
     )
     assert done.returncode == 1
     assert done.stderr.splitlines()[-1] == (
-        f"Error: {notes}:1: not a JSON line (replay reads MCAP, pcap, pcapng or decode's JSON lines)"
+        f"Error: {notes}:1: not a JSON line "
+        "(replay reads MCAP, pcap, pcapng or decode's JSON lines)"
     )
     missing = subprocess.run(
         [sys.executable, "-m", "erc_codec", "replay", str(tmp_path / "none.mcap"), "127.0.0.1:9"],

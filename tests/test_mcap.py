@@ -6,7 +6,7 @@ import io
 import subprocess
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO, cast
 
 import pytest
 from datagrams import MODES, random_payloads
@@ -94,13 +94,15 @@ def test_read_mcap_yields_kinds_messages_and_drops(codec: erc_codec.Codec, tmp_p
         writer.write(codec.encode(gps), T0)
         writer.write(bytes.fromhex("b20100"), T0 + 5, "10.0.0.9:7")
         writer.message("gps_info", gps, T0 + 9)
-    first, drop, last = erc_codec.read_mcap(path)
-    assert isinstance(first, erc_codec.Recorded)
+    recorded = list(erc_codec.read_mcap(path))
+    assert all(isinstance(r, erc_codec.Recorded) for r in recorded)
+    first, drop, last = recorded
+    fix, dropped = cast(Any, first.message), cast(Any, drop.message)
     assert (first.log_time, first.kind) == (T0, "gps_info")
     assert first.message.SerializeToString() == gps.SerializeToString()
-    assert first.message.latitude == 52.2389
-    assert (drop.log_time, drop.kind, drop.message.reason) == (T0 + 5, None, "unknown_member")
-    assert drop.message.data == bytes.fromhex("b20100")
+    assert fix.latitude == 52.2389
+    assert (drop.log_time, drop.kind, dropped.reason) == (T0 + 5, None, "unknown_member")
+    assert dropped.data == bytes.fromhex("b20100")
     assert (last.log_time, last.kind) == (T0 + 9, "gps_info")
 
 
@@ -120,8 +122,8 @@ def test_each_schema_is_its_payloads_file_and_imports_dependencies_first(
         files = descriptor_pb2.FileDescriptorSet.FromString(schema.data).file
         names = [file.name for file in files]
         assert len(set(names)) == len(names)
-        for position, file in enumerate(files):
-            assert set(file.dependency) <= set(names[:position]), (schema.name, names)
+        for position, proto in enumerate(files):
+            assert set(proto.dependency) <= set(names[:position]), (schema.name, names)
         top = descriptor_of(codec.message_class(schema.name)).file.name
         assert names[-1] == top  # the payload's own file last, after all it imports
         assert not any(file.HasField("source_code_info") for file in files)
@@ -188,7 +190,7 @@ def test_the_output_must_be_seekable(codec: erc_codec.Codec) -> None:
     assert pipe.stdin is not None
     try:
         with pytest.raises(erc_codec.CodecError, match="seekable file, not a pipe"):
-            erc_codec.McapWriter(pipe.stdin, codec)
+            erc_codec.McapWriter(cast(BinaryIO, pipe.stdin), codec)
     finally:
         pipe.stdin.close()
         pipe.wait()
@@ -213,7 +215,8 @@ def test_decode_pcap_mcap_writes_a_capture(codec: erc_codec.Codec, tmp_path: Pat
     assert done.returncode == 1, done.stderr  # as decode: some datagrams did not decode
     assert done.stdout == ""
     assert done.stderr == (
-        f"10 datagrams, 4 undecodable, 0 packets skipped; {out}: 6 messages on 2 channels, 4 drops\n"
+        f"10 datagrams, 4 undecodable, 0 packets skipped; {out}: 6 messages on 2 channels, "
+        "4 drops\n"
     )
     messages = read_back(out)
     assert [m.channel.topic for m in messages] == [
