@@ -89,6 +89,7 @@ class McapWriter:
         writer_module = _mcap("mcap.writer", "writing MCAP")
         well_known = _mcap("mcap.well_known", "writing MCAP")
         self._codec = codec or Codec.default()
+        self._decode = self._codec.decode
         self._encoding = well_known.MessageEncoding.Protobuf
         self._schema_encoding = well_known.SchemaEncoding.Protobuf
         if isinstance(output, str | os.PathLike):
@@ -129,23 +130,31 @@ class McapWriter:
     ) -> str | None:
         """Decode one datagram and write it as a message, or as a drop; its kind, or None."""
         try:
-            kind, message = self._codec.decode(data)
+            kind, message = self._decode(data)
         except DecodeError as error:
             self.drop(data, log_time, error.reason, str(error), source, destination)
             return None
         self.message(kind, message, log_time, source)
         return kind
 
-    def message(self, kind: str, message: Message, log_time: int, source: str = "") -> None:
-        """Write the payload of a decoded datagram of member ``kind`` that arrived at
-        ``log_time`` (nanoseconds since the epoch) from ``source``."""
+    def message(self, kind: str, payload: Message | bytes, log_time: int, source: str = "") -> None:
+        """Write the payload of a decoded datagram of member ``kind`` (the message, or its exact
+        encoding) that arrived at ``log_time`` (nanoseconds since the epoch) from ``source``."""
         channel = self._channels.get(kind)
         if channel is None:
             channel = self._channel(kind)
+        data = payload if isinstance(payload, bytes) else payload.SerializeToString()
         self._sequence = sequence = (self._sequence + 1) & 0xFFFFFFFF  # MCAP's is a uint32
-        self._add(channel, log_time, message.SerializeToString(), log_time, sequence)
-        self._messages[kind] = self._messages.get(kind, 0) + 1
-        self._sender(kind, source)
+        self._add(channel, log_time, data, log_time, sequence)
+        messages = self._messages
+        messages[kind] = messages.get(kind, 0) + 1
+        senders, key = self._senders, (kind, source)
+        if key in senders:
+            senders[key] += 1
+        elif len(senders) < _MAX_SENDERS:
+            senders[key] = 1
+        else:
+            self._unlisted_senders += 1
 
     def drop(
         self,
@@ -201,16 +210,6 @@ class McapWriter:
         channel: int = self._writer.register_channel(member_topic(kind), self._encoding, schema)
         self._channels[kind] = channel
         return channel
-
-    def _sender(self, kind: str, source: str) -> None:
-        key = kind, source
-        count = self._senders.get(key)
-        if count is not None:
-            self._senders[key] = count + 1
-        elif len(self._senders) < _MAX_SENDERS:
-            self._senders[key] = 1
-        else:
-            self._unlisted_senders += 1
 
     def _summary(self) -> dict[str, str]:
         messages, drops = sum(self._messages.values()), sum(self._drops.values())

@@ -39,6 +39,7 @@ from ._encode import MODE
 from ._net import parse_address, resolve, shown
 from ._pcap import Capture
 from ._shared import Fatal, load, one_line, plural, schema_options
+from ._writer import WriterProcess
 
 __all__ = ["capture_to_mcap", "record", "replay"]
 
@@ -74,8 +75,8 @@ def capture_to_mcap(capture: Capture, codec: Codec, output: Path) -> tuple[int, 
     writer = _writer(output, codec, f"capture {capture.path.name}", 1 << 20)
     write = writer.write
     try:
-        for datagram in capture.datagrams():
-            write(datagram.data, nanoseconds(datagram.time), datagram.source, datagram.destination)
+        for at, source, destination, data in capture.datagrams():
+            write(data, nanoseconds(at), source, destination)
     finally:
         skipped = capture.skipped
         extra = {f"capture.skipped.{why}": str(n) for why, n in sorted(skipped.items())}
@@ -140,28 +141,36 @@ def record(
     host, port = parse_address(address, default_host="127.0.0.1")
     codec = load(tree, root)
     _, local = resolve(host, port)
-    session = _Recording(codec, output, count)
-    asyncio.run(session.run(local, seconds))
+    if output.exists():
+        raise Fatal(f"{output} exists: remove it or choose another name")
+    writer = WriterProcess(codec)
+    try:
+        session = _Recording(codec, writer, output, count)
+        asyncio.run(session.run(local, seconds))
+    finally:
+        writer.shutdown()
     click.echo(f"recorded: {json.dumps(session.summary)}", err=True)
 
 
 class _Recording:
-    """One ``record``: an endpoint whose dispatcher writes every payload and every drop."""
+    """One ``record``: an endpoint whose dispatcher hands every payload and every drop, with its
+    arrival time and sender, to the writer process."""
 
-    def __init__(self, codec: Codec, output: Path, count: int | None) -> None:
+    def __init__(
+        self, codec: Codec, writer: WriterProcess, output: Path, count: int | None
+    ) -> None:
+        self._writer = writer
         self.dispatcher = Dispatcher(codec, on_drop=self._dropped)
         for kind in codec.kinds().values():
             self.dispatcher.register(kind, self._writer_of(kind))
-        self._codec = codec
         self._output = output
         self._count = count
-        self._writer: McapWriter | None = None
         self.received = 0
         self.summary: dict[str, Any] = {}
         self._now = 0  # arrival time (ns) and sender of the datagram being dispatched
         self._source = ""
         self._senders: dict[Any, str] = {}
-        self._failure: BaseException | None = None
+        self._failure: Exception | None = None
         self._stop: Callable[[], None] = lambda: None
 
     async def run(self, local: tuple[Any, ...], seconds: float | None) -> None:
@@ -196,10 +205,11 @@ class _Recording:
         try:
             endpoint = await open_udp(self.dispatcher, local[0], local[1], on_datagram=heard)
         except OSError as error:
+            self._writer.abort()
             raise Fatal(f"cannot listen on {shown(local)}: {error}") from None
         bound = endpoint.address
         try:
-            self._writer = _writer(self._output, self._codec, f"udp {shown(bound)}", 1 << 18)
+            self._writer.open(self._output, f"udp {shown(bound)}")
         except Fatal:
             endpoint.close()
             raise
@@ -208,55 +218,66 @@ class _Recording:
         for signum in signals:
             with contextlib.suppress(NotImplementedError, RuntimeError):  # not on this platform
                 loop.add_signal_handler(signum, stop)
+        flushing = loop.create_task(self._flush_every(0.05))
         try:
             await asyncio.wait([finished], timeout=seconds)
         finally:
             stop()
+            flushing.cancel()
             for signum in signals:
                 with contextlib.suppress(NotImplementedError, RuntimeError):
                     loop.remove_signal_handler(signum)
-            self._finish(kernel[0])
+        self._finish(kernel[0])
+
+    async def _flush_every(self, interval: float) -> None:
+        """Hand the batch over while traffic is slow too, so the file keeps up with it."""
+        import asyncio
+
+        while True:
+            await asyncio.sleep(interval)
+            self._guarded(self._writer.flush)
 
     def _finish(self, kernel: int | None) -> None:
-        assert self._writer is not None
-        written = self._writer.stats()
         extra = {"received": str(self.received)}
         if kernel is not None:
             extra["dropped_by_kernel"] = str(kernel)
-        try:
-            self._writer.close(extra)
-        except OSError as error:
-            self._failure = self._failure or error
         if self._failure is not None:
-            raise Fatal(f"cannot write {self._output}: {self._failure}")
+            raise self._failure
+        written, size = self._writer.close(extra)
         self.summary = {
             "received": self.received,
             "messages": written.messages,
             "drops": written.drops,
             "dropped_by_kernel": kernel,
             "file": str(self._output),
-            "bytes": self._output.stat().st_size,
+            "bytes": size,
         }
 
+    def _guarded(self, step: Callable[[], None]) -> None:
+        """Run a hand-over; a writer that failed stops the recording with its error."""
+        try:
+            step()
+        except Fatal as failure:
+            self._failure = self._failure or failure
+            self._stop()
+
     def _writer_of(self, kind: str) -> Callable[[Message], None]:
+        writer = self._writer
+
         def write(message: Message) -> None:
-            assert self._writer is not None
-            self._writer.message(kind, message, self._now, self._source)
+            writer.message(kind, message.SerializeToString(), self._now, self._source)
 
         return write
 
     def _dropped(self, drop: Drop) -> None:
-        assert self._writer is not None
-        if drop.reason == "handler_error":  # the file could not be written: stop there
-            self._failure = self._failure or drop.error
+        if drop.reason == "handler_error":  # the writer failed: stop there
+            self._failure = self._failure or cast(Exception, drop.error)
             self._stop()
             return
         error = str(drop.error) if drop.error is not None else ""
-        try:
-            self._writer.drop(drop.data, self._now, drop.reason, error, self._source)
-        except OSError as failure:
-            self._failure = self._failure or failure
-            self._stop()
+        self._guarded(
+            lambda: self._writer.drop(drop.data, self._now, drop.reason, error, self._source)
+        )
 
 
 def kernel_drops(address: tuple[Any, ...]) -> int | None:
