@@ -129,8 +129,8 @@ def nanoseconds(seconds: float) -> int:
     """
     whole = int(seconds // 1)
     nanos = round((seconds - whole) * 1e9)  # exact: seconds and whole share their exponent
-    micros = round(nanos, -3)
-    return whole * 1_000_000_000 + (micros if abs(nanos - micros) <= 250 else nanos)
+    off = (nanos + 500) % 1000 - 500  # how far from the nearest microsecond, -500..499
+    return whole * 1_000_000_000 + (nanos - off if -250 <= off <= 250 else nanos)
 
 
 def require(module: str, package: str, extra: str, what: str) -> ModuleType:
