@@ -267,3 +267,38 @@ def test_without_the_mcap_extra_one_line_names_it(tmp_path: Path) -> None:
         2,
         "Error: writing MCAP needs the mcap package: pip install 'erc-codec[mcap]'\n",
     )
+
+
+def test_a_damaged_capture_is_written_up_to_the_damage(
+    codec: erc_codec.Codec, tmp_path: Path
+) -> None:
+    need("dpkt")
+    need("mcap")
+    capture, out = tmp_path / "cut.pcap", tmp_path / "cut.mcap"
+    gps = codec.message_class("SensorBoardGPSInfo")(satellites=5)
+    write_pcap(capture, [codec.encode(gps)] * 3)
+    capture.write_bytes(capture.read_bytes()[:-3])  # cut inside the last packet
+    done = run("decode", "--pcap", str(capture), "--mcap", str(out))
+    assert done.returncode == 2
+    summary, damage = done.stderr.splitlines()
+    assert summary.startswith("2 datagrams, 0 undecodable")
+    assert damage == f"Error: {capture} is cut off inside packet 3"
+    assert len(read_back(out)) == 2  # a complete file of what came before
+    assert metadata(out)["erc-codec.summary"]["capture.damage"] == damage.removeprefix("Error: ")
+
+
+def test_record_without_the_mcap_extra_one_line_names_it(tmp_path: Path) -> None:
+    code = "import sys; sys.modules['mcap'] = None; from erc_codec.cli._main import main; main()"
+    out = tmp_path / "x.mcap"
+    done = subprocess.run(
+        [sys.executable, "-c", code, "record", "127.0.0.1:0", str(out), "--seconds", "5"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert (done.returncode, done.stderr) == (
+        2,
+        "Error: writing MCAP needs the mcap package: pip install 'erc-codec[mcap]'\n",
+    )
+    assert not out.exists()

@@ -7,13 +7,13 @@ it cannot hold (benchmarks/bench_record.py). Here the receiving process only bat
 (its exact bytes) or drop with its time and sender, and hands batches over a pipe to a child that
 owns the ``McapWriter``; the child runs on another core.
 
-Guarantees: the child is ready (its schema loaded) before the socket is bound, and the file is
-created only once the socket is; every item handed over is written, in order; a child that cannot
-write says why and the recording stops with that error; a parent that dies leaves the child to
-finish the file (it reads the end of the pipe as the end of the recording). The child ignores
-Ctrl-C, which the terminal sends to both: the parent decides when to stop. Memory is bounded by
-one batch and the pipe's buffer, whatever the rate: a child that falls behind blocks the parent,
-and the kernel's drop counter says what that cost.
+Guarantees: the child is ready (its schema loaded, the mcap library imported) before the socket is
+bound, and the file is created only once the socket is; every item handed over is written, in
+order; a child that cannot write says why and the recording stops with that error; a parent that
+dies leaves the child to finish the file (it reads the end of the pipe as the end of the
+recording). The child ignores Ctrl-C, which the terminal sends to both: the parent decides when to
+stop. Memory is bounded by one batch and the pipe's buffer, whatever the rate: a child that falls
+behind blocks the parent, and the kernel's drop counter says what that cost.
 """
 
 import contextlib
@@ -26,6 +26,7 @@ from typing import Any
 from .._codec import Codec
 from .._errors import CodecError
 from .._mcap import McapWriter, RecordingStats
+from .._recording import require
 from ._shared import Fatal
 
 __all__ = ["WriterProcess"]
@@ -130,7 +131,8 @@ def _serve(conn: Connection, codec: Codec | None, tree: Path, root: str) -> None
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         codec = codec or Codec.from_path(tree, root)
-    except CodecError as error:
+        require("mcap.writer", "mcap", "mcap", "writing MCAP")  # before the socket is bound
+    except (CodecError, ImportError) as error:  # an ImportError names the extra to install
         conn.send(("error", str(error)))
         return
     conn.send(("ready",))
@@ -157,7 +159,7 @@ def _serve(conn: Connection, codec: Codec | None, tree: Path, root: str) -> None
                 return
             else:  # quit
                 return
-    except (OSError, ImportError, CodecError) as error:
+    except (OSError, CodecError) as error:
         text = error.strerror if isinstance(error, OSError) and error.strerror else str(error)
         with contextlib.suppress(OSError):  # a parent that is gone hears nothing
             conn.send(("error", f"cannot write {output or 'the MCAP file'}: {text}"))
