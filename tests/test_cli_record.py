@@ -13,7 +13,7 @@ from typing import Any
 
 import pytest
 from datagrams import MODES
-from recording_support import need, write_pcap
+from recording_support import frame, need, write_pcap
 from test_mcap import read_back
 
 import erc_codec
@@ -217,6 +217,47 @@ def test_replay_a_capture_at_its_timing(
     assert result["skipped"] == {"drops": 2}
     assert result["recorded_seconds"] == pytest.approx((len(sent) - 3) * 0.1)
     assert result["latest_ms"] >= 0
+
+
+def test_replay_a_pcapng_capture_at_its_timing(
+    codec: erc_codec.Codec, tmp_path: Path, catcher: Catcher
+) -> None:
+    dpkt = need("dpkt")
+    sent = fleet(codec)[:-2]
+    capture = tmp_path / "field.pcapng"
+    with capture.open("wb") as file:  # dpkt's pcapng writer: section, interface, packet blocks
+        writer = dpkt.pcapng.Writer(file)
+        for number, data in enumerate(sent):
+            writer.writepkt(frame(data), ts=1_700_000_000 + number * 0.08)
+    process = replay(capture, catcher, "--speed", "4", "--mode", "pad")
+    got = catcher.take(len(sent))
+    result = finished(process)
+    for number, (at, _) in enumerate(got):
+        assert at - got[0][0] >= number * 0.02 - 0.002  # never early
+    assert got[-1][0] - got[0][0] < (len(sent) - 1) * 0.02 + 0.5
+    assert [data for _, data in got] == [
+        codec.encode(codec.decode(data).message, "pad") for data in sent
+    ]
+    assert result["sent"] == len(sent)
+    assert result["recorded_seconds"] == pytest.approx((len(sent) - 1) * 0.08)
+
+
+def test_replay_of_a_damaged_capture_sends_what_came_before(
+    codec: erc_codec.Codec, tmp_path: Path, catcher: Catcher
+) -> None:
+    need("dpkt")
+    sent = fleet(codec)[:3]
+    capture = tmp_path / "cut.pcap"
+    write_pcap(capture, sent)
+    capture.write_bytes(capture.read_bytes()[:-3])  # cut inside the last packet
+    process = replay(capture, catcher, "--as-fast-as-possible")
+    got = catcher.take(2)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 1, err
+    assert [data for _, data in got] == [codec.encode(codec.decode(d).message) for d in sent[:2]]
+    *_, line, error = err.splitlines()
+    assert json.loads(line.removeprefix("replayed: "))["sent"] == 2
+    assert error == f"Error: {capture} is cut off inside packet 3"
 
 
 @pytest.mark.parametrize("mode", MODES)
