@@ -338,6 +338,43 @@ def test_replay_decodes_json_lines(
     assert result["skipped"] == {"drops_without_bytes": 2, "not_valid": 1}
 
 
+def test_a_recording_replayed_into_record_records_the_same(
+    codec: erc_codec.Codec, tmp_path: Path
+) -> None:
+    need("mcap")
+    sent = fleet(codec)
+    first = tmp_path / "field.mcap"
+    with erc_codec.McapWriter(first, codec) as writer:
+        for number, data in enumerate(sent):
+            writer.write(data, 1_700_000_000_000_000_000 + number * 40_000_000)  # 40 ms apart
+    second = tmp_path / "bench.mcap"
+    recorder, port = start_recorder(second, "--count", str(len(sent)))
+    played = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "replay", str(first), f"127.0.0.1:{port}", "--drops"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert played.returncode == 0, played.stderr
+    _, err = recorder.communicate(timeout=60)
+    assert recorder.returncode == 0, err
+    assert summary(err, "recorded: ")["dropped_by_kernel"] == 0
+    before, after = list(erc_codec.read_mcap(first)), list(erc_codec.read_mcap(second))
+
+    def content(recorded: erc_codec.Recorded) -> tuple[Any, ...]:
+        if recorded.kind is None:  # a drop: the same bytes and reason, from another sender
+            drop: Any = recorded.message
+            return None, drop.reason, drop.data
+        return recorded.kind, recorded.message.SerializeToString()
+
+    assert [content(r) for r in after] == [content(r) for r in before]
+    assert len(after) == len(sent)
+    offsets = [r.log_time - after[0].log_time for r in after]
+    for number, offset in enumerate(offsets):  # at its timing from the first, never early
+        assert offset >= number * 40_000_000 - 2_000_000, offsets
+    assert after[-1].log_time - after[0].log_time < (len(sent) - 1) * 40_000_000 + 500_000_000
+
+
 def test_replay_of_something_else_is_one_line(tmp_path: Path) -> None:
     notes = tmp_path / "notes.txt"
     notes.write_text("not a recording\n")
