@@ -46,7 +46,7 @@ def outcomes(tmp_path: Path, require: bool) -> dict[str, tuple[str, str]]:
         check=False,
     )
     assert done.returncode in (0, 1), done.stdout[-3000:] + done.stderr[-3000:]
-    found = {}
+    found: dict[str, tuple[str, str]] = {}
     for case in ElementTree.parse(report).iter("testcase"):
         name = case.attrib["name"].split("[")[0]
         kinds = [child for child in case if child.tag in ("failure", "error", "skipped")]
