@@ -14,7 +14,8 @@
 3. record on loopback. ``erc-codec record`` in its own process while this one sends 20,000
    datagrams a second (stripped, every kind, one in a hundred garbage) for 5 seconds (--quick:
    1). Reported: what was sent, what record received, wrote (messages, drops) and says the kernel
-   dropped, what the MCAP file holds, and the system's UDP receive-buffer errors meanwhile. Target:
+   dropped, what the MCAP file holds, the system's UDP receive-buffer errors meanwhile, and the
+   CPU time record and its writer used (what it needs to keep up, however busy the machine). Target:
    nothing lost unreported (sent = received + dropped by the kernel = messages + drops + dropped by
    the kernel), and it keeps up (the kernel dropped none).
 Exit status 1 when a target is missed.
@@ -150,7 +151,10 @@ def record_at_rate(codec: erc_codec.Codec, folder: Path, seconds: float) -> dict
     sent_data = datagrams(codec, count, "strip")
     for i in range(0, count, 100):
         sent_data[i] = bytes.fromhex("b20100")  # one in a hundred: a newer schema's member
+    import resource
+
     out = folder / "live.mcap"
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
     limits = ["--count", str(count), "--seconds", str(seconds + 20)]
     recorder = subprocess.Popen(
         [sys.executable, "-m", "erc_codec", "record", "127.0.0.1:0", str(out), *limits],
@@ -175,6 +179,8 @@ def record_at_rate(codec: erc_codec.Codec, folder: Path, seconds: float) -> dict
         sending = time.perf_counter() - start
     _, err = recorder.communicate(timeout=seconds + 60)
     errors_after = rcvbuf_errors()
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)  # record and its writer, both waited for
+    cpu = after.ru_utime + after.ru_stime - children.ru_utime - children.ru_stime
     line = err.strip().splitlines()[-1]
     summary: dict[str, Any] = json.loads(line.removeprefix("recorded: "))
     from mcap.reader import make_reader
@@ -191,6 +197,7 @@ def record_at_rate(codec: erc_codec.Codec, folder: Path, seconds: float) -> dict
         "drops": sum(summary["drops"].values()),
         "dropped_by_kernel": summary["dropped_by_kernel"],
         "in_file": found.statistics.message_count,
+        "cpu_seconds": cpu,
         "rcvbuf_errors": None
         if errors_before is None or errors_after is None
         else errors_after - errors_before,
@@ -271,6 +278,12 @@ def main() -> int:
             f"wrote {live['messages']:,} messages + {live['drops']:,} drops (file: "
             f"{live['in_file']:,}), dropped by the kernel {live['dropped_by_kernel']}, system "
             f"UDP receive-buffer errors meanwhile {live['rcvbuf_errors']}"
+        )
+        print(
+            f"  record's CPU (receiving and writing, start-up included): "
+            f"{live['cpu_seconds'] / max(live['received'], 1) * 1e6:.0f} µs a datagram received, "
+            f"{live['cpu_seconds'] / seconds:.2f} CPUs over the run; load average now "
+            f"{os.getloadavg()[0]:.1f}"
         )
         kept_up = live["dropped_by_kernel"] == 0
         honest = unreported == 0 and written == live["received"] == live["in_file"]
