@@ -369,10 +369,11 @@ def test_a_recording_replayed_into_record_records_the_same(
 
     assert [content(r) for r in after] == [content(r) for r in before]
     assert len(after) == len(sent)
-    offsets = [r.log_time - after[0].log_time for r in after]
-    for number, offset in enumerate(offsets):  # at its timing from the first, never early
-        assert offset >= number * 40_000_000 - 2_000_000, offsets
-    assert after[-1].log_time - after[0].log_time < (len(sent) - 1) * 40_000_000 + 500_000_000
+    # At the recording's timing: record's times are when it read each datagram, late by however
+    # busy the machine is (the replay tests measure the kernel's arrival times, to the ms).
+    span = after[-1].log_time - after[0].log_time
+    assert (len(sent) - 1) * 40_000_000 - 100_000_000 <= span, span
+    assert span < (len(sent) - 1) * 40_000_000 + 500_000_000, span
 
 
 def test_replay_of_something_else_is_one_line(tmp_path: Path) -> None:
