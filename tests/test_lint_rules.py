@@ -407,19 +407,18 @@ def test_an_enums_default_from_an_include_folder_is_read_from_its_file(tmp_path:
     enum = 'syntax = "proto2";\nenum Mode { MODE_A = 0; MODE_B = 1; }\n'
     (include / "lib" / "mode.proto").write_text(enum)
     head = 'syntax = "proto2";\nimport "lib/mode.proto";\n'
-    trees = []
+    old, new = tmp_path / "old", tmp_path / "new"
     for side, body in (
         ("old", "m = 1 [default = MODE_A]; optional Mode n = 2"),
         ("new", "m = 1; optional Mode n = 2 [default = MODE_A]"),
     ):
         (tmp_path / side).mkdir()
         (tmp_path / side / "a.proto").write_text(f"{head}message M {{ optional Mode {body}; }}\n")
-        trees.append(tmp_path / side)
-    assert erc_lint.lint(*trees, includes=[include]) == []
+    assert erc_lint.lint(old, new, includes=[include]) == []
     (include / "lib" / "mode.proto").write_text(
         enum.replace("MODE_A = 0; MODE_B = 1;", "MODE_B = 1; MODE_A = 0;")
     )
-    assert [f.message for f in erc_lint.lint(*trees, includes=[include])] == [
+    assert [f.message for f in erc_lint.lint(old, new, includes=[include])] == [
         'Field "1" with name "m" on message "M" changed default value from Mode.MODE_A to '
         "Mode.MODE_B.",
         'Field "2" with name "n" on message "M" changed default value from Mode.MODE_B to '
@@ -446,3 +445,20 @@ def test_an_extension_turned_into_a_field_of_the_same_type_is_not_deleted(tmp_pa
         "EXTENSION_DELETED",
         "EXTENSION_RANGE_REMOVED",
     ]
+
+
+def test_limit_changes_once_per_pair(tmp_path: Path) -> None:
+    """The two limit rules share one computation per field pair: the memo gives what the plain
+    computation gives, for every pair."""
+    from erc_lint._pairing import Change
+    from erc_lint.rules.nanopb import limit_changes, limit_changes_of
+
+    old = tree(tmp_path / "old", {"a.proto": NANOPB_BASE})
+    narrowed = NANOPB_BASE.replace("max_size = 40];\n}", "max_size = 10];\n}")
+    new = tree(tmp_path / "new", {"a.proto": narrowed.replace("int32 ticks", "int64 ticks")})
+    change = Change(build(load_tree(old)), build(load_tree(new)), Config())
+    pairs = list(change.fields())
+    plain = [limit_changes_of(pair, change) for pair in pairs]
+    assert [limit_changes(pair, change) for pair in pairs] == plain
+    assert [limit_changes(pair, change) for pair in pairs] == plain  # from the memo
+    assert sum(map(len, plain)) == 2  # key's max_size, ticks' width
