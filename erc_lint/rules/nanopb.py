@@ -2,9 +2,10 @@
 its options (``.options`` files beside each .proto, ``(nanopb)`` annotations, resolved as the
 generator resolves them) give each field, and the size budget of each embedded root.
 
-A field's options are compared only while it keeps its number and its type (a type change is the
-field rules' to report), and only when either revision sets a nanopb option at all: without one,
-every field has nanopb's defaults on both sides.
+A field's options are compared only while it keeps its number and a wire-compatible type (another
+type is the field rules' to report), and only when either revision sets a nanopb option at all:
+without one, every field has nanopb's defaults on both sides, and only a type change within a wire
+group (``int64`` to ``int32``) can change what the C struct holds.
 """
 
 import functools

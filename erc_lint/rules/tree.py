@@ -211,13 +211,16 @@ def embedded_repeated(revision: Revision, change: Change) -> Reports:
 
 @tree_rule(
     "EMBEDDED_UNBOUNDED",
-    "A string or bytes field without nanopb max_size in a message an embedded root reaches.",
+    "A field nanopb gives no fixed size (a string or bytes without max_size, a callback or"
+    " pointer) in a message an embedded root reaches.",
     categories=("TREE", "NANOPB"),
 )
 def embedded_unbounded(revision: Revision, change: Change) -> Reports:
     """## What it does
     Reports a `string` or `bytes` field without nanopb's `max_size` (or `max_length`), from a
-    `.options` file or an annotation, in any message an embedded root reaches.
+    `.options` file or an annotation, and any field set to `FT_CALLBACK` or `FT_POINTER`
+    (whatever its `max_size`: nanopb bounds only static fields), in any message an embedded root
+    reaches. A repeated field without `max_count` is `EMBEDDED_REPEATED`'s.
 
     ## Why is this bad?
     nanopb turns an unbounded string or bytes field into a callback with no storage, and every
