@@ -31,7 +31,7 @@ from erc_codec.schema import Location
 from .._config import Config
 from .._errors import ConfigError
 from .._finding import Finding, Severity
-from .._model import Enum, Message, Revision
+from .._model import Enum, Field, Message, Revision
 from .._pairing import Change, FieldPair, MethodPair, NumberPair, Paired
 
 __all__ = [
@@ -45,6 +45,7 @@ __all__ = [
     "deleted_message_rule",
     "enum_number_rule",
     "enum_rule",
+    "field_prefix",
     "field_rule",
     "message_rule",
     "method_rule",
@@ -191,6 +192,17 @@ def tree_rule(
 ) -> Callable[[_TreeCheck], _TreeCheck]:
     """Register a rule handed one revision, OLD and then NEW."""
     return _register(id, purpose, "error", "tree", categories)
+
+
+def field_prefix(
+    field: Field, owner: str, number: int | None = None, name: str | None = None
+) -> str:
+    """``Field "2" with name "x" on message "M"`` (``Extension`` for an extension): how buf starts
+    a message about a field, by OLD's ``number`` and ``name`` where the message names them."""
+    return (
+        f'{field.noun} "{field.number if number is None else number}" with name '
+        f'"{name or field.name}" on message "{owner}"'
+    )
 
 
 def select(config: Config, has_services: bool = False) -> dict[str, Severity]:

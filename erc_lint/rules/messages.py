@@ -185,7 +185,7 @@ def envelope_size_grown(pair: Paired[Message], change: Change) -> Reports:
     before, after = change.old.max_size(root), change.new.max_size(root)
     if before is not None and after is not None and after > before:
         budget = change.config.budget.get(root)
-        room = f" (budget {budget} bytes: headroom {budget - after})" if budget else ""
+        room = f" (budget {budget} bytes: headroom {budget - after} bytes)" if budget else ""
         yield Report(
             pair.new.location,
             f'Maximum size of message "{root}" grew from {before} to {after} bytes{room}: '

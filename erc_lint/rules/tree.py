@@ -8,7 +8,7 @@ from erc_codec.schema import Location
 
 from .._model import EnumValue, Field, Revision
 from .._pairing import Change, wire_compatible
-from ._registry import Report, Reports, tree_rule
+from ._registry import Report, Reports, field_prefix, tree_rule
 
 if TYPE_CHECKING:
     from .._ledger import Entry, Key, Ledger
@@ -203,21 +203,24 @@ def embedded_repeated(revision: Revision, change: Change) -> Reports:
             if field.cardinality == "repeated":
                 yield Report(
                     field.location,
-                    f'Field "{field.number}" with name "{field.name}" on message "{field.owner}" '
-                    f'is repeated, and embedded root "{root}" reaches it as {path}.',
+                    f'{field_prefix(field, field.owner)} is repeated, and embedded root "{root}" '
+                    f"reaches it as {path}.",
                     key=_reached(revision, change, root, field),
                 )
 
 
 @tree_rule(
     "EMBEDDED_UNBOUNDED",
-    "A string or bytes field without nanopb max_size in a message an embedded root reaches.",
+    "A field nanopb gives no fixed size (a string or bytes without max_size, a callback or"
+    " pointer) in a message an embedded root reaches.",
     categories=("TREE", "NANOPB"),
 )
 def embedded_unbounded(revision: Revision, change: Change) -> Reports:
     """## What it does
     Reports a `string` or `bytes` field without nanopb's `max_size` (or `max_length`), from a
-    `.options` file or an annotation, in any message an embedded root reaches.
+    `.options` file or an annotation, and any field set to `FT_CALLBACK` or `FT_POINTER`
+    (whatever its `max_size`: nanopb bounds only static fields), in any message an embedded root
+    reaches. A repeated field without `max_count` is `EMBEDDED_REPEATED`'s.
 
     ## Why is this bad?
     nanopb turns an unbounded string or bytes field into a callback with no storage, and every
@@ -243,15 +246,29 @@ def embedded_unbounded(revision: Revision, change: Change) -> Reports:
     """
     for root in change.config.roots:
         for path, field in revision.reach(root):
-            if field.type not in ("string", "bytes") or revision.bounded(field):
-                continue
-            yield Report(
-                field.location,
-                f'Field "{field.number}" with name "{field.name}" on message "{field.owner}" is '
-                f'{field.type} without nanopb max_size, and embedded root "{root}" reaches it as '
-                f"{path}.",
-                key=_reached(revision, change, root, field),
-            )
+            why = _unbounded(revision, field)
+            if why is not None:
+                yield Report(
+                    field.location,
+                    f'{field_prefix(field, field.owner)} is {why}, and embedded root "{root}" '
+                    f"reaches it as {path}.",
+                    key=_reached(revision, change, root, field),
+                )
+
+
+def _unbounded(revision: Revision, field: Field) -> str | None:
+    """Why nanopb gives ``field`` no fixed size, if it gives it none: a string or bytes field
+    without a limit, any field set to be a callback or pointer (``max_size`` or not). A repeated
+    field without ``max_count`` is EMBEDDED_REPEATED's."""
+    text = field.type in ("string", "bytes")
+    if not text and not revision.has_nanopb_options():
+        return None  # nanopb's defaults: every other field is static
+    stored = revision.allocation(field)
+    if stored in ("static", "ignore"):
+        return None
+    if int(revision.field_options(field).type):  # FT_CALLBACK or FT_POINTER, set on purpose
+        return f"a nanopb {stored} field"
+    return f"{field.type} without nanopb max_size" if text else None
 
 
 def _reached(revision: Revision, change: Change, root: str, field: Field) -> str:
@@ -314,8 +331,8 @@ def _field_reuse(change: Change, ledger: "Ledger", field: Field) -> Reports:
     if clashes and not _acknowledged(change, ledger, key):
         yield Report(
             field.location,
-            f'Field "{field.number}" with name "{field.name}" on message "{field.owner}" '
-            f"reuses a number that carried {_history(ledger, clashes)}.",
+            f"{field_prefix(field, field.owner)} reuses a number that carried "
+            f"{_history(ledger, clashes)}.",
             key=_id(key),
         )
 
