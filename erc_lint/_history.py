@@ -32,7 +32,7 @@ from erc_codec.schema import (
 )
 
 from ._ledger import Entry, Key, Ledger
-from ._loader import by_basename, matches, utf8_name
+from ._loader import by_basename, matches, respell, utf8_name
 from ._model import type_of
 
 __all__ = ["History", "keys"]
@@ -153,9 +153,14 @@ class History:
         shown = str(self.spec.shown / path)
         text = self.repository.read(protos[path], name=shown).decode("utf-8", "replace")
         respelled = dict(deps)
-        for start, end, spelling in reversed(self._imports[protos[path]]):
-            if respelled.get(spelling, spelling) != spelling:
-                text = f'{text[:start]}"{respelled[spelling]}"{text[end:]}'
+        text = respell(
+            text,
+            [
+                (start, end, respelled[spelling])
+                for start, end, spelling in self._imports[protos[path]]
+                if respelled.get(spelling, spelling) != spelling
+            ],
+        )
         known = descriptor_pb2.FileDescriptorSet()
         done: set[str] = set()
         pending = [target for _, target in deps if target in results]

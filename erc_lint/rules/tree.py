@@ -296,8 +296,7 @@ def ledger_number_reused(revision: Revision, change: Change) -> Reports:
             yield from _field_reuse(change, ledger, field)
     for enum in revision.enums.values():
         for value in enum.values.values():
-            live = sorted(v.name for v in enum.by_name.values() if v.number == value.number)
-            yield from _value_reuse(change, ledger, value, live)
+            yield from _value_reuse(change, ledger, value, sorted(enum.names(value.number)))
 
 
 def _field_reuse(change: Change, ledger: "Ledger", field: Field) -> Reports:
