@@ -23,6 +23,7 @@ from pathlib import Path
 from google.protobuf import descriptor_pb2
 
 from erc_codec.schema import (
+    Declaration,
     GitSpec,
     ProtocError,
     Repository,
@@ -42,20 +43,24 @@ _Definitions = frozenset[tuple[object, ...]]  # the symbols a file and its impor
 
 
 def keys(files: Iterable[_FileProto]) -> set[Key]:
-    """What the ledger records of compiled files: every field and enum value number."""
+    """What the ledger records of compiled files: every field and enum value number, save those
+    of a message or enum that two files of the revision define (a NAME_COLLISION: which one a
+    build means is unknown, so neither body is recorded as the name's)."""
     found: set[Key] = set()
+    declared_in: dict[str, list[Declaration]] = {}
     for file in files:
         for declared in declarations(file):
-            element = declared.proto
-            if isinstance(element, descriptor_pb2.DescriptorProto):
-                found.update(
-                    Key("message", declared.name, f.number, f.name, type_of(f)[0])
-                    for f in element.field
-                )
-            else:
-                found.update(
-                    Key("enum", declared.name, v.number, v.name, "-") for v in element.value
-                )
+            declared_in.setdefault(declared.name, []).append(declared)
+    for name, alike in declared_in.items():
+        if len(alike) > 1:
+            continue
+        element = alike[0].proto
+        if isinstance(element, descriptor_pb2.DescriptorProto):
+            found.update(
+                Key("message", name, f.number, f.name, type_of(f)[0]) for f in element.field
+            )
+        else:
+            found.update(Key("enum", name, v.number, v.name, "-") for v in element.value)
     return found
 
 

@@ -15,7 +15,7 @@ def render(findings: Iterable[Finding], output: str) -> str:
 
 
 def _line(finding: Finding, output: str) -> str:
-    note = " (location in OLD: the element is gone from NEW)" if finding.in_old else ""
+    note = " (location in OLD)" if finding.in_old else ""
     if output == "json":
         # Only this format needs it: for bench_lint's 30-file ratio (start-up is most of a run),
         # the text format does not pay for it (about 2 ms).
