@@ -85,6 +85,7 @@ class History:
     includes: Sequence[Path] = ()
     exclude: Sequence[str] = ()
     compiled: int = 0  # files compiled so far, for the benchmark's report
+    failed: set[str] = field(default_factory=set)  # files of the last revision that did not compile
     _cache: dict[tuple[object, ...], _Result] = field(default_factory=dict)
     _imports: dict[str, list[tuple[int, int, str]]] = field(default_factory=dict)  # by blob
 
@@ -119,6 +120,7 @@ class History:
                 result = _FAILED if broken else self._compile(path, protos, deps, results, scratch)
                 self._cache[key] = result
             results[path] = result
+        self.failed = {path for path in protos if results.get(path, _FAILED).proto is None}
         found: set[Key] = set()
         for path, result in results.items():
             if not any(fnmatchcase(path, pattern) for pattern in self.exclude):
