@@ -122,10 +122,14 @@ class History:
             results[path] = result
         self.failed = {path for path in protos if results.get(path, _FAILED).proto is None}
         found: set[Key] = set()
+        owners: dict[str, set[str]] = {}  # container → the files defining it
         for path, result in results.items():
+            for key in result.keys:
+                owners.setdefault(key.container, set()).add(path)
             if not any(fnmatchcase(path, pattern) for pattern in self.exclude):
                 found |= result.keys
-        return found
+        # Two files of the revision define one name (a NAME_COLLISION): neither body is its.
+        return {key for key in found if len(owners[key.container]) == 1}
 
     def _targets(self, protos: dict[str, str]) -> dict[str, list[tuple[str, str]]]:
         """Each file's imports as ``(spelling, what it names)``: a tree path when it resolves to
