@@ -141,7 +141,9 @@ def _ignore_only(
         return MappingProxyType({})
     where = _at(path, "ignore_only")
     if not isinstance(value, dict):
-        raise ConfigError(f'{where} [tool.erc-lint] ignore_only must be a table, {{ RULE = ["path/*"] }}')
+        raise ConfigError(
+            f'{where} [tool.erc-lint] ignore_only must be a table, {{ RULE = ["path/*"] }}'
+        )
     for rule, patterns in value.items():
         if rule not in known_rules:
             raise ConfigError(

@@ -33,7 +33,10 @@ def sarif(findings: list[Finding]) -> str:
         old = finding.in_old and finding.in_new is None
         location = {
             "physicalLocation": {
-                "artifactLocation": {"uri": _uri(place.path), **({"uriBaseId": "OLD"} if old else {})},
+                "artifactLocation": {
+                    "uri": _uri(place.path),
+                    **({"uriBaseId": "OLD"} if old else {}),
+                },
                 "region": {"startLine": place.line, "startColumn": place.column},
             }
         }
@@ -64,7 +67,11 @@ def sarif(findings: list[Finding]) -> str:
             "rules": rules,
         }
     }
-    document = {"$schema": _SARIF_SCHEMA, "version": "2.1.0", "runs": [{"tool": tool, "results": results}]}
+    document = {
+        "$schema": _SARIF_SCHEMA,
+        "version": "2.1.0",
+        "runs": [{"tool": tool, "results": results}],
+    }
     return json.dumps(document, indent=2) + "\n"
 
 
@@ -102,7 +109,9 @@ def junit(findings: list[Finding]) -> str:
                 )
             else:
                 body = f"<system-out>{_text('warning: ' + finding.message)}</system-out>"
-            cases.append(f'    <testcase name={name} classname={quoteattr(path)}>{body}</testcase>\n')
+            cases.append(
+                f"    <testcase name={name} classname={quoteattr(path)}>{body}</testcase>\n"
+            )
         failures = sum(f.severity == "error" for f in found)
         suites.append(
             f'  <testsuite name={quoteattr(path)} tests="{len(found)}" failures="{failures}" '

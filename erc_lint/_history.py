@@ -124,8 +124,8 @@ class History:
         found: set[Key] = set()
         owners: dict[str, set[str]] = {}  # container → the files defining it
         for path, result in results.items():
-            for key in result.keys:
-                owners.setdefault(key.container, set()).add(path)
+            for found_key in result.keys:
+                owners.setdefault(found_key.container, set()).add(path)
             if not any(fnmatchcase(path, pattern) for pattern in self.exclude):
                 found |= result.keys
         # Two files of the revision define one name (a NAME_COLLISION): neither body is its.

@@ -9,7 +9,6 @@ annotation or an editor opens the same file a plain folder would have named.
 import os
 from collections.abc import Sequence
 from contextlib import AbstractContextManager
-
 from pathlib import Path
 
 from erc_codec.schema import TreeSource, open_tree, proto_files

@@ -71,20 +71,21 @@ def apply(
     findings: Iterable[Finding], given: list[Suppression]
 ) -> tuple[list[Finding], set[Suppression]]:
     """The findings no valid suppression covers, and the suppressions that covered one."""
-    valid = {}
+    valid: dict[tuple[str, int, str], Suppression] = {}
     for suppression in given:
         if suppression.reason:
             for rule in suppression.rules:
                 key = (suppression.location.path, suppression.covers, rule)
                 valid.setdefault(key, suppression)
-    kept, used = [], set()
+    kept: list[Finding] = []
+    used: set[Suppression] = set()
     for finding in findings:
         place = finding.shown_at
-        suppression = valid.get((place.path, place.line, finding.rule))
-        if suppression is None:
+        covering = valid.get((place.path, place.line, finding.rule))
+        if covering is None:
             kept.append(finding)
         else:
-            used.add(suppression)
+            used.add(covering)
     return kept, used
 
 

@@ -8,7 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-import jsonschema
+import jsonschema  # type: ignore[import-untyped]
 import junitparser
 import pytest
 import xmlschema
@@ -16,7 +16,8 @@ from lint_support import erc_lint_cli, tree
 
 FORMATS = Path(__file__).resolve().parent / "formats"
 OLD = {
-    "arm.proto": "message Arm {\n  float shoulder = 1;\n  float elbow = 2;\n  uint32 wrist = 3;\n}\n",
+    "arm.proto": "message Arm {\n  float shoulder = 1;\n  float elbow = 2;\n"
+    "  uint32 wrist = 3;\n}\n",
     "gone.proto": "message Gone { float x = 1; }\n",
 }
 NEW = {
@@ -80,7 +81,8 @@ def test_junit_validates_against_the_junit_schema_and_reads_as_junit(pair: Path)
 def test_msvs_lines_are_visual_studios_canonical_errors(pair: Path) -> None:
     lines = run(pair, "--format", "msvs").stdout.splitlines()
     canonical = re.compile(r"^[^()]+\(\d+,\d+\) : (error|warning) [A-Z0-9_]+ : .+$")
-    assert lines and all(canonical.match(line) for line in lines), lines
+    assert lines
+    assert all(canonical.match(line) for line in lines), lines
 
 
 def test_github_annotations_of_deleted_elements_point_into_new(pair: Path) -> None:
@@ -95,7 +97,8 @@ def test_summary_and_severity(pair: Path) -> None:
     done = run(pair)
     assert done.stderr == "2 errors, 1 warning in 2 files\n"
     errors_only = run(pair, "--severity", "error")
-    assert "(warning)" not in errors_only.stdout and errors_only.stdout.count("\n") == 2
+    assert "(warning)" not in errors_only.stdout
+    assert errors_only.stdout.count("\n") == 2
     assert errors_only.returncode == 1
 
 
@@ -105,7 +108,8 @@ def test_a_baseline_reports_only_new_findings_across_line_moves(pair: Path) -> N
     assert "3 findings baselined" in written.stderr
     # Lines move (a comment above), and one new break appears.
     (pair / "new" / "arm.proto").write_text(
-        'syntax = "proto3";\n// moved\nmessage Arm {\n  uint32 shoulder = 1;\n  string elbow = 2;\n}\n'
+        'syntax = "proto3";\n// moved\nmessage Arm {\n  uint32 shoulder = 1;\n'
+        "  string elbow = 2;\n}\n"
     )
     done = run(pair)
     (line,) = done.stdout.splitlines()
@@ -162,7 +166,8 @@ def test_typos_exit_2_with_a_suggestion(pair: Path, args: list[str], said: str) 
 def test_an_empty_old_only_on_purpose(pair: Path) -> None:
     (pair / "empty").mkdir()
     refused = erc_lint_cli("empty", "new", cwd=pair)
-    assert refused.returncode == 2 and "no .proto file in OLD" in refused.stderr
+    assert refused.returncode == 2
+    assert "no .proto file in OLD" in refused.stderr
     assert erc_lint_cli("empty", "new", "--allow-empty-old", cwd=pair).returncode == 0
 
 
@@ -170,7 +175,8 @@ def test_explain_prints_the_rules_docstring(pair: Path) -> None:
     for args in (["explain", "FIELD_DELETED"], ["rules", "--explain", "FIELD_DELETED"]):
         done = erc_lint_cli(*args, cwd=pair)
         assert done.returncode == 0
-        assert "## Use instead" in done.stdout and "reserved" in done.stdout
+        assert "## Use instead" in done.stdout
+        assert "reserved" in done.stdout
 
 
 def test_a_closed_pipe_exits_0_quietly(pair: Path) -> None:
@@ -181,7 +187,10 @@ def test_a_closed_pipe_exits_0_quietly(pair: Path) -> None:
             + "}\n"
         )
     shell = f"{sys.executable} -m erc_lint old new | head -1"
-    done = subprocess.run(["bash", "-o", "pipefail", "-c", shell], cwd=pair, capture_output=True, text=True)
+    done = subprocess.run(
+        ["bash", "-o", "pipefail", "-c", shell], cwd=pair, capture_output=True, text=True
+    )
     assert done.stdout.count("\n") == 1
-    assert "Traceback" not in done.stderr and "BrokenPipe" not in done.stderr
+    assert "Traceback" not in done.stderr
+    assert "BrokenPipe" not in done.stderr
     assert done.returncode == 1  # the findings' status (errors), never a pipe failure's 2 or 120

@@ -30,7 +30,8 @@ def test_a_leftover_colliding_file_is_silenced_by_ignore_only(tmp_path: Path) ->
         message_types="enum PBMessageType { SensorBoardGPSInfo = 0; }\n",
     )
     noisy = erc_lint_cli("check", repo.spec("HEAD"))
-    assert noisy.returncode == 1 and "NAME_COLLISION" in noisy.stdout
+    assert noisy.returncode == 1
+    assert "NAME_COLLISION" in noisy.stdout
     (repo.root / "proto" / "pyproject.toml").write_text(
         '[tool.erc-lint]\nignore_only = { NAME_COLLISION = ["message_types.proto", "gps.proto"] }\n'
     )
@@ -42,10 +43,16 @@ def test_a_leftover_colliding_file_is_silenced_by_ignore_only(tmp_path: Path) ->
 def test_the_ledger_sees_a_renamed_type_and_duplicates_as_what_they_are(tmp_path: Path) -> None:
     repo = Repo(tmp_path / "repo")
     body = "{ float ph = 1; float temperature = 2; }\n"
-    repo.commit("ph", ph=f"message PHSensorInformation {body}", env="import \"ph.proto\";\n"
-                "message Env { PHSensorInformation ph = 1; }\n")
-    repo.commit("rename", ph=f"message SensorBoardPHInfo {body}", env="import \"ph.proto\";\n"
-                "message Env { SensorBoardPHInfo ph = 1; }\n")
+    repo.commit(
+        "ph",
+        ph=f"message PHSensorInformation {body}",
+        env='import "ph.proto";\nmessage Env { PHSensorInformation ph = 1; }\n',
+    )
+    repo.commit(
+        "rename",
+        ph=f"message SensorBoardPHInfo {body}",
+        env='import "ph.proto";\nmessage Env { SensorBoardPHInfo ph = 1; }\n',
+    )
     repo.commit("duplicate", copy="message Env { float other = 1; }\n")
     repo.commit("resolved", copy=None)
     ledger = tmp_path / "erc-lint.lock"
@@ -80,7 +87,8 @@ def test_an_old_that_does_not_compile_still_compares_the_rest(tmp_path: Path) ->
     assert "FIELD_DELETED" in done.stdout
     assert "OLD's a.proto does not compile, so its messages could not be compared" in done.stdout
     assert "the element is gone from NEW" not in done.stdout
-    ledger = erc_lint_cli("ledger", "update", repo.spec(broken), "--check", "--ledger",
-                          str(tmp_path / "l.lock"))
+    ledger = erc_lint_cli(
+        "ledger", "update", repo.spec(broken), "--check", "--ledger", str(tmp_path / "l.lock")
+    )
     assert ledger.returncode == 1
     assert "a.proto does not compile" in ledger.stderr

@@ -20,9 +20,9 @@ from erc_codec.schema import (
     proto_files,
 )
 
+from .._baseline import BASELINE, read_baseline
 from .._config import Config, find_config, read_config
 from .._errors import LintError
-from .._baseline import BASELINE, read_baseline
 from .._inputs import missing_folder, open_input
 from .._report import FORMATS, render
 from .._run import Outcome, missing_in_git
@@ -156,7 +156,9 @@ def guard() -> Iterator[None]:
         raise Failure(f"internal error ({type(error).__name__}): {error}") from None
 
 
-def report(outcome: Outcome, output: str, severity: str = "warning", baseline: bool = False) -> None:
+def report(
+    outcome: Outcome, output: str, severity: str = "warning", baseline: bool = False
+) -> None:
     """Print the findings (``severity`` error: errors only), then the summary line on stderr;
     exit 1 when an error was found. A file name that is not UTF-8 is printed as the bytes it is
     (as ``ls`` prints it), whatever the locale's encoding. A reader that stops early (``| head``)

@@ -354,8 +354,9 @@ def _value_reuse(
             f'Enum value "{value.number}" with name "{value.name}" on enum "{value.owner}" '
             f"reuses a number that carried {_history(ledger, clashes)}.",
             key=_id(keys[0]),
-            fix="restore the old name, or add it as an alias" if renamed else "use "
-            f"{_free_value(ledger, revision, value.owner)} and reserve {value.number}",
+            fix="restore the old name, or add it as an alias"
+            if renamed
+            else f"use {_free_value(ledger, revision, value.owner)} and reserve {value.number}",
             like="ENUM_VALUE_RENAMED" if renamed else "",
         )
 
