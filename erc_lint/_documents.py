@@ -5,8 +5,7 @@ import json
 from importlib.metadata import version
 from xml.sax.saxutils import quoteattr
 
-from ._finding import Finding
-from ._report import fingerprint
+from ._finding import Finding, stable_text
 from .rules import RULES
 
 __all__ = ["gitlab", "junit", "sarif"]
@@ -129,6 +128,13 @@ def junit(findings: list[Finding]) -> str:
         f'<testsuites name="erc-lint" tests="{tests}" failures="{errors}" errors="0">\n'
         f"{''.join(suites)}</testsuites>\n"
     )
+
+
+def fingerprint(finding: Finding) -> str:
+    """A stable identity of the finding (no line numbers in it), hex."""
+    import hashlib
+
+    return hashlib.sha256(stable_text(finding, finding.path).encode("utf-8", "replace")).hexdigest()
 
 
 def _text(text: str) -> str:

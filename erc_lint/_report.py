@@ -10,9 +10,9 @@ finding by its rule, file and message without line numbers (``stable_text``), so
 deduplicates sees a moved finding as the same one.
 """
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 
-from ._finding import Finding, stable_text
+from ._finding import Finding
 
 __all__ = ["FORMATS", "render"]
 
@@ -49,7 +49,7 @@ def _line(finding: Finding, output: str) -> str:
             }
         )
     place = finding.shown_at
-    if finding.in_new is not None:  # pointing at NEW's container: say where OLD had it
+    if finding.in_new is not None and output != "text":  # at NEW's container: where OLD had it
         note = f" (gone from NEW; OLD had it at {finding.path}:{finding.line})"
     if output == "github":
         text = _escape(f"{finding.rule} {finding.message}{note}")
@@ -73,14 +73,3 @@ def _line(finding: Finding, output: str) -> str:
 def _escape(text: str) -> str:
     """GitHub's workflow-command escaping of a message (properties also escape , and :)."""
     return text.replace("%", "%25").replace("\r", "%0D").replace("\n", "%0A")
-
-
-def fingerprint(finding: Finding) -> str:
-    """A stable identity of the finding (no line numbers in it), hex."""
-    import hashlib
-
-    return hashlib.sha256(stable_text(finding, finding.path).encode("utf-8", "replace")).hexdigest()
-
-
-def files(findings: Sequence[Finding]) -> list[str]:
-    return sorted({f.shown_at.path for f in findings})
