@@ -15,6 +15,7 @@ a package, if a file has one, in front). Sizes and nanopb options are computed w
 asks, once per revision (and root).
 """
 
+from collections import deque
 from collections.abc import Iterator
 from pathlib import Path
 from typing import NamedTuple
@@ -330,9 +331,9 @@ class Revision:
         """Every field reachable from message ``root``, with its path (``Root.a.b``), once each,
         nearest first."""
         seen = {root}
-        queue = [(root, root)]
+        queue = deque([(root, root)])
         while queue:
-            name, path = queue.pop(0)
+            name, path = queue.popleft()
             message = self.messages.get(name)
             if message is None:
                 continue

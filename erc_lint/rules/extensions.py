@@ -59,6 +59,8 @@ def deleted(pair: FieldPair, change: Change) -> Reports:
             f'Previously present extension "{old.number}" with name "{old.name}" on message '
             f'"{pair.new_owner.name}" was deleted without reserving its number.',
             in_old=True,
+            fix=f"reserve {old.number} in the extension range's declarations, or restore it",
+            container=pair.new_owner.location,
         )
 
 

@@ -172,6 +172,8 @@ def deleted(pair: FieldPair, change: Change) -> Reports:
             f'Previously present field "{pair.old.number}" with name "{pair.old.name}" on '
             f'message "{pair.new_owner.name}" was deleted without reserving its number.',
             in_old=True,
+            fix=f"reserve {pair.old.number} or restore the field",
+            container=pair.new_owner.location,
         )
 
 
