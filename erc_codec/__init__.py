@@ -67,9 +67,10 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-def encode(message: Message, mode: Mode = "strip") -> bytes:
-    """``Codec.default().encode(message, mode)``: a datagram of the packaged rover schema."""
-    return Codec.default().encode(message, mode)
+def encode(message: Message, mode: Mode = "strip", **metadata: object) -> bytes:
+    """``Codec.default().encode(message, mode, **metadata)``: a datagram of the packaged rover
+    schema (``timeout=300``: the sender's timeout in milliseconds)."""
+    return Codec.default().encode(message, mode, **metadata)
 
 
 def decode(data: bytes) -> Decoded:
