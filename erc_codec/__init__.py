@@ -17,6 +17,7 @@ from ._dispatch import Dispatcher, DispatchStats, Drop
 from ._envelope import Decoded, Mode
 from ._errors import CodecError, DecodeError, EncodeError, SchemaError
 from ._framing import Deframer, DeframerStats, frame
+from ._router import Failsafe, FailsafeEvent, Outgoing, Route, Router, RouterStats
 from ._transport import UdpEndpoint, UdpStats, open_udp, read_serial
 from ._watchdog import Liveness, Watchdog
 
@@ -35,11 +36,17 @@ __all__ = [
     "Dispatcher",
     "Drop",
     "EncodeError",
+    "Failsafe",
+    "FailsafeEvent",
     "FrameLoss",
     "Liveness",
     "Member",
     "Mode",
+    "Outgoing",
     "Rejected",
+    "Route",
+    "Router",
+    "RouterStats",
     "SchemaError",
     "UdpEndpoint",
     "UdpStats",
