@@ -27,6 +27,7 @@ from typing import NamedTuple
 
 from google.protobuf.message import Message
 
+from ._checks import duration
 from ._codec import Codec
 from ._envelope import Mode
 from ._errors import DecodeError, EncodeError, SchemaError
@@ -256,7 +257,11 @@ class Router:
                 f"failsafe {kind}: rate must be a positive, finite number of Hz, not {rate!r}"
             )
         if failsafe.timeout is not None:
-            self._watchdog.watch(kind, failsafe.timeout, failsafe.timeout)
+            try:
+                timeout = duration("timeout", failsafe.timeout)
+            except ValueError as error:
+                raise ValueError(f"failsafe {kind}: {error}") from None
+            self._watchdog.watch(kind, timeout, timeout)  # the period matters not: no rate check
         datagrams = []
         for name in failsafe.to:
             self._known(name, f"failsafe {kind}")

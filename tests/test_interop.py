@@ -286,8 +286,10 @@ def test_the_timeout_metadata_matches_nanopb(nanopb: Peer, timeout: int) -> None
             f"D {CODEC.encode(stop, 'strip', timeout=timeout).hex()}",
         ]
     )
-    assert built.ok and built.data == exact
-    assert plain.ok and plain.fields == ["9", f"30={timeout}"]
+    assert built.ok
+    assert built.data == exact
+    assert plain.ok
+    assert plain.fields == ["9", f"30={timeout}"]
     assert from_stripped == plain
     padded = CODEC.encode(stop, "pad", timeout=timeout)
     assert len(padded) == MAX
