@@ -7,6 +7,7 @@ from ._encode import encode
 from ._group import OneLineGroup
 from ._net import listen, send
 from ._proton import proton
+from ._relay import relay
 from ._sizes import sizes
 
 __all__ = ["main"]
@@ -18,5 +19,5 @@ def main() -> None:
     """Encode, decode and size the ERC rover's PBEnvelope datagrams."""
 
 
-for _command in (sizes, decode, encode, send, listen, proton):
+for _command in (sizes, decode, encode, send, listen, relay, proton):
     main.add_command(_command)
