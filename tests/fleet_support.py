@@ -11,7 +11,12 @@ import shutil
 import subprocess
 from pathlib import Path
 
-from google.protobuf.descriptor import Descriptor, EnumDescriptor, FieldDescriptor
+from google.protobuf.descriptor import (
+    Descriptor,
+    EnumDescriptor,
+    FieldDescriptor,
+    OneofDescriptor,
+)
 
 from erc_codec import Codec
 
@@ -53,7 +58,6 @@ def rust_type(name: str) -> str:
 
 def prost_source(codec: Codec) -> str:
     """Rust source declaring every message and enum of ``codec``'s schema for prost."""
-    lines = ["#![allow(dead_code, non_camel_case_types, clippy::all)]", ""]
     messages: dict[str, Descriptor] = {}
     enums: dict[str, EnumDescriptor] = {}
 
@@ -69,47 +73,54 @@ def prost_source(codec: Codec) -> str:
 
     root = codec.schema.root
     visit(root)
+    lines = ["#![allow(dead_code, non_camel_case_types, clippy::all)]", ""]
     for enum in enums.values():
-        lines += [
-            "#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, ::prost::Enumeration)]",
-            "#[repr(i32)]",
-            f"pub enum {rust_type(enum.name)} {{",
-            *(f"    {value.name} = {value.number}," for value in enum.values),
-            "}",
-            "",
-        ]
+        lines += _enum(enum)
     for message in messages.values():
-        lines += [
-            "#[derive(Clone, PartialEq, ::prost::Message)]",
-            f"pub struct {rust_type(message.name)} {{",
-        ]
-        oneof = message.oneofs[0] if message is root else None
-        for field in message.fields:
-            if oneof is not None and field.containing_oneof is oneof:
-                continue
-            lines += [f"    {_attribute(field)}", f"    pub r#{field.name}: {_rust_field(field)},"]
-        if oneof is not None:
-            module = _snake(rust_type(message.name))
-            tags = ", ".join(str(field.number) for field in oneof.fields)
-            lines += [
-                f'    #[prost(oneof = "{module}::Payload", tags = "{tags}")]',
-                f"    pub {oneof.name}: ::core::option::Option<{module}::Payload>,",
-            ]
-        lines += ["}", ""]
-        if oneof is not None:
-            lines += [
-                f"pub mod {module} {{",
-                "    #[derive(Clone, PartialEq, ::prost::Oneof)]",
-                "    pub enum Payload {",
-            ]
-            for field in oneof.fields:
-                assert field.message_type is not None
-                lines += [
-                    f'        #[prost(message, tag = "{field.number}")]',
-                    f"        {_camel(field.name)}(super::{rust_type(field.message_type.name)}),",
-                ]
-            lines += ["    }", "}", ""]
+        lines += _message(message, message.oneofs[0] if message is root else None)
     return "\n".join(lines)
+
+
+_ENUM_DERIVES = "Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, ::prost::Enumeration"
+
+
+def _enum(enum: EnumDescriptor) -> list[str]:
+    return [
+        f"#[derive({_ENUM_DERIVES})]",
+        "#[repr(i32)]",
+        f"pub enum {rust_type(enum.name)} {{",
+        *(f"    {value.name} = {value.number}," for value in enum.values),
+        "}",
+        "",
+    ]
+
+
+def _message(message: Descriptor, oneof: OneofDescriptor | None) -> list[str]:
+    name = rust_type(message.name)
+    lines = ["#[derive(Clone, PartialEq, ::prost::Message)]", f"pub struct {name} {{"]
+    for field in message.fields:
+        if oneof is None or field.containing_oneof is not oneof:
+            lines += [f"    {_attribute(field)}", f"    pub r#{field.name}: {_rust_field(field)},"]
+    if oneof is None:
+        return [*lines, "}", ""]
+    module = _snake(name)
+    tags = ", ".join(str(field.number) for field in oneof.fields)
+    lines += [
+        f'    #[prost(oneof = "{module}::Payload", tags = "{tags}")]',
+        f"    pub {oneof.name}: ::core::option::Option<{module}::Payload>,",
+        "}",
+        "",
+        f"pub mod {module} {{",
+        "    #[derive(Clone, PartialEq, ::prost::Oneof)]",
+        "    pub enum Payload {",
+    ]
+    for field in oneof.fields:
+        assert field.message_type is not None
+        lines += [
+            f'        #[prost(message, tag = "{field.number}")]',
+            f"        {_camel(field.name)}(super::{rust_type(field.message_type.name)}),",
+        ]
+    return [*lines, "    }", "}", ""]
 
 
 def _camel(name: str) -> str:
