@@ -110,6 +110,7 @@ class Router:
     ) -> None:
         """``destinations``: name → form. ``debug``: a destination name, or ``None``."""
         self._codec = codec
+        self._decode, self._encode = codec.decode, codec.encode
         self._max = codec.max_size(codec.root)
         for name, form in destinations.items():
             if form not in _FORMS:
@@ -142,7 +143,7 @@ class Router:
     def route(self, data: bytes, source: object, now: float) -> list[Outgoing]:
         """The datagrams to send for ``data``, which arrived from ``source`` at ``now``."""
         try:
-            decoded = self._codec.decode(data)
+            decoded = self._decode(data)
         except DecodeError as error:
             return self._drop(error.reason, data)
         kind = decoded.kind
@@ -159,8 +160,12 @@ class Router:
                 self._table[key] = targets
         if not targets:
             return self._drop("unrouted", data)
+        metadata = decoded.metadata
         try:
-            exact = self._codec.encode(decoded.message, "exact", **decoded.metadata)
+            if metadata:
+                exact = self._encode(decoded.message, "exact", **metadata)
+            else:
+                exact = self._encode(decoded.message, "exact")
         except EncodeError:
             return self._drop("contract", data)
         out = []

@@ -142,8 +142,18 @@ class UdpEndpoint:
 
     def send_datagram(self, data: bytes, to: tuple[Any, ...]) -> int:
         """Send ``data`` as it is (waiting in order while the send buffer is full); its length."""
-        assert self._sock is not None, "the endpoint is not open"
+        sock = self._sock
+        assert sock is not None, "the endpoint is not open"
         assert not self._closed, "the endpoint is closed"
+        if not self._unsent:  # the usual case, sent at once (benchmarks/bench_relay.py)
+            try:
+                sock.sendto(data, to)
+                return len(data)
+            except (BlockingIOError, InterruptedError):
+                pass  # the send buffer is full: wait in order, below
+            except OSError:  # e.g. an ICMP error of an earlier send, or no route
+                self._send_errors += 1
+                return len(data)
         self._unsent.append((data, to))
         if len(self._unsent) == 1:
             self._send_unsent()

@@ -7,9 +7,10 @@ address, an unknown kind or destination is one line naming the file and the key,
 
 While it runs it prints, every ``interval`` seconds, a status line on stderr (or, with
 ``status = "json"``, one JSON object a line on stdout): per destination the datagrams forwarded,
-failsafe datagrams and send errors; drops by reason; failsafe events; the latency the relay adds
+failsafe datagrams; drops by reason; failsafe events; the latency the relay adds
 (from a datagram's read to its send, p50/p99/max over the last 10,000); per listening endpoint
-what the kernel dropped. SIGTERM and SIGINT end it, printing the same counters on stderr.
+what the kernel dropped and the sends that failed. SIGTERM and SIGINT end it, printing the
+same counters on stderr.
 """
 
 import contextlib
@@ -257,7 +258,6 @@ class _Relay:
             raise Fatal(one_line(str(error))) from None
         self.endpoints: dict[str, UdpEndpoint] = {}
         self.latencies: deque[float] = deque(maxlen=_LATENCIES)
-        self.send_errors = dict.fromkeys(config.destinations, 0)
         self._targets: dict[str, tuple[UdpEndpoint, tuple[Any, ...]]] = {}
 
     async def run(self) -> None:
@@ -304,7 +304,6 @@ class _Relay:
             name: {
                 "forwarded": stats.forwarded.get(name, 0),
                 "failsafe": stats.failsafe_sent.get(name, 0),
-                "send_errors": self.send_errors[name],
             }
             for name in self.config.destinations
         }
@@ -315,6 +314,7 @@ class _Relay:
                 "received": udp.received,
                 "kernel_dropped": udp.kernel_dropped,
                 "unread": udp.unread,
+                "send_errors": udp.send_errors,  # of what was sent from it
             }
         return {
             "routes": routes,
@@ -341,10 +341,7 @@ class _Relay:
 
     def _send(self, name: str, data: bytes) -> None:
         endpoint, address = self._targets[name]
-        before = endpoint.send_errors
         endpoint.send_datagram(data, address)
-        if endpoint.send_errors != before:
-            self.send_errors[name] += endpoint.send_errors - before
 
     def _event(self, event: FailsafeEvent) -> None:
         self.events.append(event)
