@@ -220,7 +220,7 @@ class Router:
     ) -> tuple[tuple[str, ...], frozenset[str] | None, frozenset[object] | None]:
         """A route as (destinations, the kinds it takes or None for all, its sources or None)."""
         for name in route.to:
-            self._known(name, f"route {route}")
+            self._known(name, f"route to {', '.join(route.to)}")
         kinds: set[str] | None = None
         if route.kinds is not None:
             kinds = set(route.kinds)

@@ -71,7 +71,10 @@ def relay(config: Path, tree: Path | None, root: str) -> None:
 
     codec = load(tree, root)
     settings = read_config(config, codec)
-    session = _Relay(codec, settings)
+    try:
+        session = _Relay(codec, settings)
+    except (ValueError, CodecError) as error:  # what the configuration names does not exist
+        raise Fatal(f"{config}: {one_line(str(error))}") from None
     with contextlib.suppress(KeyboardInterrupt):
         asyncio.run(session.run())
     click.echo(f"counters: {json.dumps(session.metrics())}", err=True)
@@ -245,17 +248,14 @@ class _Relay:
     def __init__(self, codec: Codec, config: Config) -> None:
         self.config = config
         self.events: list[FailsafeEvent] = []
-        try:
-            self.router = Router(
-                codec,
-                {name: destination.form for name, destination in config.destinations.items()},
-                config.routes,
-                config.failsafes,
-                config.debug,
-                on_event=self._event,
-            )
-        except (ValueError, CodecError) as error:  # what the config names does not exist
-            raise Fatal(one_line(str(error))) from None
+        self.router = Router(
+            codec,
+            {name: destination.form for name, destination in config.destinations.items()},
+            config.routes,
+            config.failsafes,
+            config.debug,
+            on_event=self._event,
+        )
         self.endpoints: dict[str, UdpEndpoint] = {}
         self.latencies: deque[float] = deque(maxlen=_LATENCIES)
         self._targets: dict[str, tuple[UdpEndpoint, tuple[Any, ...]]] = {}
