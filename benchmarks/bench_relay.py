@@ -25,6 +25,7 @@ Exit status 1 when a target is missed (the best throughput ratio, the median p99
 
 import argparse
 import asyncio
+import contextlib
 import json
 import os
 import random
@@ -77,9 +78,10 @@ def bare_forwarder(target_port: int) -> None:
         transport, _ = await loop.create_datagram_endpoint(Forward, local_addr=("127.0.0.1", 0))
         print(f"relaying: listening on bare 127.0.0.1:{transport.get_extra_info('sockname')[1]}")
         sys.stdout.flush()
-        stop = loop.create_future()
-        loop.add_signal_handler(signal.SIGTERM, lambda: stop.done() or stop.set_result(None))
-        await stop
+        stop: asyncio.Future[None] = loop.create_future()
+        loop.add_signal_handler(signal.SIGTERM, stop.cancel)
+        with contextlib.suppress(asyncio.CancelledError):
+            await stop
 
     asyncio.run(main())
 
@@ -115,7 +117,8 @@ class Forwarder:
         _, errors = self.process.communicate(timeout=30)
         if self.kind != "relay":
             return {}
-        return json.loads(errors.rsplit("counters: ", 1)[1])
+        counters: dict[str, Any] = json.loads(errors.rsplit("counters: ", 1)[1])
+        return counters
 
 
 # -- measurements ------------------------------------------------------------------------------
