@@ -6,6 +6,7 @@ import signal
 import socket
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -145,3 +146,27 @@ interval = 0.1
     assert counters["debug"] == 2
     assert counters["listen"]["rover"]["received"] == 3
     assert counters["latency_us"]["p99"] is not None
+
+
+def test_the_readmes_rover_configuration_is_valid() -> None:
+    from erc_codec.cli._relay import read_config
+
+    readme = (Path(__file__).parent.parent / "README.md").read_text()
+    (block,) = re.findall(r"```toml\n(# relay\.toml.*?)```", readme, re.S)
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "relay.toml"
+        path.write_text(block)
+        config = read_config(path, CODEC)
+    assert list(config.listen) == ["rover", "ground"]
+    assert config.destinations["base"].form == "exact"
+    assert config.destinations["jetson"].form == "strip"
+    assert [failsafe.kind for failsafe in config.failsafes] == ["drive_motor"]
+    assert config.debug == "debug"
+    assert config.sources == {("192.168.1.20", 6000): "jetson"}
+    erc_codec.Router(
+        CODEC,
+        {name: destination.form for name, destination in config.destinations.items()},
+        config.routes,
+        config.failsafes,
+        config.debug,
+    )
