@@ -117,3 +117,13 @@ def test_metadata_must_be_a_single_scalar(tmp_path: Path, declaration: str) -> N
     tree = write(tmp_path, OTHER.replace("sint32 skew = 21;", declaration))
     with pytest.raises(SchemaError, match=r"Env\.extra: (beside its one oneof|repeated field)"):
         Codec.from_path(tree, "Env")
+
+
+def test_metadata_without_a_payload_says_so(codec: Codec) -> None:
+    with pytest.raises(DecodeError, match=r"metadata \(timeout\) but no payload") as caught:
+        codec.decode(h("f0 01 05"))
+    assert caught.value.reason == "no_payload"
+    # A timeout cut off after its tag: restored, it would be 0, which no encoder sends.
+    with pytest.raises(DecodeError, match=r"PBEnvelope\.timeout = 0") as cut:
+        codec.decode(h("4a 00 f0 01"))
+    assert cut.value.reason == "truncated"
