@@ -138,6 +138,7 @@ class Router:
 
     @property
     def codec(self) -> Codec:
+        """The codec this router decodes and encodes with."""
         return self._codec
 
     def route(self, data: bytes, source: object, now: float) -> list[Outgoing]:
