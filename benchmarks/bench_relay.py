@@ -20,7 +20,7 @@ Measured, each ``--repeat`` times, the contenders interleaved:
   sent = received + what the relay counted (dropped, and its socket's kernel drops) + what the
   receiver's socket lost, from ``/proc/net/snmp`` ``Udp: RcvbufErrors`` (system-wide: an upper
   bound on a shared machine). Target: nothing lost that is not counted.
-Exit status 1 when a target is missed (the best throughput ratio, the median p99).
+Exit status 1 when a target is missed (the median throughput ratio, the median added p99).
 """
 
 import argparse
@@ -306,10 +306,10 @@ def main() -> int:
         f"{listen['unread']}), /proc/net/snmp RcvbufErrors +{kernel}: "
         f"{'all counted' if accounted else 'NOT ALL COUNTED'}"
     )
-    best, p99 = max(ratios), statistics.median(p99s)
-    ok_ratio, ok_latency = best >= _RATIO_TARGET, p99 < _LATENCY_TARGET_MS
+    middle, p99 = statistics.median(ratios), statistics.median(p99s)
+    ok_ratio, ok_latency = middle >= _RATIO_TARGET, p99 < _LATENCY_TARGET_MS
     print(
-        f"throughput ratio best {best:.2f}x of {[round(r, 2) for r in ratios]} (target >= "
+        f"throughput ratio median {middle:.2f}x of {[round(r, 2) for r in ratios]} (target >= "
         f"{_RATIO_TARGET}x): {'yes' if ok_ratio else 'NO'}; added latency p99 median "
         f"{p99:.3f} ms (target < {_LATENCY_TARGET_MS} ms): {'yes' if ok_latency else 'NO'}"
     )

@@ -286,7 +286,7 @@ class _Relay:
                 f"{name} {shown(endpoint.address)}" for name, endpoint in self.endpoints.items()
             )
             click.echo(f"relaying: listening on {bound}", err=True)
-            tasks = [loop.create_task(self._poll())]
+            tasks = [loop.create_task(self._poll())] if self.config.failsafes else []
             if self.config.status != "none":
                 tasks.append(loop.create_task(self._report()))
             try:
