@@ -21,6 +21,7 @@ from ._errors import CodecError, DecodeError, EncodeError, SchemaError
 from ._foxglove import FoxgloveView
 from ._framing import Deframer, DeframerStats, frame
 from ._mcap import McapWriter, Recorded, RecordingStats, read_mcap
+from ._router import Failsafe, FailsafeEvent, Outgoing, Route, Router, RouterStats
 from ._transport import UdpEndpoint, UdpStats, open_udp, read_serial
 from ._watchdog import Liveness, Watchdog
 from ._wireshark import wireshark_dissector
@@ -40,15 +41,21 @@ __all__ = [
     "Dispatcher",
     "Drop",
     "EncodeError",
+    "Failsafe",
+    "FailsafeEvent",
     "FoxgloveView",
     "FrameLoss",
     "Liveness",
     "McapWriter",
     "Member",
     "Mode",
+    "Outgoing",
     "Recorded",
     "RecordingStats",
     "Rejected",
+    "Route",
+    "Router",
+    "RouterStats",
     "SchemaError",
     "UdpEndpoint",
     "UdpStats",
@@ -78,9 +85,10 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-def encode(message: Message, mode: Mode = "strip") -> bytes:
-    """``Codec.default().encode(message, mode)``: a datagram of the packaged rover schema."""
-    return Codec.default().encode(message, mode)
+def encode(message: Message, mode: Mode = "strip", **metadata: object) -> bytes:
+    """``Codec.default().encode(message, mode, **metadata)``: a datagram of the packaged rover
+    schema (``timeout=300``: the sender's timeout in milliseconds)."""
+    return Codec.default().encode(message, mode, **metadata)
 
 
 def decode(data: bytes) -> Decoded:

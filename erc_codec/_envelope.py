@@ -23,12 +23,19 @@ only a datagram whose zeros were restored has its parse serialized again, and on
 differs from the restored bytes is the payload walked for a cut field. Datagrams of any other
 shape (several top-level fields, unknown members, corruption) take the general path: the repair
 walk over the whole envelope, then the envelope parse.
+
+Metadata: fields an envelope declares beside its oneof (the rover's ``timeout``) are encoded on
+request (``encode(message, timeout=300)``) and returned on ``Decoded.metadata``. A datagram
+carrying one has a last field that is not the payload; it takes the general path, whose walk
+treats every top-level field alike, so stripping, padding and restoring need nothing new. A
+datagram without metadata (the usual one) decodes exactly as before.
 """
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from types import MappingProxyType
 from typing import Literal, NamedTuple
 
-from google.protobuf.descriptor import Descriptor
+from google.protobuf.descriptor import Descriptor, OneofDescriptor
 from google.protobuf.message import DecodeError as ProtobufDecodeError
 from google.protobuf.message import Message
 
@@ -60,11 +67,35 @@ _Member = tuple[
 ]
 
 
-class Decoded(NamedTuple):
-    """A decoded datagram: the oneof member name (``kind``) and the payload message."""
+_NO_METADATA: Mapping[str, object] = MappingProxyType({})
 
+
+class _Payload(NamedTuple):
     kind: str
     message: Message
+
+
+class Decoded(_Payload):
+    """A decoded datagram: the oneof member name (``kind``) and the payload message, unpacked
+    as ``kind, message = codec.decode(data)``; besides them, the envelope's metadata.
+
+    ``metadata`` maps each field outside the envelope's oneof that the datagram carried to its
+    value (a field holding 0 is never sent, so a missing one is 0); it is an attribute, not a
+    third item, so two-name unpacking keeps working, and equality compares kind and message.
+    ``timeout`` is the rover envelope's ``timeout`` (milliseconds; 0: not sent, or not declared).
+    """
+
+    metadata: Mapping[str, object] = _NO_METADATA
+
+    @property
+    def timeout(self) -> int:
+        """The sender's advertised timeout in milliseconds; 0 when it sent none."""
+        value = self.metadata.get("timeout", 0)
+        return value if isinstance(value, int) else 0
+
+    def __repr__(self) -> str:
+        shown = super().__repr__()
+        return f"{shown[:-1]}, metadata={dict(self.metadata)!r})" if self.metadata else shown
 
 
 # Builds a Decoded without NamedTuple's Python-level __new__, for the decode target of
@@ -88,18 +119,31 @@ class Envelope:
         contract: Callable[[Descriptor], Contract | None],
     ) -> None:
         descriptor = descriptor_of(envelope)
-        oneofs = descriptor.oneofs
-        if len(oneofs) != 1 or len(oneofs[0].fields) != len(descriptor.fields):
+        oneofs = [oneof for oneof in descriptor.oneofs if not _synthetic(oneof)]
+        if len(oneofs) != 1:
             raise SchemaError(
-                f"{descriptor.full_name} must consist of exactly one oneof, "
-                "whose members are the payload types"
+                f"{descriptor.full_name} must have exactly one oneof, whose members are the "
+                "payload types (and may have metadata fields beside it)"
             )
+        members = oneofs[0].fields
+        # Metadata: every field outside the oneof, a singular scalar, enum or string.
+        self._metadata = {
+            field.name: field
+            for field in descriptor.fields
+            if field.containing_oneof is not oneofs[0]
+        }
+        for field in self._metadata.values():
+            if field.message_type is not None or field.is_repeated:
+                raise SchemaError(
+                    f"{field.full_name}: beside its one oneof, an envelope may only have metadata "
+                    "fields, each a single scalar (a number, bool, enum or string)"
+                )
         self._name = descriptor.full_name
         self._class = envelope
         self._from_string = envelope.FromString
         self._oneof = descriptor.oneofs[0].name
         self._max_size = max_size
-        self._kinds = {field.number: field.name for field in descriptor.fields}
+        self._kinds = {field.number: field.name for field in members}
         self._contracts: dict[str, Contract | None] = {}
         # Payload class → (tag-and-length header for each payload length that fits, contract
         # screen and check, serializer); None marks a type two members share, which cannot be
@@ -117,7 +161,7 @@ class Envelope:
         tables: dict[str, Table] = {}
         self._table = presence_table(descriptor, tables)
         self._restoring: dict[str, tuple[Callable[[Message], bytes], Table]] = {}
-        for field in descriptor.fields:
+        for field in members:
             payload = field.message_type
             if payload is None:
                 raise SchemaError(f"{field.full_name} must be a message, not a scalar")
@@ -145,6 +189,10 @@ class Envelope:
         """The envelope's payload members: field number → member name (a decoded ``kind``)."""
         return dict(self._kinds)
 
+    def metadata_fields(self) -> dict[int, str]:
+        """The envelope's metadata fields (those beside its oneof): field number → name."""
+        return {field.number: name for name, field in self._metadata.items()}
+
     def payload_class(self, kind: str) -> type[Message]:
         """The message class member ``kind`` carries."""
         try:
@@ -154,8 +202,11 @@ class Envelope:
 
     # -- encoding ------------------------------------------------------------------------------
 
-    def encode(self, message: Message, mode: Mode = "strip") -> bytes:
-        """The datagram carrying ``message`` (a payload, or a whole envelope) in ``mode``."""
+    def encode(self, message: Message, mode: Mode = "strip", **metadata: object) -> bytes:
+        """The datagram carrying ``message`` (a payload, or a whole envelope) in ``mode``, with
+        the envelope metadata fields named (``timeout=300``) set to their values."""
+        if metadata:
+            return self._in_form(self._with_metadata(self.encode(message, "exact"), metadata), mode)
         member = self._members.get(type(message))
         if member is None:
             return self._encode_other(message, mode)
@@ -222,6 +273,25 @@ class Envelope:
         if len(body) >= len(headers):
             raise self._too_long(message, headers, body)
         return self._in_form(headers[len(body)] + body, mode)
+
+    def _with_metadata(self, exact: bytes, metadata: Mapping[str, object]) -> bytes:
+        """The exact datagram ``exact`` with ``metadata`` set: protobuf writes every field in
+        number order, metadata before or after the payload alike."""
+        envelope = self._from_string(exact)
+        for name, value in metadata.items():
+            if name not in self._metadata:
+                declared = ", ".join(self._metadata) or "none"
+                raise EncodeError(
+                    f"{self._name} has no metadata field {name!r} (its metadata fields: {declared})"
+                )
+            try:
+                setattr(envelope, name, value)
+            except (TypeError, ValueError) as error:
+                raise EncodeError(f"{self._name}.{name} cannot be {value!r}: {error}") from None
+        data = envelope.SerializeToString()
+        if len(data) > self._max_size:
+            raise self._too_long(envelope, [b""], data)
+        return data
 
     def _too_long(self, message: Message, headers: list[bytes], body: bytes) -> EncodeError:
         """The error for a ``body`` too long to fit, ``headers`` being its member's (or ``[b""]``
@@ -369,7 +439,16 @@ class Envelope:
         kind = envelope.WhichOneof(self._oneof)
         if kind is None:
             raise self._no_payload(data)
-        return _decoded(Decoded, (kind, getattr(envelope, kind)))
+        decoded = _decoded(Decoded, (kind, getattr(envelope, kind)))
+        if self._metadata:
+            carried = {
+                field.name: value
+                for field, value in envelope.ListFields()
+                if field.name in self._metadata
+            }
+            if carried:
+                decoded.metadata = MappingProxyType(carried)
+        return decoded
 
     def _parse_restored(self, data: bytes) -> Message:
         if not data:
@@ -436,6 +515,11 @@ class Envelope:
             return DecodeError("datagram holds no payload (only zero bytes)", "no_payload")
         key, _ = read_varint(exact, 0)
         number, wire_type = key >> 3, key & 7
+        if number in self.metadata_fields():
+            return DecodeError(
+                f"datagram holds metadata ({self.metadata_fields()[number]}) but no payload",
+                "no_payload",
+            )
         if number in self._kinds:
             return DecodeError(
                 f"payload number {number} ({self._kinds[number]}) arrived with wire type "
@@ -463,3 +547,9 @@ def _as_bytes(data: object) -> bytes:
         raise TypeError(
             f"a datagram is bytes (or bytearray, memoryview), not {type(data).__name__}"
         ) from None
+
+
+def _synthetic(oneof: OneofDescriptor) -> bool:
+    """Whether ``oneof`` is the one protoc makes for a proto3 ``optional`` field."""
+    fields = oneof.fields
+    return len(fields) == 1 and oneof.name == f"_{fields[0].name}" and fields[0].has_presence

@@ -59,6 +59,8 @@ class UdpStats(NamedTuple):
 
 class UdpEndpoint:
     """Every datagram received goes to the dispatcher; ``send`` encodes and sends a message.
+    Without a dispatcher (``None``: a relay, which routes bytes) datagrams go to
+    ``on_datagram`` only, and ``send_datagram`` sends bytes as they are.
 
     Made by ``open_udp``. With a watchdog it polls it every ``poll_interval`` seconds while the
     socket is open, so ``on_timeout`` fires while the loop runs. ``on_datagram(data, sender)``
@@ -67,7 +69,7 @@ class UdpEndpoint:
 
     def __init__(
         self,
-        dispatcher: Dispatcher,
+        dispatcher: Dispatcher | None,
         watchdog: Watchdog | None = None,
         clock: Clock = time.monotonic,
         poll_interval: float = 0.05,
@@ -135,9 +137,23 @@ class UdpEndpoint:
     def send(self, message: Message, to: tuple[str, int], mode: Mode = "strip") -> int:
         """Encode ``message`` (a payload or an envelope) and send it; the datagram's length.
         While the kernel's send buffer is full, datagrams wait in the endpoint, in order."""
-        assert self._sock is not None, "the endpoint is not open"
+        assert self.dispatcher is not None, "an endpoint without a dispatcher has no codec"
+        return self.send_datagram(self.dispatcher.codec.encode(message, mode), to)
+
+    def send_datagram(self, data: bytes, to: tuple[Any, ...]) -> int:
+        """Send ``data`` as it is (waiting in order while the send buffer is full); its length."""
+        sock = self._sock
+        assert sock is not None, "the endpoint is not open"
         assert not self._closed, "the endpoint is closed"
-        data = self.dispatcher.codec.encode(message, mode)
+        if not self._unsent:  # the usual case, sent at once (benchmarks/bench_relay.py)
+            try:
+                sock.sendto(data, to)
+                return len(data)
+            except (BlockingIOError, InterruptedError):
+                pass  # the send buffer is full: wait in order, below
+            except OSError:  # e.g. an ICMP error of an earlier send, or no route
+                self._send_errors += 1
+                return len(data)
         self._unsent.append((data, to))
         if len(self._unsent) == 1:
             self._send_unsent()
@@ -173,14 +189,16 @@ class UdpEndpoint:
         exception from ``on_datagram`` or the watchdog's clock leaves the rest queued, for the
         next call; the dispatcher catches its handlers' own)."""
         assert self._sock is not None
-        receive, feed = self._sock.receive, self.dispatcher.feed
+        receive = self._sock.receive
+        feed = self.dispatcher.feed if self.dispatcher is not None else None
         for _ in range(_BATCH):
             received = receive()
             if received is None:
                 return
             if self.on_datagram is not None:
                 self.on_datagram(*received)
-            feed(received[0])
+            if feed is not None:
+                feed(received[0])
             if self._closed:  # on_datagram or a handler closed the endpoint: read no more
                 return
 
@@ -215,7 +233,7 @@ class UdpEndpoint:
 
 
 async def open_udp(
-    dispatcher: Dispatcher,
+    dispatcher: Dispatcher | None,
     host: str = "127.0.0.1",
     port: int = 0,
     watchdog: Watchdog | None = None,
@@ -224,7 +242,8 @@ async def open_udp(
     on_datagram: Heard | None = None,
     receive_buffer: int = RECEIVE_BUFFER,
 ) -> UdpEndpoint:
-    """A UDP endpoint bound to ``host:port`` (port 0: any free one) feeding ``dispatcher``.
+    """A UDP endpoint bound to ``host:port`` (port 0: any free one) feeding ``dispatcher``
+    (``None``: only ``on_datagram`` hears what arrives).
 
     With a ``watchdog``, every decoded kind counts as an arrival and the watchdog is polled every
     ``poll_interval`` seconds, so its ``on_timeout`` fires while the loop runs. ``on_datagram``
@@ -234,7 +253,7 @@ async def open_udp(
     """
     endpoint = UdpEndpoint(dispatcher, watchdog, clock, poll_interval, on_datagram)
     await endpoint.open(host, port, receive_buffer)
-    if watchdog is not None:
+    if watchdog is not None and dispatcher is not None:
         previous = dispatcher.on_decoded
 
         def arrived(kind: str) -> None:

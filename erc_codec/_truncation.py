@@ -136,8 +136,11 @@ def cut_reason(
 
 
 def _inside(envelope: Message, chain: Chain) -> tuple[Message, Chain]:
-    """The payload and the rest of a chain that starts at the envelope's member."""
+    """The payload and the rest of a chain that starts at the envelope's member; the envelope
+    and the whole chain when it starts at a metadata field (``timeout``), named from there."""
     (member, _, _), *rest = chain
+    if member.message_type is None:
+        return envelope, chain
     return getattr(envelope, member.name), rest
 
 

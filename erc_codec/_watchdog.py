@@ -10,9 +10,16 @@ arrival rate measured; memory per kind is bounded (the rate is measured over the
 only). Periods and timeouts must be positive and finite, ``now`` finite: a NaN or an infinity is
 a ``ValueError`` naming it, and changes nothing (a NaN arrival time would otherwise compare false
 with every later clock reading, and the kind would never time out again).
+
+Timeouts from the wire: ``seen(kind, now, timeout=...)`` takes the timeout the sender advertised
+(the envelope's ``timeout`` metadata, converted to seconds). A kind nobody configured becomes
+watched with it; a configured kind is watched with the shorter of the two, so a sender can make
+its watch stricter but never looser, and an advertised 0 or ``None`` changes nothing: a sender
+cannot switch its own brake off.
 """
 
 import enum
+import math
 from collections import deque
 from collections.abc import Callable
 
@@ -32,11 +39,12 @@ class Liveness(enum.Enum):
 
 
 class _Watched:
-    __slots__ = ("last", "period", "state", "timed_out", "timeout")
+    __slots__ = ("configured", "last", "period", "state", "timed_out", "timeout")
 
-    def __init__(self, period: float, timeout: float) -> None:
-        self.period = period
+    def __init__(self, period: float | None, timeout: float, configured: bool) -> None:
+        self.period = period  # None: watched only because a sender advertised a timeout
         self.timeout = timeout
+        self.configured = timeout if configured else math.inf  # the ceiling an advert cannot pass
         self.state = Liveness.INACTIVE
         self.last: float | None = None
         self.timed_out = False  # INACTIVE because a timeout passed, not because nothing came yet
@@ -68,17 +76,29 @@ class Watchdog:
                 duration("timeout", timeout)
         except ValueError as error:
             raise ValueError(f"{kind}: {error}") from None
-        self._watched[kind] = _Watched(period, timeout)
+        self._watched[kind] = _Watched(period, timeout, configured=True)
 
-    def seen(self, kind: str, now: float) -> None:
-        """``kind`` arrived at ``now``. An unwatched kind only has its rate measured."""
+    def seen(self, kind: str, now: float, timeout: float | None = None) -> None:
+        """``kind`` arrived at ``now``, its sender advertising ``timeout`` seconds (``None`` or 0:
+        none). An unwatched kind without one only has its rate measured; with one it becomes
+        watched. A configured timeout wins over a longer advertised one."""
         instant("now", now)
+        if timeout:
+            try:
+                duration("timeout", timeout)
+            except ValueError as error:
+                raise ValueError(f"{kind}: advertised {error}") from None
         arrivals = self._arrivals.get(kind)
         if arrivals is None:
             arrivals = self._arrivals[kind] = deque(maxlen=_RATE_WINDOW)
         arrivals.append(now)
         watched = self._watched.get(kind)
-        if watched is None:
+        if timeout:
+            if watched is None:
+                watched = self._watched[kind] = _Watched(None, timeout, configured=False)
+            else:
+                watched.timeout = min(watched.configured, timeout)
+        elif watched is None:
             return
         watched.last = now
         if watched.state is Liveness.INACTIVE:
@@ -119,6 +139,12 @@ class Watchdog:
         return (len(arrivals) - 1) / span if span > 0 else None
 
     def expected(self, kind: str) -> float | None:
-        """The expected rate in Hz (1 / period), ``None`` for an unwatched kind."""
+        """The expected rate in Hz (1 / period), ``None`` for a kind with no configured period
+        (unwatched, or watched only by its sender's advertised timeout)."""
         watched = self._watched.get(kind)
-        return None if watched is None else 1 / watched.period
+        return None if watched is None or watched.period is None else 1 / watched.period
+
+    def timeout(self, kind: str) -> float | None:
+        """The timeout ``kind`` is watched with now, in seconds; ``None`` for an unwatched kind."""
+        watched = self._watched.get(kind)
+        return None if watched is None else watched.timeout

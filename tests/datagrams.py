@@ -25,7 +25,8 @@ import erc_codec
 from erc_codec import Codec, Decoded, strategies
 from erc_codec.schema import LEN, encode_varint
 
-MAX = 255  # nanopb's PBEnvelope_size for the packaged schema
+MAX = 262  # nanopb's PBEnvelope_size for the packaged schema: the widest payload, 255, + 7
+TIMEOUT_WIDTH = 7  # the metadata field `timeout = 30` at its widest: a two-byte tag + 5
 MODES: tuple[erc_codec.Mode, ...] = ("exact", "strip", "pad")
 _T = FieldDescriptor
 
@@ -81,7 +82,7 @@ def varint_size(value: int) -> int:
 
 def members(codec: Codec) -> list[FieldDescriptor]:
     """The envelope's member fields, in number order."""
-    return list(descriptor(codec.message_class("PBEnvelope")).fields)
+    return list(descriptor(codec.message_class("PBEnvelope")).oneofs[0].fields)
 
 
 def envelope_bytes(codec: Codec, kind: str, payload: Message) -> bytes:
@@ -369,8 +370,9 @@ def widest_driving_diagnostics(codec: Codec, last_angle: float = 359.5) -> Any:
 
 
 def valid_datagrams(codec: Codec) -> list[bytes]:
-    """The edges of the envelope in every form: 255 bytes with a two-byte length, a stripped
-    255-byte datagram, the widest payloads with and without zeros at the end, empty ones."""
+    """The edges of the envelope in every form: 255 bytes (the widest payload) with a two-byte
+    length, a stripped 255-byte datagram, the widest payloads with and without zeros at the
+    end, empty ones."""
     payloads: list[Message] = [
         widest_driving_diagnostics(codec),
         widest_driving_diagnostics(codec, last_angle=1e-40),

@@ -18,7 +18,7 @@ def run(*args: str) -> subprocess.CompletedProcess[str]:
 def test_sizes_prints_the_envelope_table() -> None:
     done = run("sizes")
     assert done.returncode == 0, done.stderr
-    assert "PBEnvelope_size 255" in done.stdout
+    assert "PBEnvelope_size 262" in done.stdout
     row = r"^\s+12\s+gps_info\s+SensorBoardGPSInfo\s+71\s+Hardware -> ROS2$"
     assert re.search(row, done.stdout, re.MULTILINE)
     assert re.search(r"^\s+MotorInformation\s+23$", done.stdout, re.MULTILINE)
@@ -29,7 +29,7 @@ def test_sizes_json_lists_members_and_messages() -> None:
     assert done.returncode == 0, done.stderr
     document = json.loads(done.stdout)
     assert document["root"] == "PBEnvelope"
-    assert document["max_size"] == 255
+    assert document["max_size"] == 262
     assert [m["number"] for m in document["members"]] == list(range(1, 22))
     assert document["members"][16] == {
         "number": 17,

@@ -191,7 +191,7 @@ def test_raw_bytes_on_stdin_are_one_datagram(codec: erc_codec.Codec) -> None:
     assert done.code == 0, done.err
     (record,) = records(done.out)
     assert record["kind"] == "gps_info"
-    assert record["length"] == 255
+    assert record["length"] == 262
     assert record["message"]["latitude"] == -33.5
     assert record["message"]["hdop"] == 0.75
 

@@ -288,9 +288,7 @@ def test_replay_only_the_kinds_asked(
     with erc_codec.McapWriter(recording, codec) as writer:
         for number, data in enumerate(fleet(codec)):
             writer.write(data, 1_700_000_000_000_000_000 + number)
-    result = finished(
-        replay(recording, catcher, "--kind", "gps_info", "--kind", "drive_motor")
-    )
+    result = finished(replay(recording, catcher, "--kind", "gps_info", "--kind", "drive_motor"))
     got = [codec.decode(data).kind for _, data in catcher.take(6)]
     assert got == ["gps_info"] * 3 + ["drive_motor"] * 3
     assert result["skipped"] == {"drops": 2, "other_kinds": 3}

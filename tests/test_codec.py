@@ -43,7 +43,7 @@ def test_kinds_returns_a_copy(codec: Codec) -> None:
 @pytest.mark.parametrize(
     ("name", "size"),
     [
-        ("PBEnvelope", 255),
+        ("PBEnvelope", 262),  # the widest payload, 255, + timeout: 2 + 5
         ("DrivingBoardDiagnostics", 252),  # 2 + 10 * (1 + 1 + 23)
         ("MotorInformation", 23),  # 2 + 6 + 5 + 5 + 5
         ("SensorBoardGPSInfo", 71),  # 9 + 9 + 5 * 5 + 11 + 3 * 2 + 11
@@ -223,8 +223,8 @@ def test_foreign_widest_payload_and_errors(codec: Codec, other: Codec) -> None:
         codec.encode(new(other, "MotorInformation"))
     with pytest.raises(EncodeError, match=r"unknown mode"):
         codec.encode(new(other, "BasestationControlMode"), cast(Any, "bogus"))
-    too_long = with_unknown_field(other, "DrivingBoardMotorMessage", 245)
-    with pytest.raises(EncodeError, match="255"):
+    too_long = with_unknown_field(other, "DrivingBoardMotorMessage", 252)
+    with pytest.raises(EncodeError, match="262"):
         codec.encode(too_long)
 
 

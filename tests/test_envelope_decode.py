@@ -105,9 +105,9 @@ DECODE_ERRORS: list[tuple[str, bytes, str]] = [
     ("empty", b"", r"empty"),
     ("one zero", b"\0", r"no payload"),
     ("all zero", bytes(MAX), r"no payload"),
-    ("too long: zeros", bytes(MAX + 1), r"256 bytes.*255"),
-    ("too long: padded", h("22") + bytes(MAX), r"256 bytes.*255"),
-    ("too long: 300", h("22 00") + bytes(298), r"300 bytes.*255"),
+    ("too long: zeros", bytes(MAX + 1), r"263 bytes.*262"),
+    ("too long: padded", h("22") + bytes(MAX), r"263 bytes.*262"),
+    ("too long: 300", h("22 00") + bytes(298), r"300 bytes.*262"),
     ("unknown member 22", h("b2 01 00"), r"\b22\b"),
     ("unknown member 22 stripped", h("b2 01"), r"\b22\b"),
     ("unknown member 22 padded", h("b2 01") + bytes(100), r"\b22\b"),
@@ -119,8 +119,8 @@ DECODE_ERRORS: list[tuple[str, bytes, str]] = [
     ("submessage longer than its payload", h("5a 03 12 05 0d"), r"SensorBoardDiagnostics"),
     ("payload varint cut off", h("5a 02 08 81"), r"SensorBoardDiagnostics"),
     ("length of zeros only", h("22 05"), r"ArmBoardMovementFeedback|arm_feedback"),
-    ("payload longer than the envelope", h("82 01 ff 01"), r"255"),
-    ("payload length 1000", h("0a e8 07 01"), r"255"),
+    ("payload longer than the envelope", h("82 01 86 02"), r"262"),
+    ("payload length 1000", h("0a e8 07 01"), r"262"),
     ("garbage after zero padding", h("22 00 00 01"), r"offset 2.*offset 3"),
     ("garbage far after zero padding", h("22 00") + bytes(200) + h("07"), r"offset 202"),
     ("zero inside padding of exact payload", h("0a 05 0d 00 00 80 3f 00 00 01"), r"offset 9"),
@@ -168,19 +168,19 @@ def test_a_member_number_with_the_wrong_wire_type(codec: Codec, data: bytes) -> 
 
 
 def test_a_datagram_whose_restored_form_exceeds_the_envelope_is_refused(codec: Codec) -> None:
-    """255 bytes ending in a tag whose value was "stripped": restored, it would be 256 bytes.
+    """262 bytes ending in a tag whose value was "stripped": restored, it would be 263 bytes.
 
-    A receiver padding to PBEnvelope_size (255) cannot hold the last field's length byte, and no
-    sender can have produced it: encode refuses anything longer than 255.
+    A receiver padding to PBEnvelope_size (262) cannot hold the last field's length byte, and no
+    sender can have produced it: encode refuses anything longer than 262.
     """
-    filler = h("b2 01 f7 01") + b"\x01" * 247  # unknown member 22, 247 bytes
+    filler = h("b2 01 fe 01") + b"\x01" * 254  # unknown member 22, 254 bytes
     ends_in_len_tag = h("22 00") + filler + h("b2 01")
     assert len(ends_in_len_tag) == MAX
     ends_in_i32_tag = h("22 00") + filler + h("b5 01")
-    with pytest.raises(DecodeError, match="255"):
-        codec.decode(ends_in_i32_tag)  # restored to 259 bytes
-    with pytest.raises(DecodeError, match="255"):
-        codec.decode(ends_in_len_tag)  # restored to 256 bytes
+    with pytest.raises(DecodeError, match="262"):
+        codec.decode(ends_in_i32_tag)  # restored to 266 bytes
+    with pytest.raises(DecodeError, match="262"):
+        codec.decode(ends_in_len_tag)  # restored to 263 bytes
 
 
 def test_a_cut_that_restores_a_default_is_refused_and_a_tiny_value_is_not(codec: Codec) -> None:
@@ -202,7 +202,7 @@ def test_only_the_padded_forms_may_have_zeros_after_the_payload(codec: Codec) ->
     assert exact == h("82 01 02 08 02")
     for extra in range(MAX - len(exact) + 1):
         assert codec.decode(exact + bytes(extra)).message == payload
-    with pytest.raises(DecodeError, match="256"):
+    with pytest.raises(DecodeError, match="263"):
         codec.decode(exact + bytes(MAX - len(exact) + 1))
 
 

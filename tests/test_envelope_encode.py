@@ -12,6 +12,7 @@ from datagrams import (
     HARD_CASES,
     MAX,
     MODES,
+    TIMEOUT_WIDTH,
     Build,
     assert_all_forms,
     assert_decodes_to,
@@ -112,18 +113,24 @@ def test_the_biggest_payload_fills_the_envelope_exactly(codec: Codec) -> None:
     body = h("08 03") + b"".join(bytes([(n << 3) | 2, 23]) + motor for n in range(2, 12))
     assert len(body) == 252 == codec.max_size("DrivingBoardDiagnostics")
     exact = h("42 fc 01") + body  # member 8, two-byte length 252
-    assert len(exact) == MAX == codec.max_size("PBEnvelope")
+    assert len(exact) == MAX - TIMEOUT_WIDTH == 255
     assert codec.encode(payload, "exact") == exact
-    assert codec.encode(payload, "pad") == exact  # already as long as it gets
+    assert codec.encode(payload, "pad") == exact + bytes(TIMEOUT_WIDTH)
     assert codec.encode(payload, "strip") == exact  # ends in the float 359.5: 00 c0 b3 43
     assert assert_all_forms(codec, payload) == exact
+    # With the widest timeout the metadata field allows, it fills the envelope exactly.
+    widest = exact + h("f0 01 ff ff ff ff 0f")  # field 30, varint 2**32 - 1
+    assert len(widest) == MAX == codec.max_size("PBEnvelope")
+    for mode in MODES:
+        assert codec.encode(payload, mode, timeout=2**32 - 1) == widest
+    assert codec.decode(widest).timeout == 2**32 - 1
 
 
 def test_the_biggest_payload_stripped_and_two_byte_length(codec: Codec) -> None:
     """A 255-byte datagram whose last float ends in zero: stripped to 254 bytes."""
     payload = widest_driving_diagnostics(codec, last_angle=1e-40)
     exact = codec.encode(payload, "exact")
-    assert len(exact) == MAX
+    assert len(exact) == MAX - TIMEOUT_WIDTH
     assert exact[:3] == h("42 fc 01")
     assert exact[-5:] == h("2d c2 16 01 00")
     stripped = codec.encode(payload, "strip")
@@ -199,9 +206,9 @@ def test_encode_rejects_an_unknown_mode(codec: Codec, mode: str) -> None:
 
 
 def test_unknown_fields_that_still_fit_are_sent(codec: Codec) -> None:
-    # body = 5 (distance_to_go) + 3 (tag, two-byte length) + 244 = 252: envelope 1 + 2 + 252 = 255
-    payload = with_unknown_field(codec, "DrivingBoardMotorMessage", 244)
-    assert len(payload.SerializeToString()) == 252
+    # body = 5 (distance_to_go) + 3 (tag, two-byte length) + 251 = 259: envelope 1 + 2 + 259 = 262
+    payload = with_unknown_field(codec, "DrivingBoardMotorMessage", 251)
+    assert len(payload.SerializeToString()) == 259
     exact = codec.encode(payload, "exact")
     assert len(exact) == MAX
     assert exact == envelope_bytes(codec, "drive_motor", payload)
@@ -212,22 +219,22 @@ def test_unknown_fields_that_still_fit_are_sent(codec: Codec) -> None:
 def test_unknown_fields_past_the_envelope_size_are_refused(
     codec: Codec, mode: erc_codec.Mode
 ) -> None:
-    payload = with_unknown_field(codec, "DrivingBoardMotorMessage", 245)
-    assert len(payload.SerializeToString()) == 253  # envelope would be 256 bytes
+    payload = with_unknown_field(codec, "DrivingBoardMotorMessage", 252)
+    assert len(payload.SerializeToString()) == 260  # envelope would be 263 bytes
     envelope = new(codec, "PBEnvelope", drive_motor=payload)
     for message in (payload, envelope):
         with pytest.raises(EncodeError, match=r"DrivingBoardMotorMessage|PBEnvelope") as caught:
             codec.encode(message, mode)
-        assert "255" in str(caught.value)
+        assert "262" in str(caught.value)
 
 
 def test_unknown_fields_on_a_two_byte_tag_member(codec: Codec) -> None:
-    # Member 17 has a two-byte tag: 251 payload bytes fit (2 + 2 + 251), 252 do not.
-    fits = with_unknown_field(codec, "BasestationDetectedObject", 243)
-    assert len(fits.SerializeToString()) == 251
+    # Member 17 has a two-byte tag: 258 payload bytes fit (2 + 2 + 258), 259 do not.
+    fits = with_unknown_field(codec, "BasestationDetectedObject", 250)
+    assert len(fits.SerializeToString()) == 258
     assert len(codec.encode(fits, "exact")) == MAX
-    too_long = with_unknown_field(codec, "BasestationDetectedObject", 244)
-    with pytest.raises(EncodeError, match="255"):
+    too_long = with_unknown_field(codec, "BasestationDetectedObject", 251)
+    with pytest.raises(EncodeError, match="262"):
         codec.encode(too_long)
 
 

@@ -44,15 +44,15 @@ def test_a_payload_longer_than_a_frame_can_say_is_refused() -> None:
 
 def test_a_codecs_deframer_takes_up_to_its_envelope_size(codec: erc_codec.Codec) -> None:
     deframer = Deframer.for_codec(codec)
-    too_long = frame(bytes(256))
-    assert deframer.feed(too_long + frame(bytes(255))) == [bytes(255)]
+    too_long = frame(bytes(263))  # PBEnvelope_size is 262
+    assert deframer.feed(too_long + frame(bytes(262))) == [bytes(262)]
     assert deframer.stats().rejected == {"too_long": 1}
 
 
 def test_a_deframer_without_its_maximum_is_deprecated_and_takes_the_packaged_envelopes() -> None:
     with pytest.warns(DeprecationWarning, match=r"Deframer\(\) without max_length"):
         deframer = Deframer()
-    assert deframer.feed(frame(bytes(256)) + frame(bytes(255))) == [bytes(255)]
+    assert deframer.feed(frame(bytes(263)) + frame(bytes(262))) == [bytes(262)]
 
 
 def test_garbage_bad_crcs_and_impossible_lengths_are_counted() -> None:

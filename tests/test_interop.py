@@ -220,7 +220,7 @@ def test_every_form_against_nanopb(nanopb: Peer, kind: str, data: st.DataObject)
 def test_every_size_equals_the_generated_header(nanopb: Peer) -> None:
     ours = {name.replace(".", "_"): size for name, size in CODEC.sizes().items()}
     assert ours == nanopb.sizes
-    assert nanopb.sizes["PBEnvelope"] == MAX == 255
+    assert nanopb.sizes["PBEnvelope"] == MAX == 262  # the widest payload, 255, + timeout: 7
 
 
 def widest(descriptor: Descriptor) -> Message:
@@ -271,3 +271,28 @@ def test_the_widest_message_fills_its_size_in_both(nanopb: Peer, kind: str) -> N
 def test_a_missing_toolchain_is_named(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     monkeypatch.setenv("PATH", str(tmp_path))  # no gcc, no generator
     assert _missing() == ("gcc", None, None)
+
+
+@pytest.mark.parametrize("timeout", [1, 300, 2**32 - 1])
+def test_the_timeout_metadata_matches_nanopb(nanopb: Peer, timeout: int) -> None:
+    """An envelope whose last field is ``timeout``, not the payload: nanopb builds the same bytes,
+    and plain ``pb_decode`` reads every form the codec sends it, since nothing is stripped."""
+    stop = CODEC.message_class("drive_motor")()  # all zero: exact payload "4a 00"
+    exact = CODEC.encode(stop, "exact", timeout=timeout)
+    built, plain, from_stripped = nanopb.ask(
+        [
+            f"E 9 30={timeout}",
+            f"D {exact.hex()}",
+            f"D {CODEC.encode(stop, 'strip', timeout=timeout).hex()}",
+        ]
+    )
+    assert built.ok
+    assert built.data == exact
+    assert plain.ok
+    assert plain.fields == ["9", f"30={timeout}"]
+    assert from_stripped == plain
+    padded = CODEC.encode(stop, "pad", timeout=timeout)
+    assert len(padded) == MAX
+    for data in (exact, padded):
+        decoded = CODEC.decode(data)
+        assert (decoded.kind, decoded.timeout) == ("drive_motor", timeout)

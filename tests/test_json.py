@@ -106,7 +106,7 @@ def _in_map(draw: st.DrawFn, items: Any, value: FieldDescriptor) -> None:
 def drawable(codec: Codec) -> list[str]:
     return sorted(
         message_of(member).full_name
-        for member in descriptor_of(codec.message_class(codec.root)).fields
+        for member in descriptor_of(codec.message_class(codec.root)).oneofs[0].fields
         if message_of(member).full_name != "JsonWellKnown"
     )
 

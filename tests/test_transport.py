@@ -11,6 +11,7 @@ import socket
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 from google.protobuf.message import Message
@@ -272,3 +273,23 @@ def test_importing_a_package_does_not_import_asyncio(package: str) -> None:
     )
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip() == "[]", f"import {package} imports {result.stdout.strip()}"
+
+
+def test_an_endpoint_without_a_dispatcher_hears_and_sends_bytes_as_they_are() -> None:
+    async def scenario() -> tuple[list[tuple[bytes, Any]], erc_codec.UdpStats]:
+        heard: list[tuple[bytes, Any]] = []
+        relay = await erc_codec.open_udp(
+            None, on_datagram=lambda data, sender: heard.append((data, sender))
+        )
+        other = await erc_codec.open_udp(None)
+        for data in (b"\x4a", bytes(300), b"not protobuf"):  # bytes, judged by no one here
+            other.send_datagram(data, relay.address)
+        await until(lambda: len(heard) == 3)
+        relay.close()
+        other.close()
+        return heard, relay.stats()
+
+    heard, stats = asyncio.run(scenario())
+    assert [data for data, _ in heard] == [b"\x4a", bytes(300), b"not protobuf"]
+    assert heard[0][1][0] == "127.0.0.1"
+    assert stats.received == 3

@@ -167,3 +167,61 @@ def test_timeouts_and_recoveries_alternate(steps: list[tuple[str, float]], monot
     assert kinds == ["timeout", "recover"] * (len(kinds) // 2) + ["timeout"] * (len(kinds) % 2)
     if kinds and kinds[-1] == "timeout":
         assert dog.state("gps_info") is Liveness.INACTIVE
+
+
+# -- timeouts the sender advertises ------------------------------------------------------------
+
+
+def test_an_advertised_timeout_watches_a_kind_nobody_configured() -> None:
+    timed_out: list[str] = []
+    watchdog = Watchdog(on_timeout=timed_out.append)
+    watchdog.seen("drive_motor", 0.0, timeout=0.3)
+    assert watchdog.state("drive_motor") is Liveness.ACTIVE
+    assert watchdog.timeout("drive_motor") == 0.3
+    assert watchdog.expected("drive_motor") is None  # no period configured
+    assert watchdog.poll(0.3) == []
+    assert watchdog.poll(0.31) == ["drive_motor"]
+    assert timed_out == ["drive_motor"]
+
+
+@pytest.mark.parametrize("advertised", [None, 0, 0.0])
+def test_no_advertised_timeout_leaves_a_kind_unwatched(advertised: float | None) -> None:
+    watchdog = Watchdog()
+    watchdog.seen("drive_diag", 0.0, timeout=advertised)
+    assert watchdog.state("drive_diag") is Liveness.UNCONFIGURED
+    assert watchdog.timeout("drive_diag") is None
+    assert watchdog.poll(100.0) == []
+
+
+def test_a_configured_timeout_wins_over_a_longer_advertised_one() -> None:
+    watchdog = Watchdog()
+    watchdog.watch("drive_motor", period=0.1, timeout=0.3)
+    watchdog.seen("drive_motor", 0.0, timeout=60.0)  # a sender cannot loosen its brake
+    assert watchdog.timeout("drive_motor") == 0.3
+    assert watchdog.poll(0.31) == ["drive_motor"]
+    watchdog.seen("drive_motor", 1.0, timeout=0.2)  # but it may tighten it
+    assert watchdog.timeout("drive_motor") == 0.2
+    assert watchdog.poll(1.21) == ["drive_motor"]
+    watchdog.seen("drive_motor", 2.0, timeout=0)  # nor switch it off with 0
+    assert watchdog.timeout("drive_motor") == 0.2
+    watchdog.seen("drive_motor", 3.0, timeout=1.0)  # longer again: back to the configured one
+    assert watchdog.timeout("drive_motor") == 0.3
+
+
+def test_an_advertised_timeout_follows_the_sender() -> None:
+    watchdog = Watchdog()
+    watchdog.seen("arm_ctrl", 0.0, timeout=0.5)
+    watchdog.seen("arm_ctrl", 0.1, timeout=2.0)  # nobody configured a ceiling: the latest counts
+    assert watchdog.timeout("arm_ctrl") == 2.0
+    watchdog.seen("arm_ctrl", 0.2)  # an arrival without one keeps the watch
+    assert watchdog.poll(2.1) == []
+    assert watchdog.poll(2.21) == ["arm_ctrl"]
+
+
+@pytest.mark.parametrize("advertised", [-1.0, math.nan, math.inf])
+def test_a_bad_advertised_timeout_is_refused_and_changes_nothing(advertised: float) -> None:
+    watchdog = Watchdog()
+    with pytest.raises(ValueError, match="drive_motor: advertised timeout must be a positive"):
+        watchdog.seen("drive_motor", 0.0, timeout=advertised)
+    assert watchdog.state("drive_motor") is Liveness.UNCONFIGURED
+    assert watchdog.rate("drive_motor") is None

@@ -8,6 +8,7 @@ from ._group import OneLineGroup
 from ._net import listen, send
 from ._proton import proton
 from ._record import record, replay
+from ._relay import relay
 from ._sizes import sizes
 from ._wireshark import wireshark
 
@@ -20,5 +21,5 @@ def main() -> None:
     """Encode, decode and size the ERC rover's PBEnvelope datagrams."""
 
 
-for _command in (sizes, decode, encode, send, listen, record, replay, proton, wireshark):
+for _command in (sizes, decode, encode, send, listen, relay, record, replay, proton, wireshark):
     main.add_command(_command)

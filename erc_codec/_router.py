@@ -1,0 +1,312 @@
+"""Routing: each datagram to the destinations that want its kind, in each destination's form, and
+a failsafe message while a watched command stream is silent.
+
+Guarantees: sans-IO, like the ``Dispatcher`` beside it (the caller passes datagrams, their source
+and the clock; the router returns what to send where). Every datagram routed ends in exactly one
+place: forwarded (counted per destination), or dropped and counted by reason: ``unrouted`` (no
+route wants it), ``contract`` (it decodes but breaks the fixed-size contract, so it cannot be
+re-sent as is to a fixed-size receiver), or its ``DecodeError.reason`` (``unknown_member`` for a
+member this schema does not know, ``corrupt``, ...). With a ``debug`` destination, every dropped
+datagram goes there too, raw, as it arrived.
+
+Forms: each destination takes ``exact`` (prost and Google protobuf receivers, boards decoding
+with plain ``pb_decode`` on the datagram's length), ``strip`` (receivers that follow the envelope
+contract and restore the zeros) or ``pad``. A datagram is decoded once and encoded once, exact,
+with the metadata it carried (``timeout``); the stripped and padded forms are cut from that.
+
+Failsafe: for each ``Failsafe(kind, ...)`` the router watches ``kind`` (with its configured
+timeout, or the sender's advertised ``timeout`` metadata; a configured one is never loosened by
+an advertised one, see ``Watchdog``). Once the kind was arriving and then stays silent past its
+timeout, ``poll`` returns the failsafe message for its destinations at once and then every
+``1 / rate`` seconds, until the kind arrives again; each change is a ``FailsafeEvent``.
+"""
+
+import math
+from collections.abc import Callable, Iterable, Mapping
+from typing import NamedTuple
+
+from google.protobuf.message import Message
+
+from ._checks import duration
+from ._codec import Codec
+from ._envelope import Mode
+from ._errors import DecodeError, EncodeError, SchemaError
+from ._watchdog import Watchdog
+
+__all__ = ["Failsafe", "FailsafeEvent", "Outgoing", "Route", "Router", "RouterStats"]
+
+_FORMS = ("exact", "strip", "pad")
+_CACHED_SOURCES = 1024  # (source, kind) pairs whose destinations are remembered
+
+
+class Route(NamedTuple):
+    """Datagrams that match every criterion given go ``to`` these destinations: of one of
+    ``kinds``, from one of ``sources``, of a member whose ``// direction:`` names this ``sender``
+    or ``receiver``. A route with no criterion takes every datagram."""
+
+    to: tuple[str, ...]
+    kinds: tuple[str, ...] | None = None
+    sources: tuple[str, ...] | None = None
+    sender: str | None = None
+    receiver: str | None = None
+
+
+class Failsafe(NamedTuple):
+    """While ``kind`` is silent past its timeout, send ``message`` (a payload of the envelope)
+    ``to`` these destinations, ``rate`` times a second. ``timeout`` in seconds; ``None``: the one
+    the sender advertises in the envelope's ``timeout`` metadata (unwatched until it does)."""
+
+    kind: str
+    message: Message
+    to: tuple[str, ...]
+    rate: float
+    timeout: float | None = None
+
+
+class Outgoing(NamedTuple):
+    """One datagram to send: the destination's name and the bytes, in its form."""
+
+    destination: str
+    data: bytes
+
+
+class FailsafeEvent(NamedTuple):
+    """A failsafe engaged (its kind went silent) or released (its kind arrived again)."""
+
+    kind: str
+    engaged: bool
+    at: float  # the caller's clock
+
+
+class RouterStats(NamedTuple):
+    """Counters since the router was made (copies)."""
+
+    forwarded: dict[str, int]  # destination → datagrams routed to it
+    dropped: dict[str, int]  # reason → datagrams forwarded nowhere (but to debug)
+    debug: int  # datagrams sent raw to the debug destination
+    failsafe_sent: dict[str, int]  # destination → failsafe datagrams
+    engaged: dict[str, int]  # kind → times its failsafe engaged
+    released: dict[str, int]  # kind → times it recovered
+
+
+class _Engaged:
+    __slots__ = ("due",)
+
+    def __init__(self, due: float) -> None:
+        self.due = due
+
+
+class Router:
+    """Routes datagrams by kind, direction or source to named destinations, each in its form."""
+
+    def __init__(
+        self,
+        codec: Codec,
+        destinations: Mapping[str, Mode],
+        routes: Iterable[Route],
+        failsafes: Iterable[Failsafe] = (),
+        debug: str | None = None,
+        on_event: Callable[[FailsafeEvent], object] | None = None,
+    ) -> None:
+        """``destinations``: name → form. ``debug``: a destination name, or ``None``."""
+        self._codec = codec
+        self._decode, self._encode = codec.decode, codec.encode
+        self._max = codec.max_size(codec.root)
+        for name, form in destinations.items():
+            if form not in _FORMS:
+                raise ValueError(
+                    f"destination {name!r}: form must be exact, strip or pad, not {form!r}"
+                )
+        self._forms = dict(destinations)
+        self._routes = [self._resolved(route) for route in routes]
+        if debug is not None:
+            self._known(debug, "the debug destination")
+        self._debug = debug
+        self._on_event = on_event
+        self._watchdog = Watchdog()
+        self._failsafes: dict[str, tuple[float, list[Outgoing]]] = {}
+        for failsafe in failsafes:
+            self._add_failsafe(failsafe)
+        self._engaged: dict[str, _Engaged] = {}
+        self._table: dict[tuple[object, str], tuple[str, ...]] = {}
+        self._forwarded = dict.fromkeys(self._forms, 0)
+        self._dropped: dict[str, int] = {}
+        self._debug_sent = 0
+        self._failsafe_sent = dict.fromkeys(self._forms, 0)
+        self._engaged_count: dict[str, int] = {}
+        self._released_count: dict[str, int] = {}
+
+    @property
+    def codec(self) -> Codec:
+        """The codec this router decodes and encodes with."""
+        return self._codec
+
+    def route(self, data: bytes, source: object, now: float) -> list[Outgoing]:
+        """The datagrams to send for ``data``, which arrived from ``source`` at ``now``."""
+        try:
+            decoded = self._decode(data)
+        except DecodeError as error:
+            return self._drop(error.reason, data)
+        kind = decoded.kind
+        if kind in self._failsafes:
+            advertised = decoded.timeout
+            self._watchdog.seen(kind, now, advertised / 1000 if advertised else None)
+            if kind in self._engaged:
+                self._release(kind, now)
+        key = (source, kind)
+        targets = self._table.get(key)
+        if targets is None:
+            targets = self._targets(kind, source)
+            if len(self._table) < _CACHED_SOURCES:
+                self._table[key] = targets
+        if not targets:
+            return self._drop("unrouted", data)
+        metadata = decoded.metadata
+        try:
+            if metadata:
+                exact = self._encode(decoded.message, "exact", **metadata)
+            else:
+                exact = self._encode(decoded.message, "exact")
+        except EncodeError:
+            return self._drop("contract", data)
+        out = []
+        forwarded = self._forwarded
+        for name in targets:
+            out.append(Outgoing(name, self._form(exact, self._forms[name])))
+            forwarded[name] += 1
+        return out
+
+    def poll(self, now: float) -> list[Outgoing]:
+        """The failsafe datagrams due at ``now``: call it often (every few milliseconds)."""
+        for kind in self._watchdog.poll(now):
+            if kind in self._failsafes:
+                self._engage(kind, now)
+        out: list[Outgoing] = []
+        for kind, engaged in self._engaged.items():
+            if engaged.due > now:
+                continue
+            interval, datagrams = self._failsafes[kind]
+            out += datagrams
+            for outgoing in datagrams:
+                self._failsafe_sent[outgoing.destination] += 1
+            engaged.due += interval
+            if engaged.due <= now:  # a late poll: no burst to catch up
+                engaged.due = now + interval
+        return out
+
+    def engaged(self) -> frozenset[str]:
+        """The kinds whose failsafe is engaged now."""
+        return frozenset(self._engaged)
+
+    def stats(self) -> RouterStats:
+        """A snapshot of the counters."""
+        return RouterStats(
+            dict(self._forwarded),
+            dict(self._dropped),
+            self._debug_sent,
+            dict(self._failsafe_sent),
+            dict(self._engaged_count),
+            dict(self._released_count),
+        )
+
+    # -- set-up --------------------------------------------------------------------------------
+
+    def _known(self, name: str, what: str) -> None:
+        if name not in self._forms:
+            known = ", ".join(sorted(self._forms)) or "none"
+            raise ValueError(f"{what}: no destination {name!r} (destinations: {known})")
+
+    def _resolved(
+        self, route: Route
+    ) -> tuple[tuple[str, ...], frozenset[str] | None, frozenset[object] | None]:
+        """A route as (destinations, the kinds it takes or None for all, its sources or None)."""
+        for name in route.to:
+            self._known(name, f"route to {', '.join(route.to)}")
+        kinds: set[str] | None = None
+        if route.kinds is not None:
+            kinds = set(route.kinds)
+            unknown = kinds - set(self._codec.kinds().values())
+            if unknown:
+                raise SchemaError(
+                    f"route to {', '.join(route.to)}: {', '.join(sorted(unknown))} is not a "
+                    f"payload kind of {self._codec.root}"
+                )
+        if route.sender is not None or route.receiver is not None:
+            members = self._codec.members()
+            directed = {
+                member.kind
+                for member in members
+                if member.direction is not None
+                and route.sender in (None, member.direction.sender)
+                and route.receiver in (None, member.direction.receiver)
+            }
+            if not directed:
+                parties = sorted(
+                    {p for m in members if m.direction is not None for p in m.direction}
+                )
+                raise ValueError(
+                    f"route to {', '.join(route.to)}: no member of {self._codec.root} is sent "
+                    f"{route.sender or 'by anyone'} -> {route.receiver or 'anyone'} "
+                    f"(the directions name: {', '.join(parties) or 'nobody'})"
+                )
+            kinds = directed if kinds is None else kinds & directed
+        sources = frozenset(route.sources) if route.sources is not None else None
+        return tuple(route.to), (frozenset(kinds) if kinds is not None else None), sources
+
+    def _add_failsafe(self, failsafe: Failsafe) -> None:
+        kind = failsafe.kind
+        if kind not in self._codec.kinds().values():
+            raise SchemaError(f"failsafe: {kind!r} is not a payload kind of {self._codec.root}")
+        rate = failsafe.rate
+        if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 0 < rate < math.inf:
+            raise ValueError(
+                f"failsafe {kind}: rate must be a positive, finite number of Hz, not {rate!r}"
+            )
+        if failsafe.timeout is not None:
+            try:
+                timeout = duration("timeout", failsafe.timeout)
+            except ValueError as error:
+                raise ValueError(f"failsafe {kind}: {error}") from None
+            self._watchdog.watch(kind, timeout, timeout)  # the period matters not: no rate check
+        datagrams = []
+        for name in failsafe.to:
+            self._known(name, f"failsafe {kind}")
+            datagrams.append(
+                Outgoing(name, self._codec.encode(failsafe.message, self._forms[name]))
+            )
+        self._failsafes[kind] = (1 / rate, datagrams)
+
+    # -- the hot path's helpers ---------------------------------------------------------------
+
+    def _targets(self, kind: str, source: object) -> tuple[str, ...]:
+        found: dict[str, None] = {}  # ordered, without repeats
+        for to, kinds, sources in self._routes:
+            if (kinds is None or kind in kinds) and (sources is None or source in sources):
+                found.update(dict.fromkeys(to))
+        return tuple(found)
+
+    def _form(self, exact: bytes, form: Mode) -> bytes:
+        if form == "exact":
+            return exact
+        if form == "strip":  # every trailing zero of an exact encoding is its last field's
+            return exact.rstrip(b"\0")
+        return exact + bytes(self._max - len(exact))
+
+    def _drop(self, reason: str, data: bytes) -> list[Outgoing]:
+        self._dropped[reason] = self._dropped.get(reason, 0) + 1
+        if self._debug is None:
+            return []
+        self._debug_sent += 1
+        return [Outgoing(self._debug, bytes(data))]
+
+    def _engage(self, kind: str, now: float) -> None:
+        self._engaged[kind] = _Engaged(now)
+        self._engaged_count[kind] = self._engaged_count.get(kind, 0) + 1
+        if self._on_event is not None:
+            self._on_event(FailsafeEvent(kind, True, now))
+
+    def _release(self, kind: str, now: float) -> None:
+        del self._engaged[kind]
+        self._released_count[kind] = self._released_count.get(kind, 0) + 1
+        if self._on_event is not None:
+            self._on_event(FailsafeEvent(kind, False, now))
