@@ -143,7 +143,7 @@ def test_the_file_says_where_its_schema_came_from_and_what_it_holds(
     found = metadata(path)
     origin = found["erc-codec"]
     assert origin["schema_root"] == "PBEnvelope"
-    assert origin["PBEnvelope_size"] == "255"
+    assert origin["PBEnvelope_size"] == str(codec.max_size("PBEnvelope"))
     assert Path(origin["schema_tree"]) == codec.schema.tree
     assert origin["schema_digest"].startswith("sha256:")
     assert len(origin["schema_digest"]) == len("sha256:") + 64
