@@ -186,7 +186,10 @@ def cargo_build(codec: Codec, build: Path) -> Path:
         capture_output=True,
         text=True,
     )
-    return project / "target" / "release" / "basestation"
+    # CARGO_TARGET_DIR (set by .ci/run for all its Pythons) keeps the compiled crates between
+    # runs: prost and its dependencies are most of the build's time.
+    target = os.environ.get("CARGO_TARGET_DIR") or project / "target"
+    return Path(target) / "release" / "basestation"
 
 
 def nanopb_missing() -> tuple[str, Path | None]:
