@@ -94,7 +94,7 @@ def _deframe(decoder: _Decoder, chunks: Iterable[bytes], deframer: Deframer) -> 
 )
 @schema_options
 def decode(
-    data: tuple[str, ...], capture: Path | None, framed: bool, tree: Path | None, root: str
+    data: tuple[str, ...], capture: Path | None, framed: bool, tree: str | None, root: str | None
 ) -> None:
     """Decode datagrams to JSON: one object per datagram, one per line, on stdout.
 

@@ -1,7 +1,6 @@
 """``erc-codec encode``: one payload, given as protobuf JSON, to a datagram in hex."""
 
 import sys
-from pathlib import Path
 from typing import cast
 
 import click
@@ -34,7 +33,9 @@ MODE = click.option(
     help="Wrap the datagram in a Proton serial frame (50 52, length, payload, CRC-16).",
 )
 @schema_options
-def encode(kind: str, payload: str, mode: str, framed: bool, tree: Path | None, root: str) -> None:
+def encode(
+    kind: str, payload: str, mode: str, framed: bool, tree: str | None, root: str | None
+) -> None:
     """Encode one payload, given as protobuf JSON, and print the datagram in hex.
 
     KIND is the envelope member that carries it (erc-codec sizes lists them,

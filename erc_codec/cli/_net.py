@@ -15,7 +15,6 @@ import socket
 import sys
 import time
 from collections.abc import Callable
-from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO, cast
 
 import click
@@ -104,8 +103,8 @@ def send(
     count: int,
     rate: float | None,
     mode: str,
-    tree: Path | None,
-    root: str,
+    tree: str | None,
+    root: str | None,
 ) -> None:
     """Send one payload (protobuf JSON, as for encode) to HOST:PORT, COUNT times at RATE Hz.
 
@@ -154,8 +153,8 @@ def listen(
     count: int | None,
     seconds: float | None,
     output: str,
-    tree: Path | None,
-    root: str,
+    tree: str | None,
+    root: str | None,
 ) -> None:
     """Print the datagrams arriving on [HOST:]PORT (host 127.0.0.1 unless given), decoded.
 

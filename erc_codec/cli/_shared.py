@@ -3,7 +3,6 @@
 import json
 import re
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any, TypeVar
 
 import click
@@ -11,7 +10,8 @@ from google.protobuf import json_format
 from google.protobuf.descriptor import Descriptor
 from google.protobuf.message import Message
 
-from .._codec import Codec, default_tree
+from .._codec import Codec
+from .._discovery import SchemaSource, find_schema
 from .._errors import CodecError
 from ..schema import descriptor_of
 
@@ -23,6 +23,7 @@ __all__ = [
     "one_line",
     "plural",
     "schema_options",
+    "source",
     "to_dict",
     "unhex",
 ]
@@ -52,25 +53,43 @@ def schema_options(command: _Command) -> _Command:
     command = click.option(
         "--root",
         metavar="NAME",
-        default="PBEnvelope",
-        show_default=True,
-        help="The envelope message.",
+        help="The envelope message. Default: the configuration's root, else PBEnvelope.",
     )(command)
     return click.option(
         "--proto",
         "tree",
-        type=click.Path(file_okay=False, path_type=Path),
         metavar="TREE",
-        help="Proto tree to load (its import root). Default: the packaged rover schema.",
+        help="Proto tree to load: its import root, a folder, or a git revision "
+        "GITDIR#ref=REF[,subdir=PATH] (read without a checkout). Default: $ERC_CODEC_PROTO, "
+        "else [tool.erc-codec] proto in the nearest pyproject.toml, else the packaged schema "
+        "(erc-codec schema says which).",
     )(command)
 
 
-def load(tree: Path | None, root: str) -> Codec:
-    """The codec ``--proto`` and ``--root`` name; a schema that does not load is exit 2."""
+def source(tree: str | None, root: str | None) -> SchemaSource:
+    """The schema ``--proto`` and ``--root`` name, or the one found (see ``find_schema``); a
+    configuration that cannot be read is exit 2. Options given before the command
+    (``erc-codec --proto TREE decode``) hold where the command gives none."""
+    context = click.get_current_context(silent=True)
+    if context is not None:
+        given = context.find_root().params
+        tree = tree if tree is not None else given.get("tree")
+        root = root if root is not None else given.get("root")
     try:
-        return Codec.from_path(tree or default_tree(), root)
+        return find_schema(tree, root)
     except CodecError as error:
         raise Fatal(one_line(str(error))) from None
+
+
+def load(tree: str | None, root: str | None) -> Codec:
+    """The codec ``--proto`` and ``--root`` name, or the one found; a schema that does not load
+    is exit 2, one line."""
+    found = source(tree, root)
+    try:
+        return Codec.from_source(found)
+    except CodecError as error:
+        where = "" if found.origin in ("--proto", "packaged") else f" (from {found.origin})"
+        raise Fatal(one_line(str(error)) + where) from None
 
 
 def unhex(text: str) -> bytes:
