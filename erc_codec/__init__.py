@@ -18,6 +18,7 @@ from ._envelope import Decoded, Mode
 from ._errors import CodecError, DecodeError, EncodeError, SchemaError
 from ._framing import Deframer, DeframerStats, frame
 from ._transport import UdpEndpoint, UdpStats, open_udp, read_serial
+from ._unknown import UnknownField
 from ._watchdog import Liveness, Watchdog
 
 __all__ = [
@@ -43,6 +44,7 @@ __all__ = [
     "SchemaError",
     "UdpEndpoint",
     "UdpStats",
+    "UnknownField",
     "Watchdog",
     "decode",
     "encode",
@@ -68,10 +70,11 @@ def __getattr__(name: str) -> Any:
 
 
 def encode(message: Message, mode: Mode = "strip") -> bytes:
-    """``Codec.default().encode(message, mode)``: a datagram of the packaged rover schema."""
+    """``Codec.default().encode(message, mode)``: a datagram of the schema found (``decode``)."""
     return Codec.default().encode(message, mode)
 
 
-def decode(data: bytes) -> Decoded:
-    """``Codec.default().decode(data)``: the payload of a datagram of the packaged schema."""
-    return Codec.default().decode(data)
+def decode(data: bytes, strict: bool = False) -> Decoded:
+    """``Codec.default().decode(data, strict)``: the payload of a datagram of the schema found
+    (``ERC_CODEC_PROTO``, ``[tool.erc-codec]`` in a pyproject.toml, else the packaged one)."""
+    return Codec.default().decode(data, strict)

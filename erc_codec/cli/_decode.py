@@ -8,7 +8,7 @@ from .._codec import Codec
 from .._errors import DecodeError
 from .._framing import Deframer
 from ._reading import Printer, decode_input, input_options
-from ._shared import Fatal, emit, load, one_line, schema_options, to_dict
+from ._shared import Fatal, emit, load, one_line, schema_options
 
 __all__ = ["decode"]
 
@@ -16,16 +16,17 @@ __all__ = ["decode"]
 class _Decoder(Printer):
     """Decodes datagrams and prints one JSON line for each (of the kinds asked for)."""
 
-    def __init__(self, codec: Codec, kinds: frozenset[str]) -> None:
+    def __init__(self, codec: Codec, kinds: frozenset[str], strict: bool) -> None:
         super().__init__()
         self._decode = codec.decode
+        self._strict = strict
         self._kinds = kinds
         self.other_kinds = 0
 
     def datagram(self, data: bytes, where: dict[str, object] | None = None) -> None:
         self.datagrams += 1
         try:
-            kind, message = self._decode(data)
+            decoded = self._decode(data, self._strict)
         except DecodeError as error:
             self.failed += 1
             emit(
@@ -37,10 +38,11 @@ class _Decoder(Printer):
                 }
             )
             return
-        if self._kinds and kind not in self._kinds:
+        if self._kinds and decoded.kind not in self._kinds:
             self.other_kinds += 1
             return
-        emit({**(where or {}), "kind": kind, "length": len(data), "message": to_dict(message)})
+        record = decoded.to_dict()  # kind, message and any unknown fields; the length after kind
+        emit({**(where or {}), "kind": record.pop("kind"), "length": len(data), **record})
 
 
 @click.command()
@@ -53,6 +55,11 @@ class _Decoder(Printer):
     metavar="KIND",
     help="Print only datagrams of this kind (repeatable); errors are printed all the same.",
 )
+@click.option(
+    "--strict",
+    is_flag=True,
+    help="A datagram with fields the schema does not know is an error (reason unknown_fields).",
+)
 @schema_options
 def decode(
     data: tuple[str, ...],
@@ -61,6 +68,7 @@ def decode(
     framed: bool,
     raw: bool,
     kinds: tuple[str, ...],
+    strict: bool,
     tree: str | None,
     root: str | None,
 ) -> None:
@@ -81,13 +89,19 @@ def decode(
     datagrams of these kinds (the others are counted, not shown).
 
     \b
-    Output, one line per datagram:
+    Output, one line per datagram (Decoded.to_dict() with its length):
       {"kind": "gps_info", "length": 24, "message": {...}}
+      {"kind": "gps_info", "length": 4, "message": {...},
+       "unknown_fields": [{"path": "", "number": 13, "wire_type": 0}]}
       {"error": "...", "reason": "unknown_member", "length": 3}
+    "unknown_fields" lists the fields the schema does not know (a number it
+    lacks, or a wire type its field does not have: another schema sent it);
+    with --strict such a datagram is an error (reason unknown_fields).
     An undecodable datagram is an "error" object on stdout (reason: empty,
-    too_long, no_payload, unknown_member or corrupt; not_hex, with "line",
-    for a line of standard input that is not hex), so the stream stays one
-    JSON object a line, and decoding goes on with the next datagram. With
+    too_long, no_payload, unknown_member, truncated, corrupt or
+    unknown_fields; not_hex, with "line", for a line of standard input that
+    is not hex), so the stream stays one JSON object a line, and decoding
+    goes on with the next datagram. With
     --pcap every object starts with "time", "src" and "dst" (address:port);
     --pcap and --framed end with a summary line on stderr (packets skipped
     and why; frames rejected and why, bytes discarded between frames), and
@@ -113,5 +127,5 @@ def decode(
     if unknown:
         known = ", ".join(codec.kinds().values())
         raise Fatal(f"unknown kind {unknown[0]!r}: {codec.root} has {known}")
-    decoder = _Decoder(codec, frozenset(kinds))
+    decoder = _Decoder(codec, frozenset(kinds), strict)
     decode_input(decoder, data, raw, framed, capture, ports, lambda: Deframer.for_codec(codec))
