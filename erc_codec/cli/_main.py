@@ -10,6 +10,7 @@ from ._proton import proton
 from ._schema import schema
 from ._shared import schema_options
 from ._sizes import sizes
+from ._stubs import stubs
 
 __all__ = ["main"]
 
@@ -27,5 +28,5 @@ def main(tree: str | None, root: str | None) -> None:
     """
 
 
-for _command in (schema, sizes, decode, encode, send, listen, proton):
+for _command in (schema, sizes, decode, encode, send, listen, stubs, proton):
     main.add_command(_command)
