@@ -6,10 +6,10 @@ nanopb options and sizes, wire primitives), with ``erc_codec.strategies`` for hy
 lines share. Everything else is private and free to change.
 """
 
-import warnings
-from typing import Any
+import warnings as _warnings
+from typing import Any as _Any
 
-from google.protobuf.message import Message
+from google.protobuf.message import Message as _Message
 
 from ._codec import Codec, Direction, Member
 from ._detections import AssemblerStats, DetectionAssembler, DetectionFrame, FrameLoss, Rejected
@@ -57,10 +57,10 @@ __all__ = [
 _DEPRECATED = {"Frame": DetectionFrame, "FrameAssembler": DetectionAssembler}
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> _Any:
     if name in _DEPRECATED:
         new = _DEPRECATED[name]
-        warnings.warn(
+        _warnings.warn(
             f"erc_codec.{name} is deprecated: use erc_codec.{new.__name__}",
             DeprecationWarning,
             stacklevel=2,
@@ -69,7 +69,7 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-def encode(message: Message, mode: Mode = "strip") -> bytes:
+def encode(message: _Message, mode: Mode = "strip") -> bytes:
     """``Codec.default().encode(message, mode)``: a datagram of the schema found (``decode``)."""
     return Codec.default().encode(message, mode)
 

@@ -557,7 +557,7 @@ def test_decode_of_a_cut_capture_exits_2_after_the_packets_before_the_cut(
 
 def test_pcap_without_dpkt_says_what_to_install(tmp_path: Path) -> None:
     # The same entry point, with dpkt made unimportable (whether or not it is installed).
-    code = "import sys; sys.modules['dpkt'] = None; from erc_codec.cli._main import main; main()"
+    code = "import sys; sys.modules['dpkt'] = None; from erc_codec.cli import main; main()"
     done = subprocess.run(
         [sys.executable, "-c", code, "decode", "--pcap", str(tmp_path / "x.pcap")],
         capture_output=True,

@@ -167,7 +167,7 @@ def test_failures_are_one_line_with_their_status(args: list[str], code: int, tex
 
 
 def test_without_pyyaml_it_says_which_extra_to_install() -> None:
-    code = "import sys; sys.modules['yaml'] = None; from erc_codec.cli._main import main; main()"
+    code = "import sys; sys.modules['yaml'] = None; from erc_codec.cli import main; main()"
     done = subprocess.run(
         [sys.executable, "-c", code, "proton", "decode", *CONFIG, "00"],
         capture_output=True,
