@@ -130,3 +130,23 @@ def test_listen_stopped_by_a_signal_prints_its_counters(number: signal.Signals) 
     assert json.loads(out)["kind"] == "gps_info"
     counters = json.loads(err.splitlines()[-1].removeprefix("counters: "))
     assert counters["received"] == 1
+
+
+def test_send_takes_a_line_decode_printed() -> None:
+    """``decode ... | encode gps_info -`` failed on decode's own "kind" key; send too."""
+    line = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "decode", "620b09d8817346941e4a404802"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.strip()
+    listener, port = start_listener("--count", "1", "--seconds", "30", "--format", "json")
+    sent = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "send", f"127.0.0.1:{port}", "gps_info", line],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert sent.returncode == 0, sent.stderr
+    out, _ = listener.communicate(timeout=30)
+    assert json.loads(out)["message"] == json.loads(line)["message"]

@@ -97,7 +97,8 @@ def test_a_bad_configuration_is_a_schema_error_naming_the_file(
     assert str(tmp_path / "pyproject.toml") in str(raised.value)
     done = run("sizes", cwd=tmp_path)
     assert done.returncode == 2
-    assert done.stderr.count("\n") == 1 and problem in done.stderr
+    assert done.stderr.count("\n") == 1
+    assert problem in done.stderr
 
 
 def test_sizes_reports_305_with_the_fleet_tree_in_pyproject(tmp_path: Path) -> None:
@@ -146,7 +147,8 @@ def test_a_git_revision_decodes_without_a_checkout(tmp_path: Path) -> None:
     shown = run("schema", "--proto", spec, cwd=tmp_path).stdout
     assert f"at commit {first}" in shown
     missing = run("sizes", "--proto", repo.spec("nosuchref"), cwd=tmp_path)
-    assert missing.returncode == 2 and missing.stderr.count("\n") == 1
+    assert missing.returncode == 2
+    assert missing.stderr.count("\n") == 1
 
 
 def test_a_folder_inside_the_import_root_is_a_one_line_hint(tmp_path: Path) -> None:

@@ -8,18 +8,9 @@ import click
 from .._envelope import Mode
 from .._errors import EncodeError
 from .._framing import frame
-from ._shared import Fatal, envelope_from_json, load, one_line, schema_options
+from ._shared import MODE, Fatal, envelope_from_json, load, one_line, schema_options
 
-__all__ = ["MODE", "encode"]
-
-MODE = click.option(
-    "--mode",
-    type=click.Choice(["strip", "exact", "pad"]),
-    default="strip",
-    show_default=True,
-    help="strip trailing zeros (the fleet's UDP form), exact protobuf, or pad to the envelope's "
-    "maximum size.",
-)
+__all__ = ["encode"]
 
 
 @click.command()

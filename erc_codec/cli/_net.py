@@ -10,7 +10,6 @@ datagram is then mostly the message's conversion to JSON (``benchmarks/bench_lis
 
 import contextlib
 import json
-import math
 import signal
 import socket
 import sys
@@ -27,67 +26,28 @@ from .._envelope import Mode
 from .._errors import EncodeError
 from .._transport import UdpEndpoint, UdpStats, open_udp
 from .._watchdog import Watchdog
-from ._encode import MODE
 from ._rates import SlidingRates
-from ._shared import Fatal, envelope_from_json, load, one_line, schema_options, to_dict
+from ._shared import (
+    FINITE,
+    MODE,
+    Fatal,
+    envelope_from_json,
+    load,
+    one_line,
+    parse_address,
+    resolve,
+    schema_options,
+    shown,
+    to_dict,
+)
 
 if TYPE_CHECKING:
     import asyncio
 
-__all__ = ["FINITE", "listen", "parse_address", "resolve", "send", "shown"]
+__all__ = ["listen", "send"]
 
 _REDRAW = 0.5  # seconds between two drawings of the table
 _NAP = 3600.0  # the longest sleep between two sends (time.sleep refuses years)
-
-
-class _Finite(click.FloatRange):
-    """A positive, finite number: click's ``FloatRange`` lets ``nan`` and ``inf`` through (NaN
-    fails no comparison with its bounds)."""
-
-    name = "positive number"
-
-    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
-        number = super().convert(value, param, ctx)
-        if not math.isfinite(number):
-            self.fail(f"{value!r} is not a finite number.", param, ctx)
-        return number
-
-
-FINITE = _Finite(min=0, min_open=True)  # --seconds, --rate: a positive, finite number
-
-
-def parse_address(text: str, default_host: str | None = None) -> tuple[str, int]:
-    """``HOST:PORT`` (``[v6]:PORT`` too) as (host, port); ``PORT`` alone with a default host."""
-    host, _, port = text.rpartition(":")
-    host = host.removeprefix("[").removesuffix("]") if host.startswith("[") else host
-    if not host and default_host is None:
-        raise click.BadParameter(f"{text!r}: expected HOST:PORT")
-    try:
-        number = int(port)
-    except ValueError:
-        raise click.BadParameter(f"{text!r}: the port is not a number") from None
-    if not 0 <= number <= 65535:
-        raise click.BadParameter(f"{text!r}: the port must be within 0..65535")
-    return (host or cast(str, default_host)), number
-
-
-def resolve(host: str, port: int) -> tuple[socket.AddressFamily, tuple[Any, ...]]:
-    """The family and socket address of ``host`` (a name or an IPv4 or IPv6 address). A name
-    with addresses of both families takes IPv4, as the boards speak it: ``listen localhost:P``
-    must hear a board that sends to 127.0.0.1, wherever the system lists ::1 first."""
-    try:
-        found = socket.getaddrinfo(host, port, type=socket.SOCK_DGRAM)
-    except (OSError, UnicodeError) as error:
-        reason = error.strerror if isinstance(error, OSError) and error.strerror else error
-        raise Fatal(f"cannot resolve {host!r}: {reason}") from None
-    family, _, _, _, address = min(found, key=lambda entry: entry[0] != socket.AF_INET)
-    return family, address
-
-
-def shown(address: tuple[Any, ...]) -> str:
-    """``host:port``, with an IPv6 host in brackets so the port stays readable."""
-    host, port = address[0], address[1]
-    return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
 
 
 @click.command()

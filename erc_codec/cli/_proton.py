@@ -24,9 +24,8 @@ import click
 from .._errors import CodecError, DecodeError
 from .._framing import Deframer
 from ..proton import BundleCodec, Value, load_config, split_udp_header
-from ._net import parse_address, resolve, shown
 from ._reading import Printer, decode_input, input_options
-from ._shared import Fatal, emit, one_line
+from ._shared import FINITE, Fatal, emit, one_line, parse_address, resolve, shown
 
 __all__ = ["proton"]
 
@@ -206,9 +205,7 @@ def decode(
 @_PROTOCOL
 @_SCRATCH
 @click.option("--count", type=click.IntRange(min=1), help="Stop after this many datagrams.")
-@click.option(
-    "--seconds", type=click.FloatRange(min=0, min_open=True), help="Stop after this long."
-)
+@click.option("--seconds", type=FINITE, help="Stop after this long.")
 def listen(
     address: str,
     config_path: Path,
