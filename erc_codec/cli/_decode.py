@@ -1,5 +1,6 @@
 """``erc-codec decode``: datagrams (hex, standard input, a serial stream, a capture) to JSON."""
 
+import sys
 from pathlib import Path
 
 import click
@@ -7,7 +8,9 @@ import click
 from .._codec import Codec
 from .._errors import DecodeError
 from .._framing import Deframer
-from ._reading import Printer, decode_input, input_options
+from ._pcap import Capture
+from ._reading import Printer, check_usage, decode_input, input_options
+from ._record import capture_to_mcap
 from ._shared import Fatal, emit, load, one_line, schema_options
 
 __all__ = ["decode"]
@@ -56,6 +59,13 @@ class _Decoder(Printer):
     help="Print only datagrams of this kind (repeatable); errors are printed all the same.",
 )
 @click.option(
+    "--mcap",
+    type=click.Path(dir_okay=False, path_type=Path),
+    metavar="OUT.mcap",
+    help="With --pcap: write the datagrams to an MCAP file (a channel per kind, drops too) "
+    "instead of JSON lines (needs the mcap extra).",
+)
+@click.option(
     "--strict",
     is_flag=True,
     help="A datagram with fields the schema does not know is an error (reason unknown_fields).",
@@ -68,6 +78,7 @@ def decode(
     framed: bool,
     raw: bool,
     kinds: tuple[str, ...],
+    mcap: Path | None,
     strict: bool,
     tree: str | None,
     root: str | None,
@@ -127,5 +138,13 @@ def decode(
     if unknown:
         known = ", ".join(codec.kinds().values())
         raise Fatal(f"unknown kind {unknown[0]!r}: {codec.root} has {known}")
+    if mcap is not None:
+        if capture is None:
+            raise click.UsageError("--mcap writes a capture's datagrams: give --pcap CAPTURE")
+        check_usage(data, raw, framed, capture, ports)
+        with Capture(capture, frozenset(ports)) as packets:
+            failed, summary = capture_to_mcap(packets, codec, mcap)
+        click.echo(summary, err=True)
+        sys.exit(1 if failed else 0)
     decoder = _Decoder(codec, frozenset(kinds), strict)
     decode_input(decoder, data, raw, framed, capture, ports, lambda: Deframer.for_codec(codec))

@@ -7,10 +7,12 @@ from ._encode import encode
 from ._group import OneLineGroup
 from ._net import listen, send
 from ._proton import proton
+from ._record import record, replay
 from ._schema import schema
 from ._shared import schema_options
 from ._sizes import sizes
 from ._stubs import stubs
+from ._wireshark import wireshark
 
 __all__ = ["main"]
 
@@ -28,5 +30,6 @@ def main(tree: str | None, root: str | None) -> None:
     """
 
 
-for _command in (schema, sizes, decode, encode, send, listen, stubs, proton):
+_COMMANDS = (schema, sizes, decode, encode, send, listen, record, replay, stubs, proton, wireshark)
+for _command in _COMMANDS:
     main.add_command(_command)

@@ -24,8 +24,10 @@ from .._codec import Codec
 from .._dispatch import Dispatcher, DispatchStats, Drop
 from .._envelope import Mode
 from .._errors import EncodeError
+from .._foxglove import FoxgloveView
 from .._transport import UdpEndpoint, UdpStats, open_udp
 from .._watchdog import Watchdog
+from ._live import foxglove_view
 from ._rates import SlidingRates
 from ._shared import (
     FINITE,
@@ -160,6 +162,14 @@ def _watches(
     help="Expect KIND every PERIOD seconds: an alert when none came for 3 periods, and when it "
     "is back (repeatable).",
 )
+@click.option("--foxglove", is_flag=True, help="Also serve what arrives to Foxglove, live.")
+@click.option(
+    "--foxglove-address",
+    metavar="[HOST:]PORT",
+    default="127.0.0.1:8765",
+    show_default=True,
+    help="Where the Foxglove WebSocket server listens (needs the foxglove extra).",
+)
 @schema_options
 def listen(
     address: str,
@@ -167,6 +177,8 @@ def listen(
     seconds: float | None,
     output: str,
     watches: tuple[tuple[str, float], ...],
+    foxglove: bool,
+    foxglove_address: str,
     tree: str | None,
     root: str | None,
 ) -> None:
@@ -185,7 +197,9 @@ def listen(
     reason, dropped; and those that never reached it: dropped by the kernel (its receive buffer
     full: null where the system does not say), unread (still queued when it stopped), with the
     receive buffer granted, in bytes (4 MiB is asked for; Linux grants up to twice
-    net.core.rmem_max).
+    net.core.rmem_max). With --foxglove, a Foxglove client (ws://127.0.0.1:8765 unless
+    --foxglove-address says otherwise) sees every kind on /erc/<kind>, drops on
+    /erc-codec/drops, the GPS fix on /erc-codec/fix and rates on /erc-codec/stats.
     """
     import asyncio
 
@@ -197,9 +211,14 @@ def listen(
             raise Fatal(f"--watch: unknown kind {kind!r}: {codec.root} has {', '.join(kinds)}")
     _, local = resolve(host, port)
     table = output == "table" or (output == "auto" and sys.stdout.isatty())
-    session = _Listening(codec, _Table() if table else None, count, dict(watches))
+    live = foxglove_view(codec, *parse_address(foxglove_address, "127.0.0.1")) if foxglove else None
+    session = _Listening(codec, _Table() if table else None, count, dict(watches), live)
     with contextlib.suppress(KeyboardInterrupt):  # Ctrl-C before the loop runs: as --count
-        asyncio.run(session.run(local, seconds))
+        try:
+            asyncio.run(session.run(local, seconds))
+        finally:
+            if live is not None:
+                live.close()
     session.flush()
     stats = session.dispatcher.stats()
     udp = session.udp or UdpStats(0, 0, 0, 0, 0)  # stopped before the socket was open
@@ -225,6 +244,7 @@ class _Listening:
         view: "_Table | None",
         count: int | None,
         watches: dict[str, float],
+        live: FoxgloveView | None = None,
     ) -> None:
         self.dispatcher = Dispatcher(codec, on_drop=self._dropped)
         for kind in codec.kinds().values():
@@ -241,6 +261,7 @@ class _Listening:
         self._endpoint: UdpEndpoint | None = None
         self._to_dict = to_dict  # the fastest conversion there is: what listen can keep up with
         self._view = view
+        self._live = live
         self._count = count
         self._heard = 0
         self._sender: Any = None  # the sender of the datagram being dispatched, as shown, and
@@ -332,6 +353,8 @@ class _Listening:
 
     def _shower(self, kind: str) -> Callable[[Message], None]:
         def show(message: Message) -> None:
+            if self._live is not None:
+                self._live.message(kind, message)
             if self._view is None:
                 self._show(
                     {
@@ -347,6 +370,8 @@ class _Listening:
         return show
 
     def _dropped(self, drop: Drop) -> None:
+        if self._live is not None:
+            self._live.drop(drop, self._source)
         if self._view is None:
             error = one_line(str(drop.error)) if drop.error else f"no handler for {drop.kind}"
             record = {"from": self._source, "error": error, "reason": drop.reason}

@@ -21,7 +21,7 @@ from ._input import hex_lines, read_stdin
 from ._pcap import Capture
 from ._shared import Fatal, emit, one_line, plural, unhex
 
-__all__ = ["Printer", "decode_input", "input_options"]
+__all__ = ["Printer", "check_usage", "decode_input", "input_options"]
 
 _Command = TypeVar("_Command", bound=Callable[..., Any])
 
@@ -104,7 +104,7 @@ def decode_input(
 ) -> None:
     """Decode what the command was given (HEX, standard input, --framed, --pcap), print the
     summary and exit: 0 all decoded, 1 anything did not (or nothing was given)."""
-    _check_usage(data, raw, framed, capture, ports)
+    check_usage(data, raw, framed, capture, ports)
     if capture is not None:
         with Capture(capture, frozenset(ports)) as packets:
             summary = _from_capture(printer, packets)
@@ -117,9 +117,10 @@ def decode_input(
     sys.exit(1 if printer.failed or printer.bad_lines or nothing else 0)
 
 
-def _check_usage(
+def check_usage(
     data: tuple[str, ...], raw: bool, framed: bool, capture: Path | None, ports: tuple[int, ...]
 ) -> None:
+    """The usage errors of a decode command's input options (exit 2)."""
     if capture is not None and (data or framed or raw):
         raise click.UsageError("--pcap reads the capture only: give no HEX, '-', --raw or --framed")
     if ports and capture is None:
