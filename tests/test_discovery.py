@@ -158,3 +158,22 @@ def test_a_folder_inside_the_import_root_is_a_one_line_hint(tmp_path: Path) -> N
         f"Error: {PROTO / 'components'}: its files import each other as components/..., so "
         f"the import root is the folder above it: give {PROTO} (root PBEnvelope)\n"
     )
+
+
+def test_include_folders_from_the_configuration_are_searched(tmp_path: Path) -> None:
+    (tmp_path / "tree").mkdir()
+    (tmp_path / "shared").mkdir()
+    (tmp_path / "shared" / "common.proto").write_text(
+        'syntax = "proto3";\nmessage Ping { uint32 sequence = 1; }\n'
+    )
+    (tmp_path / "tree" / "envelope.proto").write_text(
+        'syntax = "proto3";\nimport "common.proto";\n'
+        "message Envelope { oneof payload { Ping ping = 1; } }\n"
+    )
+    configured(tmp_path, 'proto = "tree"\nroot = "Envelope"\ninclude = ["shared"]')
+    source = find_schema(start=tmp_path, environ={})
+    codec = erc_codec.Codec.from_source(source)
+    assert codec.root == "Envelope"
+    assert codec.kinds() == {1: "ping"}
+    assert codec.max_size("Envelope") == 8
+    assert [m.full_name for m in codec.schema.messages()] == ["Envelope"]  # the tree's own
