@@ -38,12 +38,13 @@ Rules = list[tuple[str, Options]]
 
 class ResolvedOptions:
     """nanopb options resolved for a schema, by full name: ``messages["Msg"]``,
-    ``fields["Msg.f"]``, ``oneofs["Msg.o"]``."""
+    ``fields["Msg.f"]``, ``oneofs["Msg.o"]``, ``enums["Msg.Kind"]``."""
 
     def __init__(self) -> None:
         self.messages: dict[str, Options] = {}
         self.fields: dict[str, Options] = {}
         self.oneofs: dict[str, Options] = {}
+        self.enums: dict[str, Options] = {}
 
 
 @functools.cache
@@ -75,16 +76,21 @@ def options_class() -> Any:
 def resolve_options(
     tree: Path, files: tuple[descriptor_pb2.FileDescriptorProto, ...]
 ) -> ResolvedOptions:
-    """Resolve the nanopb options of every message, field and oneof in ``files``."""
+    """Resolve the nanopb options of every message, field, oneof and enum in ``files``. As the
+    generator does, every message starts from its file's options, a nested enum from its
+    message's (``enum_intsize``, ``long_names``, ...)."""
     resolved = ResolvedOptions()
     for proto in files:
         rules = _read_rules(tree / Path(proto.name).with_suffix(".options"))
         base = _merge(options_class()(), rules, proto.name, proto.options)
         for declaration in declarations(proto):
             message = declaration.proto
-            if not isinstance(message, descriptor_pb2.DescriptorProto):
-                continue
             name = declaration.name
+            if not isinstance(message, descriptor_pb2.DescriptorProto):
+                parent = resolved.messages[declaration.parent] if declaration.parent else base
+                annotated = message.options if message.HasField("options") else None
+                resolved.enums[name] = _merge(parent, rules, name, annotated)
+                continue
             own = resolved.messages[name] = _merge(base, rules, name, message.options)
             for field in message.field:
                 options = field.options if field.HasField("options") else None
