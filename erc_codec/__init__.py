@@ -8,10 +8,10 @@ Wireshark dissector (``wireshark_dissector``) import their optional libraries on
 Everything else is private and free to change.
 """
 
-import warnings
-from typing import Any
+import warnings as _warnings
+from typing import Any as _Any
 
-from google.protobuf.message import Message
+from google.protobuf.message import Message as _Message
 
 from ._codec import Codec, Direction, Member
 from ._detections import AssemblerStats, DetectionAssembler, DetectionFrame, FrameLoss, Rejected
@@ -23,6 +23,7 @@ from ._framing import Deframer, DeframerStats, frame
 from ._mcap import McapWriter, Recorded, RecordingStats, read_mcap
 from ._router import Failsafe, FailsafeEvent, Outgoing, Route, Router, RouterStats
 from ._transport import UdpEndpoint, UdpStats, open_udp, read_serial
+from ._unknown import UnknownField
 from ._watchdog import Liveness, Watchdog
 from ._wireshark import wireshark_dissector
 
@@ -59,6 +60,7 @@ __all__ = [
     "SchemaError",
     "UdpEndpoint",
     "UdpStats",
+    "UnknownField",
     "Watchdog",
     "decode",
     "encode",
@@ -73,10 +75,10 @@ __all__ = [
 _DEPRECATED = {"Frame": DetectionFrame, "FrameAssembler": DetectionAssembler}
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> _Any:
     if name in _DEPRECATED:
         new = _DEPRECATED[name]
-        warnings.warn(
+        _warnings.warn(
             f"erc_codec.{name} is deprecated: use erc_codec.{new.__name__}",
             DeprecationWarning,
             stacklevel=2,
@@ -85,12 +87,13 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-def encode(message: Message, mode: Mode = "strip", **metadata: object) -> bytes:
-    """``Codec.default().encode(message, mode, **metadata)``: a datagram of the packaged rover
-    schema (``timeout=300``: the sender's timeout in milliseconds)."""
+def encode(message: _Message, mode: Mode = "strip", **metadata: object) -> bytes:
+    """``Codec.default().encode(message, mode, **metadata)``: a datagram of the schema found
+    (``decode``; ``timeout=300``: the sender's timeout in milliseconds)."""
     return Codec.default().encode(message, mode, **metadata)
 
 
-def decode(data: bytes) -> Decoded:
-    """``Codec.default().decode(data)``: the payload of a datagram of the packaged schema."""
-    return Codec.default().decode(data)
+def decode(data: bytes, strict: bool = False) -> Decoded:
+    """``Codec.default().decode(data, strict)``: the payload of a datagram of the schema found
+    (``ERC_CODEC_PROTO``, ``[tool.erc-codec]`` in a pyproject.toml, else the packaged one)."""
+    return Codec.default().decode(data, strict)

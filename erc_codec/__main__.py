@@ -1,5 +1,5 @@
 """``python -m erc_codec``: the same as the ``erc-codec`` command."""
 
-from .cli._main import main
+from .cli import main
 
 main()

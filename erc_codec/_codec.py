@@ -3,14 +3,14 @@
 import functools
 import os
 import re
-from collections.abc import Mapping
-from importlib import resources
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
 from google.protobuf.message import Message
 
 from ._contract import contract
+from ._discovery import ENVIRONMENT, SchemaSource, find_schema, load_source, packaged_tree
 from ._envelope import Envelope
 from ._errors import SchemaError
 from .schema import Schema, Sizes, load_schema, message_of
@@ -41,10 +41,7 @@ class Member(NamedTuple):
 
 def default_tree() -> Path:
     """The packaged proto tree: ``erc_codec/proto`` in a wheel, ``proto/`` in a checkout."""
-    packaged = Path(str(resources.files("erc_codec"))) / "proto"
-    if packaged.is_dir():
-        return packaged
-    return Path(__file__).resolve().parent.parent / "proto"
+    return packaged_tree()
 
 
 class Codec(Envelope):
@@ -78,14 +75,36 @@ class Codec(Envelope):
         return self._sizes
 
     @classmethod
-    def from_path(cls, tree: str | os.PathLike[str], root: str = "PBEnvelope") -> "Codec":
-        """Load the proto tree under ``tree`` (the import root), starting from message ``root``."""
-        return cls(load_schema(tree, root))
+    def from_path(
+        cls,
+        tree: str | os.PathLike[str],
+        root: str = "PBEnvelope",
+        include: Sequence[str | os.PathLike[str]] = (),
+    ) -> "Codec":
+        """Load the proto tree under ``tree`` (the import root), starting from message ``root``;
+        imports not found in ``tree`` are searched in the ``include`` folders."""
+        if not isinstance(tree, (str, os.PathLike)):
+            raise TypeError(f"tree is a folder (str or os.PathLike), not {type(tree).__name__}")
+        if not isinstance(root, str):
+            raise TypeError(f"root is a message name (str), not {type(root).__name__}")
+        return cls(load_schema(tree, root, include))
+
+    @classmethod
+    def from_source(cls, source: SchemaSource) -> "Codec":
+        """Load the schema ``source`` names (``find_schema``): a folder, or a git revision
+        ``GITDIR#ref=REF[,subdir=PATH]`` read without a checkout."""
+        return load_source(
+            source,
+            lambda tree: cls(load_schema(tree.folder, source.root, source.include, tree.shown)),
+        )
 
     @classmethod
     def default(cls) -> "Codec":
-        """The codec for the packaged rover schema (loaded once, then shared)."""
-        return _default()
+        """The codec for the schema found as every command finds it (``find_schema``):
+        ``ERC_CODEC_PROTO``, else ``[tool.erc-codec]`` in the nearest ``pyproject.toml`` from the
+        working folder up, else the packaged rover schema. It is found once for each working
+        folder and value of ``ERC_CODEC_PROTO``, and each schema is loaded once, then shared."""
+        return _default(os.getcwd(), os.environ.get(ENVIRONMENT))
 
     def max_size(self, name: str) -> int:
         """nanopb's ``<name>_size``: the longest encoding of message ``name`` (a full name)."""
@@ -171,5 +190,10 @@ class Codec(Envelope):
 
 
 @functools.cache
-def _default() -> Codec:
-    return Codec.from_path(default_tree())
+def _default(folder: str, proto: str | None) -> Codec:
+    return _loaded(find_schema(start=folder))
+
+
+@functools.cache
+def _loaded(source: SchemaSource) -> Codec:
+    return Codec.from_source(source)

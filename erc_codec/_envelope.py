@@ -33,7 +33,7 @@ datagram without metadata (the usual one) decodes exactly as before.
 
 from collections.abc import Callable, Mapping
 from types import MappingProxyType
-from typing import Literal, NamedTuple
+from typing import Any, Literal, NamedTuple
 
 from google.protobuf.descriptor import Descriptor, OneofDescriptor
 from google.protobuf.message import DecodeError as ProtobufDecodeError
@@ -42,6 +42,7 @@ from google.protobuf.message import Message
 from ._contract import Contract
 from ._errors import DecodeError, EncodeError, SchemaError
 from ._truncation import Table, cut_reason, presence_table
+from ._unknown import UnknownField, unknown_fields
 from .schema import (
     EGROUP,
     LEN,
@@ -73,6 +74,29 @@ _NO_METADATA: Mapping[str, object] = MappingProxyType({})
 class _Payload(NamedTuple):
     kind: str
     message: Message
+
+    @property
+    def unknown_fields(self) -> tuple[UnknownField, ...]:
+        """The fields the payload carried that this schema does not know (none, normally)."""
+        return unknown_fields(self.message)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The datagram as ``erc-codec decode`` prints it (without its ``length``): ``kind``,
+        ``message`` in protobuf's JSON mapping (``Codec.to_dict``) and, if there are any,
+        ``unknown_fields`` (``path``, ``number``, ``wire_type`` each)."""
+        from ._json import to_dict
+
+        record: dict[str, Any] = {"kind": self.kind, "message": to_dict(self.message)}
+        unknown = self.unknown_fields
+        if unknown:
+            record["unknown_fields"] = [field._asdict() for field in unknown]
+        return record
+
+    def to_json(self) -> str:
+        """``to_dict()`` as one line of JSON text."""
+        import json
+
+        return json.dumps(self.to_dict())
 
 
 class Decoded(_Payload):
@@ -184,6 +208,11 @@ class Envelope:
             if len(tag) == 1:
                 self._first[tag[0]] = self._tags[tag[0]]
         self._by_name = {cls.DESCRIPTOR.full_name: member for cls, member in self._members.items()}
+        # Full name → this schema's descriptor, for the classes built elsewhere that encode is
+        # given; and the verdict on each such class, once.
+        self._own = {name: cls.DESCRIPTOR for name, cls in [(self._name, envelope)]}
+        self._own.update((cls.DESCRIPTOR.full_name, cls.DESCRIPTOR) for cls in self._members)
+        self._foreign: dict[type[Message], bool] = {}
 
     def kinds(self) -> dict[int, str]:
         """The envelope's payload members: field number → member name (a decoded ``kind``)."""
@@ -235,8 +264,20 @@ class Envelope:
         raise EncodeError(f"unknown mode {mode!r}: use 'strip', 'exact' or 'pad'")
 
     def _encode_other(self, message: Message, mode: Mode) -> bytes:
-        """An envelope, a payload of a class built elsewhere (generated code), or an error."""
+        """An envelope, a payload of a class built elsewhere (generated code of the same
+        schema), or an error: a class of another schema is refused, not encoded by its name."""
+        if not isinstance(message, Message):
+            raise TypeError(
+                f"encode takes a protobuf message (a payload of {self._name}, or one), not "
+                f"{type(message).__name__}"
+            )
         name = message.DESCRIPTOR.full_name
+        if name in self._own and not self._same_schema(type(message)):
+            raise EncodeError(
+                f"{name} is a message class of another schema: it is not this schema's {name} "
+                "(its fields or those of a message it holds differ); build the message with "
+                "this codec (message_class, from_dict)"
+            )
         if name == self._name:
             kind = message.WhichOneof(self._oneof)
             if kind is None:
@@ -293,6 +334,17 @@ class Envelope:
             raise self._too_long(envelope, [b""], data)
         return data
 
+    def _same_schema(self, cls: type[Message]) -> bool:
+        """Whether ``cls`` (not one of this schema's classes) is of a message this schema has
+        as it is: the same declaration, and the same declarations of every message and enum it
+        reaches, as generated code of the same .proto files has."""
+        same = self._foreign.get(cls)
+        if same is None:
+            same = self._foreign[cls] = _shape(cls.DESCRIPTOR) == _shape(
+                self._own[cls.DESCRIPTOR.full_name]
+            )
+        return same
+
     def _too_long(self, message: Message, headers: list[bytes], body: bytes) -> EncodeError:
         """The error for a ``body`` too long to fit, ``headers`` being its member's (or ``[b""]``
         for a whole envelope)."""
@@ -348,13 +400,17 @@ class Envelope:
             return None if cut else (kind, payload)
         return None
 
-    def decode(self, data: bytes) -> Decoded:  # noqa: C901
+    def decode(self, data: bytes, strict: bool = False) -> Decoded:  # noqa: C901
         """The payload of a datagram in exact, stripped or zero-padded form.
 
         ``data`` is bytes or any bytes-like object (``bytearray``, ``memoryview``). Restored
         zeros that give a field without presence its default, which no proto3 encoder sends,
-        are a datagram cut short: ``DecodeError`` with reason ``"truncated"``.
+        are a datagram cut short: ``DecodeError`` with reason ``"truncated"``. Fields the schema
+        does not know are kept (``Decoded.unknown_fields``); with ``strict``, they are a
+        ``DecodeError`` with reason ``"unknown_fields"``.
         """
+        if strict:
+            return self._decode_strict(data)
         # peek's arithmetic, written out here once more: the call to peek would cost a tenth of
         # a decode, and the decode target of benchmarks/bench_codec.py (exact datagrams in at
         # most 1.25x the bare runtime's time) has no tenth to spare. tests/test_envelope_decode.py
@@ -397,6 +453,22 @@ class Envelope:
             return _decoded(Decoded, (kind, parse(payload)))
         except ProtobufDecodeError as error:
             raise self._invalid(data, kind, payload, error) from None
+
+    def _decode_strict(self, data: bytes) -> Decoded:
+        decoded = self.decode(data)
+        unknown = decoded.unknown_fields
+        if unknown:
+            listed = ", ".join(
+                f"{field.number} (wire type {field.wire_type}"
+                + (f", in {field.path})" if field.path else ")")
+                for field in unknown
+            )
+            raise DecodeError(
+                f"datagram of {len(data)} bytes: its {decoded.kind} payload holds fields "
+                f"{decoded.message.DESCRIPTOR.full_name} does not know: {listed} (another schema?)",
+                "unknown_fields",
+            )
+        return decoded
 
     def _decode_stripped(
         self, data: bytes, kind: str, parse: Callable[[bytes], Message], start: int, end: int
@@ -530,6 +602,30 @@ class Envelope:
             "(sent by a newer schema?)",
             "unknown_member",
         )
+
+
+def _shape(descriptor: Any) -> list[bytes]:
+    """The declarations of a message and of every message and enum it reaches, serialized."""
+    from google.protobuf import descriptor_pb2
+
+    shapes: list[bytes] = []
+    seen: set[str] = set()
+    pending = [descriptor]
+    while pending:
+        current = pending.pop()
+        if current.full_name in seen:
+            continue
+        seen.add(current.full_name)
+        proto: Any = (
+            descriptor_pb2.DescriptorProto()
+            if hasattr(current, "fields")
+            else descriptor_pb2.EnumDescriptorProto()
+        )
+        current.CopyToProto(proto)
+        shapes.append(current.full_name.encode() + proto.SerializeToString(deterministic=True))
+        for field in getattr(current, "fields", ()):
+            pending.extend(kind for kind in (field.message_type, field.enum_type) if kind)
+    return sorted(shapes)
 
 
 def _cut_short(data: bytes, why: str) -> DecodeError:

@@ -130,7 +130,7 @@ def test_frame_and_framed_round_trip(codec: erc_codec.Codec) -> None:
         frames.append(bytes.fromhex(done.out))
     stream = b"noise" + frames[0] + frames[1] + b"\x00\x13" + frames[2] + b"PR\x05"
     for done in (
-        run("decode", "--framed", stdin=stream),  # raw bytes on stdin
+        run("decode", "--framed", "--raw", stdin=stream),  # raw bytes on stdin
         run("decode", "--framed", "-", stdin=stream.hex(" ", 4).encode()),  # hex text on stdin
         *run_many(["decode", "--framed", stream.hex(":")]),  # one hex argument, no stdin
     ):
@@ -144,7 +144,7 @@ def test_frame_and_framed_round_trip(codec: erc_codec.Codec) -> None:
 
 def test_a_framed_payload_that_does_not_decode_is_reported() -> None:
     stream = erc_codec.frame(bytes.fromhex("b20100")) + erc_codec.frame(b"\x22")
-    done = run("decode", "--framed", stdin=stream)
+    done = run("decode", "--framed", "--raw", stdin=stream)
     assert done.code == 1
     first, second = records(done.out)
     assert first["reason"] == "unknown_member"
@@ -167,7 +167,7 @@ def test_stdin_hex_lines_go_on_after_a_bad_line() -> None:
     text = f"{good}\n\n  b2 01 00\nthis is no hex\n0a 1\n22:00\r\n{good}"
     done = run("decode", stdin=text.encode())
     assert done.code == 1
-    assert done.err == ""
+    assert done.err == "2 lines not hex (raw bytes on standard input need --raw)\n"
     lines = records(done.out)
     assert [r.get("kind") or r["reason"] for r in lines] == [
         "gps_info",
@@ -187,7 +187,7 @@ def test_stdin_hex_lines_go_on_after_a_bad_line() -> None:
 def test_raw_bytes_on_stdin_are_one_datagram(codec: erc_codec.Codec) -> None:
     gps = codec.message_class("SensorBoardGPSInfo")
     datagram = codec.encode(gps(latitude=-33.5, satellites=12, hdop=0.75), "pad")
-    done = run("decode", "-", stdin=datagram)
+    done = run("decode", "-", "--raw", stdin=datagram)
     assert done.code == 0, done.err
     (record,) = records(done.out)
     assert record["kind"] == "gps_info"
@@ -198,7 +198,7 @@ def test_raw_bytes_on_stdin_are_one_datagram(codec: erc_codec.Codec) -> None:
 
 @pytest.mark.parametrize(
     ("data", "reason"),
-    [("b20100", "unknown_member"), ("", "empty"), ("00 00", "no_payload"), ("62 05 08", "corrupt")],
+    [("b20100", "unknown_member"), ("00 00", "no_payload"), ("62 05 08", "corrupt")],
 )
 def test_an_undecodable_datagram_is_one_json_line_and_exit_1(data: str, reason: str) -> None:
     done = run("decode", data)
@@ -596,7 +596,7 @@ def test_decode_of_a_cut_capture_exits_2_after_the_packets_before_the_cut(
 
 def test_pcap_without_dpkt_says_what_to_install(tmp_path: Path) -> None:
     # The same entry point, with dpkt made unimportable (whether or not it is installed).
-    code = "import sys; sys.modules['dpkt'] = None; from erc_codec.cli._main import main; main()"
+    code = "import sys; sys.modules['dpkt'] = None; from erc_codec.cli import main; main()"
     done = subprocess.run(
         [sys.executable, "-c", code, "decode", "--pcap", str(tmp_path / "x.pcap")],
         capture_output=True,
@@ -610,18 +610,18 @@ def test_pcap_without_dpkt_says_what_to_install(tmp_path: Path) -> None:
 @pytest.mark.parametrize("byte", [b"\n", b"2", b"B", b"b", b":"])
 def test_a_one_byte_raw_datagram_on_stdin_is_raw(byte: bytes) -> None:
     done = subprocess.run(
-        [sys.executable, "-m", "erc_codec", "decode"], input=byte, capture_output=True
+        [sys.executable, "-m", "erc_codec", "decode", "--raw"], input=byte, capture_output=True
     )
     assert done.returncode == 0, done.stdout
     (line,) = done.stdout.decode().splitlines()
     assert json.loads(line)["length"] == 1
 
 
-def run_slowly(*pieces: bytes) -> Done:
+def run_slowly(*pieces: bytes, options: tuple[str, ...] = ()) -> Done:
     """``decode`` with standard input arriving in pieces, each once the command has read the
     one before (and had time to judge it), as from a slow writer."""
     decoder = subprocess.Popen(
-        [sys.executable, "-m", "erc_codec", "decode"],
+        [sys.executable, "-m", "erc_codec", "decode", *options],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -653,7 +653,7 @@ def test_hex_text_arriving_slowly_on_stdin_is_hex() -> None:
 
 
 def test_raw_bytes_arriving_slowly_on_stdin_are_one_datagram() -> None:
-    done = run_slowly(b"\xb2\x01", b"\x00")  # member 22, empty: one datagram of three bytes
+    done = run_slowly(b"\xb2\x01", b"\x00", options=("--raw",))  # member 22, empty: 3 bytes
     assert done.code == 1
     assert [(r["reason"], r["length"]) for r in records(done.out)] == [("unknown_member", 3)]
 

@@ -118,8 +118,8 @@ def test_listen_stops_after_its_time() -> None:
 
 
 def test_addresses_of_either_family_resolve_and_show_their_port() -> None:
-    from erc_codec.cli._net import resolve as _resolve
-    from erc_codec.cli._net import shown as _shown
+    from erc_codec.cli._shared import resolve as _resolve
+    from erc_codec.cli._shared import shown as _shown
 
     family, address = _resolve("::1", 5005)
     assert family == socket.AF_INET6

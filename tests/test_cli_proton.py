@@ -91,14 +91,14 @@ def test_stdin_lines_go_on_after_one_that_does_not_decode() -> None:
 
 def test_framed_serial_stream_and_raw_stdin() -> None:
     stream = b"\x00noise" + erc_codec.frame(BEAT) + erc_codec.frame(COMMAND) + b"PR\x05"
-    done = run("proton", "decode", *CONFIG, "--framed", stdin=stream)
+    done = run("proton", "decode", *CONFIG, "--framed", "--raw", stdin=stream)
     assert done.code == 0, done.err
     assert [r["bundle"] for r in records(done.out)] == ["heartbeat", "command"]
     assert done.err == (
         "2 frames, 0 undecodable, 6 bytes discarded (garbage 6), "
         "3 bytes left in an unfinished frame\n"
     )
-    raw = run("proton", "decode", *CONFIG, stdin=COMMAND)
+    raw = run("proton", "decode", *CONFIG, "--raw", stdin=COMMAND)
     assert [r["bundle"] for r in records(raw.out)] == ["command"]
 
 
@@ -106,13 +106,13 @@ def test_a_frame_the_stream_cuts_off_is_reported_as_erc_codec_decode_reports_it(
     """The Deframer's flush() counts it; the exit status is erc-codec decode --framed's: the
     summary shows it, every complete message decoded is 0 (both helps say so)."""
     stream = erc_codec.frame(BEAT) + erc_codec.frame(COMMAND)[:-3]
-    done = run("proton", "decode", *CONFIG, "--framed", stdin=stream)
+    done = run("proton", "decode", *CONFIG, "--framed", "--raw", stdin=stream)
     assert [r["bundle"] for r in records(done.out)] == ["heartbeat"]
     assert done.err == (
         f"1 frame, 0 undecodable, {len(erc_codec.frame(COMMAND)) - 3} bytes left in an "
         "unfinished frame\n"
     )
-    main = run("decode", "--framed", stdin=stream)
+    main = run("decode", "--framed", "--raw", stdin=stream)
     assert (done.code, main.code) == (0, 0)
     helped = " ".join(run("proton", "decode", "--help").out.split())
     assert "a cut-off last frame show in the summary only, as for erc-codec decode --framed" in (
@@ -167,7 +167,7 @@ def test_failures_are_one_line_with_their_status(args: list[str], code: int, tex
 
 
 def test_without_pyyaml_it_says_which_extra_to_install() -> None:
-    code = "import sys; sys.modules['yaml'] = None; from erc_codec.cli._main import main; main()"
+    code = "import sys; sys.modules['yaml'] = None; from erc_codec.cli import main; main()"
     done = subprocess.run(
         [sys.executable, "-c", code, "proton", "decode", *CONFIG, "00"],
         capture_output=True,

@@ -406,14 +406,17 @@ def test_a_frame_behind_a_glitch_comes_out_at_its_last_byte() -> None:
 
 def test_the_command_line_decodes_the_frame_behind_a_glitch() -> None:
     done = subprocess.run(
-        [sys.executable, "-m", "erc_codec", "decode", "--framed"],
+        [sys.executable, "-m", "erc_codec", "decode", "--framed", "--raw"],
         input=b"PR\xf0\x00" + STOP,
         capture_output=True,
         check=False,
     )
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout)["kind"] == "control_mode"
-    assert done.stderr == b"1 frame, 0 undecodable, 4 bytes discarded (garbage 3, overtaken 1)\n"
+    assert done.stderr == (
+        b"1 frame, 0 undecodable, 1 frame rejected (overtaken 1), "
+        b"4 bytes discarded (garbage 3, overtaken 1)\n"
+    )
 
 
 def test_a_frame_holding_a_whole_frame_loses_to_it() -> None:

@@ -1,7 +1,19 @@
 """The command lines' shell: ``OneLineGroup``, the click group both ``erc-codec`` and ``erc-lint``
-are made of (every error one line, exit statuses as documented). The ``erc-codec`` command itself
-is ``erc_codec.cli._main``: one module per command group beside it."""
+are made of (every error one line, exit statuses as documented), and ``main``, the ``erc-codec``
+command itself (``erc_codec.cli._main``: one module per command group beside it), loaded only
+when asked for: erc-lint, which imports this package for its group, does not pay for the
+commands."""
+
+from typing import Any
 
 from ._group import OneLineGroup
 
-__all__ = ["OneLineGroup"]
+__all__ = ["OneLineGroup", "main"]
+
+
+def __getattr__(name: str) -> Any:
+    if name == "main":
+        from ._main import main
+
+        return main
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

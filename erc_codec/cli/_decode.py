@@ -1,7 +1,6 @@
 """``erc-codec decode``: datagrams (hex, standard input, a serial stream, a capture) to JSON."""
 
 import sys
-from collections.abc import Iterable
 from pathlib import Path
 
 import click
@@ -9,27 +8,28 @@ import click
 from .._codec import Codec
 from .._errors import DecodeError
 from .._framing import Deframer
-from ._input import hex_lines, read_stdin
 from ._pcap import Capture
+from ._reading import Printer, check_usage, decode_input, input_options
 from ._record import capture_to_mcap
-from ._shared import Fatal, emit, load, one_line, plural, schema_options, to_dict, unhex
+from ._shared import Fatal, emit, load, one_line, schema_options
 
 __all__ = ["decode"]
 
 
-class _Decoder:
-    """Decodes datagrams and prints one JSON line for each, counting the failures."""
+class _Decoder(Printer):
+    """Decodes datagrams and prints one JSON line for each (of the kinds asked for)."""
 
-    def __init__(self, codec: Codec) -> None:
+    def __init__(self, codec: Codec, kinds: frozenset[str], strict: bool) -> None:
+        super().__init__()
         self._decode = codec.decode
-        self.datagrams = 0
-        self.failed = 0
-        self.bad_lines = 0
+        self._strict = strict
+        self._kinds = kinds
+        self.other_kinds = 0
 
     def datagram(self, data: bytes, where: dict[str, object] | None = None) -> None:
         self.datagrams += 1
         try:
-            kind, message = self._decode(data)
+            decoded = self._decode(data, self._strict)
         except DecodeError as error:
             self.failed += 1
             emit(
@@ -41,52 +41,22 @@ class _Decoder:
                 }
             )
             return
-        emit({**(where or {}), "kind": kind, "length": len(data), "message": to_dict(message)})
-
-    def each(self, datagrams: Iterable[bytes]) -> None:
-        """Decode every datagram in turn."""
-        for data in datagrams:
-            self.datagram(data)
-
-    def not_hex(self, line: int, problem: str) -> None:
-        """A line of hex text that spells no bytes: one error object, and on to the next."""
-        self.bad_lines += 1
-        emit(
-            {
-                "error": f"line {line} is not hex: {problem}",
-                "reason": "not_hex",
-                "length": None,
-                "line": line,
-            }
-        )
-
-
-def _deframe(decoder: _Decoder, chunks: Iterable[bytes], deframer: Deframer) -> str:
-    """Decode the payload of every frame in a serial byte stream; the summary line."""
-    for chunk in chunks:
-        for payload in deframer.feed(chunk):
-            decoder.datagram(payload)
-    stats = deframer.stats()  # before flush: what the stream itself threw away
-    parts = [plural(stats.frames, "frame"), f"{decoder.failed} undecodable"]
-    discarded = stats.discarded_bytes
-    if discarded:
-        reasons = ", ".join(f"{reason} {count}" for reason, count in sorted(discarded.items()))
-        parts.append(f"{plural(sum(discarded.values()), 'byte')} discarded ({reasons})")
-    if unfinished := len(deframer.flush()):
-        parts.append(f"{plural(unfinished, 'byte')} left in an unfinished frame")
-    if decoder.bad_lines:
-        parts.append(f"{plural(decoder.bad_lines, 'line')} not hex")
-    return ", ".join(parts)
+        if self._kinds and decoded.kind not in self._kinds:
+            self.other_kinds += 1
+            return
+        record = decoded.to_dict()  # kind, message and any unknown fields; the length after kind
+        emit({**(where or {}), "kind": record.pop("kind"), "length": len(data), **record})
 
 
 @click.command()
 @click.argument("data", nargs=-1, metavar="[HEX... | -]")
+@input_options
 @click.option(
-    "--pcap",
-    "capture",
-    type=click.Path(path_type=Path),
-    metavar="FILE",
-    help="Decode every UDP payload of a pcap or pcapng capture (needs the pcap extra: dpkt).",
+    "--kind",
+    "kinds",
+    multiple=True,
+    metavar="KIND",
+    help="Print only datagrams of this kind (repeatable); errors are printed all the same.",
 )
 @click.option(
     "--mcap",
@@ -96,18 +66,22 @@ def _deframe(decoder: _Decoder, chunks: Iterable[bytes], deframer: Deframer) -> 
     "instead of JSON lines (needs the mcap extra).",
 )
 @click.option(
-    "--framed",
+    "--strict",
     is_flag=True,
-    help="The input is a serial byte stream of Proton frames: decode each frame's payload.",
+    help="A datagram with fields the schema does not know is an error (reason unknown_fields).",
 )
 @schema_options
 def decode(
     data: tuple[str, ...],
     capture: Path | None,
-    mcap: Path | None,
+    ports: tuple[int, ...],
     framed: bool,
-    tree: Path | None,
-    root: str,
+    raw: bool,
+    kinds: tuple[str, ...],
+    mcap: Path | None,
+    strict: bool,
+    tree: str | None,
+    root: str | None,
 ) -> None:
     """Decode datagrams to JSON: one object per datagram, one per line, on stdout.
 
@@ -116,23 +90,33 @@ def decode(
       HEX...      one datagram in hex; spaces and colons may separate the
                   digits: 0a:05:0d... or '0a 05 0d ...' (quoted or not)
       - or none   standard input: hex text, one datagram per non-empty line
-                  (text whose first non-empty line is hex), else raw bytes:
-                  one datagram
+                  (blank lines and whitespace are no datagram); with --raw,
+                  raw bytes: one datagram
       --pcap FILE every UDP payload (IPv4, IPv6) in a pcap or pcapng capture
-                  of Ethernet, Linux cooked, raw IP or loopback packets
-    With --framed, HEX or standard input is a serial stream of Proton frames.
+                  of Ethernet, Linux cooked, raw IP or loopback packets; with
+                  --port (repeatable) only those from or to these ports
+    With --framed, HEX or standard input (hex lines, or --raw bytes) is a
+    serial stream of Proton frames. --kind (repeatable) prints only the
+    datagrams of these kinds (the others are counted, not shown).
 
     \b
-    Output, one line per datagram:
+    Output, one line per datagram (Decoded.to_dict() with its length):
       {"kind": "gps_info", "length": 24, "message": {...}}
+      {"kind": "gps_info", "length": 4, "message": {...},
+       "unknown_fields": [{"path": "", "number": 13, "wire_type": 0}]}
       {"error": "...", "reason": "unknown_member", "length": 3}
+    "unknown_fields" lists the fields the schema does not know (a number it
+    lacks, or a wire type its field does not have: another schema sent it);
+    with --strict such a datagram is an error (reason unknown_fields).
     An undecodable datagram is an "error" object on stdout (reason: empty,
-    too_long, no_payload, unknown_member or corrupt; not_hex, with "line",
-    for a line of standard input that is not hex), so the stream stays one
-    JSON object a line, and decoding goes on with the next datagram. With
+    too_long, no_payload, unknown_member, truncated, corrupt or
+    unknown_fields; not_hex, with "line", for a line of standard input that
+    is not hex), so the stream stays one JSON object a line, and decoding
+    goes on with the next datagram. With
     --pcap every object starts with "time", "src" and "dst" (address:port);
     --pcap and --framed end with a summary line on stderr (packets skipped
-    and why, bytes discarded between frames).
+    and why; frames rejected and why, bytes discarded between frames), and
+    standard input with lines that are not hex with their count.
 
     The message shows every field, defaults included: on the wire a zero is
     indistinguishable from a field the sender never set, and when debugging
@@ -141,74 +125,26 @@ def decode(
     base64, as in protobuf's JSON mapping.
 
     \b
-    Exit status: 0 every datagram decoded (bytes discarded between frames
-    show in the summary only); 1 at least one did not, or a line was not hex;
-    2 usage error, unreadable or damaged capture (after decoding what comes
+    Exit status: 0 every datagram decoded (frames rejected or bytes discarded
+    between frames show in the summary only, if a frame decoded); 1 at least
+    one did not, a line was not hex, or there was nothing to decode (empty
+    input, no frame); 2 usage error (HEX that spells no bytes or odd digits,
+    unknown --kind), unreadable or damaged capture (after decoding what comes
     before the damage), schema that does not load, or --pcap without dpkt.
+    Every error is one line.
     """
-    if capture is not None and (data or framed):
-        raise click.UsageError("--pcap reads the capture only: give no HEX, '-' or --framed")
-    if mcap is not None and capture is None:
-        raise click.UsageError("--mcap writes a capture's datagrams: give --pcap CAPTURE")
-    if "-" in data and len(data) > 1:
-        raise click.UsageError("'-' (standard input) cannot be combined with HEX")
-    given = None
-    if data and data != ("-",):
-        try:
-            given = unhex(" ".join(data))
-        except ValueError as error:
-            raise click.BadParameter(str(error), param_hint="HEX") from None
-    summary: str | None = None
-    if capture is not None:
-        decoder, summary = _capture(capture, mcap, load(tree, root))
-    else:
-        codec = load(tree, root)
-        decoder = _Decoder(codec)
-        if given is not None:
-            hex_text, chunks = False, iter([given])
-        else:
-            hex_text, chunks = read_stdin()
-        if hex_text:
-            chunks = hex_lines(chunks, decoder.not_hex)
-        if framed:
-            summary = _deframe(decoder, chunks, Deframer.for_codec(codec))
-        elif hex_text:
-            decoder.each(chunks)
-        else:  # one datagram: HEX (even an empty one), or raw standard input unless empty
-            whole = b"".join(chunks)
-            decoder.each([whole] if whole or given is not None else [])
-    if summary is not None:
+    codec = load(tree, root)
+    unknown = sorted(set(kinds) - set(codec.kinds().values()))
+    if unknown:
+        known = ", ".join(codec.kinds().values())
+        raise Fatal(f"unknown kind {unknown[0]!r}: {codec.root} has {known}")
+    if mcap is not None:
+        if capture is None:
+            raise click.UsageError("--mcap writes a capture's datagrams: give --pcap CAPTURE")
+        check_usage(data, raw, framed, capture, ports)
+        with Capture(capture, frozenset(ports)) as packets:
+            failed, summary = capture_to_mcap(packets, codec, mcap)
         click.echo(summary, err=True)
-    sys.exit(1 if decoder.failed or decoder.bad_lines else 0)
-
-
-def _capture(path: Path, mcap: Path | None, codec: Codec) -> tuple[_Decoder, str]:
-    """Decode a capture to JSON lines, or with ``mcap`` write it to that MCAP file."""
-    with Capture(path) as packets:
-        decoder = _Decoder(codec)
-        if mcap is not None:
-            decoder.failed, summary = capture_to_mcap(packets, codec, mcap)
-        else:
-            summary = _from_capture(decoder, packets)
-    return decoder, summary
-
-
-def _from_capture(decoder: _Decoder, capture: Capture) -> str:
-    """Decode every UDP payload of a capture; the summary line.
-
-    A capture damaged after its header (cut off while it was written) is decoded up to the
-    damage, then the summary and the damage are reported and the command exits 2.
-    """
-    for datagram in capture.datagrams():
-        where = {"time": datagram.time, "src": datagram.source, "dst": datagram.destination}
-        decoder.datagram(datagram.data, where)
-    skipped = capture.skipped
-    reasons = ", ".join(f"{count} {why}" for why, count in sorted(skipped.items()))
-    summary = (
-        f"{plural(decoder.datagrams, 'datagram')}, {decoder.failed} undecodable, "
-        f"{plural(sum(skipped.values()), 'packet')} skipped" + (f" ({reasons})" if reasons else "")
-    )
-    if capture.damage:
-        click.echo(summary, err=True)
-        raise Fatal(one_line(capture.damage))
-    return summary
+        sys.exit(1 if failed else 0)
+    decoder = _Decoder(codec, frozenset(kinds), strict)
+    decode_input(decoder, data, raw, framed, capture, ports, lambda: Deframer.for_codec(codec))

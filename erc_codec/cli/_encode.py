@@ -1,7 +1,6 @@
 """``erc-codec encode``: one payload, given as protobuf JSON, to a datagram in hex."""
 
 import sys
-from pathlib import Path
 from typing import cast
 
 import click
@@ -9,18 +8,9 @@ import click
 from .._envelope import Mode
 from .._errors import EncodeError
 from .._framing import frame
-from ._shared import Fatal, envelope_from_json, load, one_line, schema_options
+from ._shared import MODE, Fatal, envelope_from_json, load, one_line, schema_options
 
-__all__ = ["MODE", "encode"]
-
-MODE = click.option(
-    "--mode",
-    type=click.Choice(["strip", "exact", "pad"]),
-    default="strip",
-    show_default=True,
-    help="strip trailing zeros (the fleet's UDP form), exact protobuf, or pad to the envelope's "
-    "maximum size.",
-)
+__all__ = ["encode"]
 
 
 @click.command()
@@ -34,7 +24,9 @@ MODE = click.option(
     help="Wrap the datagram in a Proton serial frame (50 52, length, payload, CRC-16).",
 )
 @schema_options
-def encode(kind: str, payload: str, mode: str, framed: bool, tree: Path | None, root: str) -> None:
+def encode(
+    kind: str, payload: str, mode: str, framed: bool, tree: str | None, root: str | None
+) -> None:
     """Encode one payload, given as protobuf JSON, and print the datagram in hex.
 
     KIND is the envelope member that carries it (erc-codec sizes lists them,

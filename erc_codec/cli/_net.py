@@ -10,12 +10,11 @@ datagram is then mostly the message's conversion to JSON (``benchmarks/bench_lis
 
 import contextlib
 import json
-import math
+import signal
 import socket
 import sys
 import time
-from collections.abc import Callable
-from pathlib import Path
+from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, Any, TextIO, cast
 
 import click
@@ -28,67 +27,29 @@ from .._errors import EncodeError
 from .._foxglove import FoxgloveView
 from .._transport import UdpEndpoint, UdpStats, open_udp
 from .._watchdog import Watchdog
-from ._encode import MODE
 from ._live import foxglove_view
-from ._shared import Fatal, envelope_from_json, load, one_line, schema_options, to_dict
+from ._rates import SlidingRates
+from ._shared import (
+    FINITE,
+    MODE,
+    Fatal,
+    envelope_from_json,
+    load,
+    one_line,
+    parse_address,
+    resolve,
+    schema_options,
+    shown,
+    to_dict,
+)
 
 if TYPE_CHECKING:
     import asyncio
 
-__all__ = ["FINITE", "listen", "parse_address", "resolve", "send", "shown"]
+__all__ = ["listen", "send"]
 
 _REDRAW = 0.5  # seconds between two drawings of the table
 _NAP = 3600.0  # the longest sleep between two sends (time.sleep refuses years)
-
-
-class _Finite(click.FloatRange):
-    """A positive, finite number: click's ``FloatRange`` lets ``nan`` and ``inf`` through (NaN
-    fails no comparison with its bounds)."""
-
-    name = "positive number"
-
-    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
-        number = super().convert(value, param, ctx)
-        if not math.isfinite(number):
-            self.fail(f"{value!r} is not a finite number.", param, ctx)
-        return number
-
-
-FINITE = _Finite(min=0, min_open=True)  # --seconds, --rate: a positive, finite number
-
-
-def parse_address(text: str, default_host: str | None = None) -> tuple[str, int]:
-    """``HOST:PORT`` (``[v6]:PORT`` too) as (host, port); ``PORT`` alone with a default host."""
-    host, _, port = text.rpartition(":")
-    host = host.removeprefix("[").removesuffix("]") if host.startswith("[") else host
-    if not host and default_host is None:
-        raise click.BadParameter(f"{text!r}: expected HOST:PORT")
-    try:
-        number = int(port)
-    except ValueError:
-        raise click.BadParameter(f"{text!r}: the port is not a number") from None
-    if not 0 <= number <= 65535:
-        raise click.BadParameter(f"{text!r}: the port must be within 0..65535")
-    return (host or cast(str, default_host)), number
-
-
-def resolve(host: str, port: int) -> tuple[socket.AddressFamily, tuple[Any, ...]]:
-    """The family and socket address of ``host`` (a name or an IPv4 or IPv6 address). A name
-    with addresses of both families takes IPv4, as the boards speak it: ``listen localhost:P``
-    must hear a board that sends to 127.0.0.1, wherever the system lists ::1 first."""
-    try:
-        found = socket.getaddrinfo(host, port, type=socket.SOCK_DGRAM)
-    except (OSError, UnicodeError) as error:
-        reason = error.strerror if isinstance(error, OSError) and error.strerror else error
-        raise Fatal(f"cannot resolve {host!r}: {reason}") from None
-    family, _, _, _, address = min(found, key=lambda entry: entry[0] != socket.AF_INET)
-    return family, address
-
-
-def shown(address: tuple[Any, ...]) -> str:
-    """``host:port``, with an IPv6 host in brackets so the port stays readable."""
-    host, port = address[0], address[1]
-    return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
 
 
 @click.command()
@@ -106,14 +67,17 @@ def send(
     count: int,
     rate: float | None,
     mode: str,
-    tree: Path | None,
-    root: str,
+    tree: str | None,
+    root: str | None,
 ) -> None:
     """Send one payload (protobuf JSON, as for encode) to HOST:PORT, COUNT times at RATE Hz.
 
     \b
       erc-codec send 127.0.0.1:5000 drive_motor \\
           '{"distance_to_go": 1.5}' --rate 10 --count 50
+
+    It prints how many it sent on stderr when done, or when Ctrl-C or SIGTERM
+    stops it (exit status 0 then too).
     """
     host, port = parse_address(target)
     codec = load(tree, root)
@@ -124,18 +88,57 @@ def send(
         raise click.ClickException(one_line(str(error))) from None
     family, target_address = resolve(host, port)
     where = shown(target_address)
-    with socket.socket(family, socket.SOCK_DGRAM) as sock:
+    sent, stopped = 0, ""
+    with socket.socket(family, socket.SOCK_DGRAM) as sock, _signals_interrupt():
         start = time.monotonic()
-        for i in range(count):
-            if rate is not None:
-                due = start + i / rate
-                while (wait := due - time.monotonic()) > 0:
-                    time.sleep(min(wait, _NAP))
-            try:
-                sock.sendto(data, target_address)
-            except OSError as error:
-                raise Fatal(f"cannot send to {where}: {error}") from None
-    click.echo(f"sent {count} datagram(s) of {len(data)} bytes to {where}", err=True)
+        try:
+            for i in range(count):
+                if rate is not None:
+                    due = start + i / rate
+                    while (wait := due - time.monotonic()) > 0:
+                        time.sleep(min(wait, _NAP))
+                try:
+                    sock.sendto(data, target_address)
+                except OSError as error:
+                    raise Fatal(f"cannot send to {where}: {error}") from None
+                sent += 1
+        except KeyboardInterrupt:  # Ctrl-C, or SIGTERM: stop, and say how far it got
+            stopped = " (stopped by a signal)"
+    total = f"{sent}" if sent == count else f"{sent} of {count}"
+    click.echo(f"sent {total} datagram(s) of {len(data)} bytes to {where}{stopped}", err=True)
+
+
+@contextlib.contextmanager
+def _signals_interrupt() -> Iterator[None]:
+    """SIGTERM raises ``KeyboardInterrupt`` as Ctrl-C does, for the block (so ``kill`` ends a
+    command as Ctrl-C does: with its summary, exit status 0)."""
+    previous = signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _interrupt(number: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+def _watches(
+    ctx: click.Context, param: click.Parameter, values: tuple[str, ...]
+) -> tuple[tuple[str, float], ...]:
+    """``KIND=PERIOD`` each: a kind expected every PERIOD seconds (positive, finite)."""
+    watches = []
+    for value in values:
+        kind, equals, period = value.partition("=")
+        if not equals or not kind:
+            raise click.BadParameter(f"{value!r}: expected KIND=PERIOD (seconds), e.g. gps_info=1")
+        try:
+            watches.append((kind, float(FINITE.convert(period, param, ctx))))
+        except click.BadParameter:
+            raise click.BadParameter(
+                f"{value!r}: the period must be a positive, finite number of seconds"
+            ) from None
+    return tuple(watches)
 
 
 @click.command()
@@ -149,6 +152,15 @@ def send(
     default="auto",
     show_default=True,
     help="auto: a live table on a terminal, JSON lines otherwise.",
+)
+@click.option(
+    "--watch",
+    "watches",
+    multiple=True,
+    callback=_watches,
+    metavar="KIND=PERIOD",
+    help="Expect KIND every PERIOD seconds: an alert when none came for 3 periods, and when it "
+    "is back (repeatable).",
 )
 @click.option("--foxglove", is_flag=True, help="Also serve what arrives to Foxglove, live.")
 @click.option(
@@ -164,32 +176,44 @@ def listen(
     count: int | None,
     seconds: float | None,
     output: str,
+    watches: tuple[tuple[str, float], ...],
     foxglove: bool,
     foxglove_address: str,
-    tree: Path | None,
-    root: str,
+    tree: str | None,
+    root: str | None,
 ) -> None:
     """Print the datagrams arriving on [HOST:]PORT (host 127.0.0.1 unless given), decoded.
 
-    Port 0 takes any free port; the address actually bound is the first line on stderr. The
-    counters are printed on stderr when it stops (after --count datagrams, --seconds, or
-    Ctrl-C): datagrams received, handled by kind, undecodable by reason, dropped; and those that
-    never reached it: dropped by the kernel (its receive buffer full: null where the system does
-    not say), unread (still queued when it stopped), with the receive buffer granted, in bytes
-    (4 MiB is asked for; Linux grants up to twice net.core.rmem_max).
-    With --foxglove, a Foxglove client (ws://127.0.0.1:8765 unless --foxglove-address says
-    otherwise) sees every kind on /erc/<kind>, drops on /erc-codec/drops, the GPS fix on
-    /erc-codec/fix and rates on /erc-codec/stats.
+    Port 0 takes any free port; the address actually bound is the first line on stderr. JSON
+    lines: one per datagram, an error object for each one dropped (with its reason), and with
+    --watch an alert object when a kind goes silent ({"alert": "silent", "kind": ...,
+    "period": ..., "silent_for": ...}) and when it is back ({"alert": "back", ...}). The table
+    shows per kind its count, its rate over the last 5 seconds (falling to 0 when it stops),
+    how long ago it was last seen and, watched, whether it is SILENT; below it, the datagrams
+    dropped by reason, the kernel's drops included, as they happen.
+
+    The counters are printed on stderr when it stops (after --count datagrams, --seconds,
+    Ctrl-C or SIGTERM: exit status 0): datagrams received, handled by kind, undecodable by
+    reason, dropped; and those that never reached it: dropped by the kernel (its receive buffer
+    full: null where the system does not say), unread (still queued when it stopped), with the
+    receive buffer granted, in bytes (4 MiB is asked for; Linux grants up to twice
+    net.core.rmem_max). With --foxglove, a Foxglove client (ws://127.0.0.1:8765 unless
+    --foxglove-address says otherwise) sees every kind on /erc/<kind>, drops on
+    /erc-codec/drops, the GPS fix on /erc-codec/fix and rates on /erc-codec/stats.
     """
     import asyncio
 
     host, port = parse_address(address, default_host="127.0.0.1")
     codec = load(tree, root)
+    kinds = set(codec.kinds().values())
+    for kind, _ in watches:
+        if kind not in kinds:
+            raise Fatal(f"--watch: unknown kind {kind!r}: {codec.root} has {', '.join(kinds)}")
     _, local = resolve(host, port)
     table = output == "table" or (output == "auto" and sys.stdout.isatty())
     live = foxglove_view(codec, *parse_address(foxglove_address, "127.0.0.1")) if foxglove else None
-    session = _Listening(codec, _Table() if table else None, count, live)
-    with contextlib.suppress(KeyboardInterrupt):  # Ctrl-C ends it as --count would
+    session = _Listening(codec, _Table() if table else None, count, dict(watches), live)
+    with contextlib.suppress(KeyboardInterrupt):  # Ctrl-C before the loop runs: as --count
         try:
             asyncio.run(session.run(local, seconds))
         finally:
@@ -197,7 +221,7 @@ def listen(
                 live.close()
     session.flush()
     stats = session.dispatcher.stats()
-    udp = session.udp or UdpStats(0, 0, 0, 0, 0)  # Ctrl-C before the socket was open
+    udp = session.udp or UdpStats(0, 0, 0, 0, 0)  # stopped before the socket was open
     summary = {
         "received": udp.received,
         "handled": stats.handled,
@@ -212,16 +236,29 @@ def listen(
 
 class _Listening:
     """One ``listen``: an endpoint whose every datagram is shown as a JSON line, or counted in a
-    table with the rates a watchdog measures."""
+    table with its rate; kinds watched raise alerts through a ``Watchdog``."""
 
     def __init__(
-        self, codec: Codec, view: "_Table | None", count: int | None, live: FoxgloveView | None
+        self,
+        codec: Codec,
+        view: "_Table | None",
+        count: int | None,
+        watches: dict[str, float],
+        live: FoxgloveView | None = None,
     ) -> None:
         self.dispatcher = Dispatcher(codec, on_drop=self._dropped)
         for kind in codec.kinds().values():
             self.dispatcher.register(kind, self._shower(kind))
-        self.watchdog = Watchdog() if view is not None else None  # rates: for the table only
+        self.watches = watches
+        self.watchdog: Watchdog | None = None
+        if watches:
+            self.watchdog = Watchdog(on_timeout=self._silent, on_recover=self._back)
+            for kind, period in watches.items():
+                self.watchdog.watch(kind, period)
+        self.rates = SlidingRates()
+        self.silent: set[str] = set()
         self.udp: UdpStats | None = None  # the endpoint's counters, once it is closed
+        self._endpoint: UdpEndpoint | None = None
         self._to_dict = to_dict  # the fastest conversion there is: what listen can keep up with
         self._view = view
         self._live = live
@@ -242,6 +279,10 @@ class _Listening:
         finished = self._finished = loop.create_future()
         endpoint: UdpEndpoint | None = None
 
+        def stop() -> None:  # --count reached, Ctrl-C or SIGTERM
+            if not finished.done():
+                finished.set_result(None)
+
         def heard(data: bytes, sender: Any) -> None:
             self._heard += 1
             if sender != self._sender:
@@ -250,11 +291,13 @@ class _Listening:
             if self._count is not None and self._heard >= self._count:
                 if endpoint is not None:
                     endpoint.close()  # this one is still dispatched; none after it is read
-                if not finished.done():
-                    finished.set_result(None)
+                stop()
 
+        for number in (signal.SIGINT, signal.SIGTERM):
+            with contextlib.suppress(NotImplementedError, RuntimeError):  # not on every system
+                loop.add_signal_handler(number, stop)
         try:
-            endpoint = await open_udp(
+            endpoint = self._endpoint = await open_udp(
                 self.dispatcher, local[0], local[1], watchdog=self.watchdog, on_datagram=heard
             )
         except OSError as error:
@@ -272,7 +315,7 @@ class _Listening:
         if finished.done() and finished.exception() is not None:
             raise cast(BaseException, finished.exception())  # the output could not be written
         if self._view is not None:
-            self._view.render(self.dispatcher.stats(), self.watchdog)
+            self._render(self._view)
 
     def flush(self) -> None:
         """Write the JSON lines not written yet, in one go."""
@@ -301,8 +344,12 @@ class _Listening:
         import asyncio
 
         while True:
-            view.render(self.dispatcher.stats(), self.watchdog)
+            self._render(view)
             await asyncio.sleep(_REDRAW)
+
+    def _render(self, view: "_Table") -> None:
+        live = self._endpoint.stats() if self._endpoint is not None else None
+        view.render(self.dispatcher.stats(), live, self.rates, self.watches, self.silent)
 
     def _shower(self, kind: str) -> Callable[[Message], None]:
         def show(message: Message) -> None:
@@ -317,6 +364,8 @@ class _Listening:
                         "message": self._to_dict(message),
                     }
                 )
+            else:
+                self.rates.seen(kind, time.monotonic())
 
         return show
 
@@ -328,13 +377,58 @@ class _Listening:
             record = {"from": self._source, "error": error, "reason": drop.reason}
             self._show({**record, "length": len(drop.data)})
 
+    def _silent(self, kind: str) -> None:
+        self.silent.add(kind)
+        if self._view is None:
+            last = self.rates.last.get(kind)
+            record = {"alert": "silent", "kind": kind, "period": self.watches[kind]}
+            self._show({**record, "silent_for": self._silent_for(kind, last)})
+
+    def _back(self, kind: str) -> None:
+        self.silent.discard(kind)
+        if self._view is None:
+            self._show({"alert": "back", "kind": kind, "period": self.watches[kind]})
+
+    def _silent_for(self, kind: str, last: float | None) -> float | None:
+        """Seconds since ``kind`` last arrived (JSON lines do not measure rates: the
+        watchdog's timeout is what it says then)."""
+        if last is not None:
+            return round(time.monotonic() - last, 3)
+        return round(3 * self.watches[kind], 3)
+
 
 class _Table:
-    """A per-kind table of counts and measured rates."""
+    """A per-kind table of counts, rates and ages, with the drops by reason below it."""
 
-    def render(self, stats: DispatchStats, watchdog: Watchdog | None) -> None:
-        lines = [f"{'kind':<34}{'count':>8}{'rate Hz':>10}"]
-        for kind in sorted(stats.handled):
-            rate = (watchdog.rate(kind) if watchdog is not None else None) or 0.0
-            lines.append(f"{kind:<34}{stats.handled[kind]:>8}{rate:>10.1f}")
+    def render(
+        self,
+        stats: DispatchStats,
+        udp: UdpStats | None,
+        rates: SlidingRates,
+        watches: dict[str, float],
+        silent: set[str],
+    ) -> None:
+        now = time.monotonic()
+        lines = [f"{'kind':<34}{'count':>8}{'rate Hz':>10}{'last seen':>12}  watch"]
+        for kind in sorted(set(stats.handled) | set(watches)):
+            last = rates.last.get(kind)
+            age = "never" if last is None else f"{now - last:.1f} s ago"
+            watch = ""
+            if kind in watches:
+                state = "SILENT" if kind in silent else "ok" if last is not None else "waiting"
+                watch = f"{state} (every {watches[kind]:g} s)"
+            lines.append(
+                f"{kind:<34}{stats.handled.get(kind, 0):>8}{rates.rate(kind, now):>10.1f}"
+                f"{age:>12}  {watch}".rstrip()
+            )
+        drops = [
+            *(f"undecodable {why}: {n}" for why, n in sorted(stats.undecodable.items())),
+            *(f"no handler for {kind}: {n}" for kind, n in sorted(stats.unhandled.items())),
+            *(f"handler error in {kind}: {n}" for kind, n in sorted(stats.handler_errors.items())),
+        ]
+        if udp is not None and udp.kernel_dropped:
+            drops.append(f"dropped by the kernel: {udp.kernel_dropped}")
+        lines += ["", "dropped: " + ("; ".join(drops) if drops else "none")]
+        if silent:
+            lines.append(f"ALERT silent: {', '.join(sorted(silent))}")
         click.echo("\x1b[H\x1b[2J" + "\n".join(lines))

@@ -1,7 +1,8 @@
 """The UDP datagrams of a pcap or pcapng capture, read with dpkt (the ``pcap`` extra).
 
 Guarantees: every packet is either handed on as a whole UDP datagram or counted as skipped, by
-reason (``not UDP``, ``fragmented``, ``malformed``, ``cut short by the capture``); a capture cut
+reason (``not UDP``, ``fragmented``, ``malformed``, ``cut short by the capture``, ``other port``
+when only some ports are asked for); a capture cut
 off or damaged after its header is noticed (``damage``) instead of ending as if it were whole.
 """
 
@@ -75,8 +76,11 @@ class Capture:
     """An open capture: ``datagrams()`` yields its UDP payloads; ``skipped`` counts the other
     packets by reason and ``damage`` says, once the datagrams are read, where it broke off."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, ports: frozenset[int] = frozenset()) -> None:
+        """``ports``: if any, only datagrams from or to one of them are handed on (the others
+        are skipped as ``other port``)."""
         self.path = path
+        self._ports = ports
         self._dpkt = _dpkt()
         try:
             self._file = _Watched(path.open("rb"))
@@ -127,6 +131,8 @@ class Capture:
                 return
             self.packets += 1
             why, ip, udp = self._udp(packet)
+            if not why and self._ports and not {udp.sport, udp.dport} & self._ports:
+                why = "other port"
             if why:
                 self.skipped[why] = self.skipped.get(why, 0) + 1
                 continue

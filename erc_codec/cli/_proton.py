@@ -15,8 +15,7 @@ import contextlib
 import json
 import math
 import struct
-import sys
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, cast
 
@@ -25,10 +24,8 @@ import click
 from .._errors import CodecError, DecodeError
 from .._framing import Deframer
 from ..proton import BundleCodec, Value, load_config, split_udp_header
-from ._input import hex_lines, read_stdin
-from ._net import parse_address, resolve, shown
-from ._pcap import Capture
-from ._shared import Fatal, emit, one_line, plural, unhex
+from ._reading import Printer, decode_input, input_options
+from ._shared import FINITE, Fatal, emit, one_line, parse_address, resolve, shown
 
 __all__ = ["proton"]
 
@@ -108,22 +105,24 @@ def _shortest_float32(value: float) -> float:
     return value
 
 
-class _Printer:
+class _Printer(Printer):
     """Decodes messages and prints one JSON line for each, counting the failures."""
 
     def __init__(self, codec: BundleCodec) -> None:
+        super().__init__()
         self.codec = codec
-        self.messages = 0
-        self.failed = 0
-        self.bad_lines = 0
         self.bundles: dict[str, int] = {}
         self.errors: dict[str, int] = {}
 
-    def message(
+    def payload(self, data: bytes) -> None:
+        """A serial frame's payload: a message, without the UDP header a datagram may have."""
+        self.datagram(data, udp=False)
+
+    def datagram(
         self, data: bytes, where: dict[str, object] | None = None, udp: bool = True
     ) -> None:
         """Print one message (a datagram's, with its optional UDP header when ``udp``)."""
-        self.messages += 1
+        self.datagrams += 1
         header, message = split_udp_header(data) if udp else (None, data)
         record: dict[str, object] = dict(where or {})
         if header is not None:
@@ -146,52 +145,34 @@ class _Printer:
             record["unknown_fields"] = [field._asdict() for field in bundle.unknown_fields]
         emit(record)
 
-    def not_hex(self, line: int, problem: str) -> None:
-        self.bad_lines += 1
-        emit(
-            {
-                "error": f"line {line} is not hex: {problem}",
-                "reason": "not_hex",
-                "length": None,
-                "line": line,
-            }
-        )
-
 
 @proton.command()
 @click.argument("data", nargs=-1, metavar="[HEX... | -]")
 @_CONFIG
 @_PROTOCOL
 @_SCRATCH
-@click.option(
-    "--pcap",
-    "capture",
-    type=click.Path(path_type=Path),
-    metavar="FILE",
-    help="Decode every UDP payload of a pcap or pcapng capture (needs the pcap extra: dpkt).",
-)
-@click.option(
-    "--framed",
-    is_flag=True,
-    help="The input is a serial byte stream of Proton frames: decode each frame's payload.",
-)
+@input_options
 def decode(
     data: tuple[str, ...],
     config_path: Path,
     protocol: str,
     scratch: int,
     capture: Path | None,
+    ports: tuple[int, ...],
     framed: bool,
+    raw: bool,
 ) -> None:
     """Decode Proton messages to JSON: one object per message, one per line, on stdout.
 
     \b
     Input, as for erc-codec decode, one of:
       HEX...      one message in hex (spaces and colons may separate digits)
-      - or none   standard input: hex text, one message per non-empty line,
-                  else raw bytes: one message
-      --pcap FILE every UDP payload of a pcap or pcapng capture
-    With --framed, HEX or standard input is a serial stream of Proton frames.
+      - or none   standard input: hex text, one message per non-empty line;
+                  with --raw, raw bytes: one message
+      --pcap FILE every UDP payload of a pcap or pcapng capture (--port:
+                  only from or to these ports)
+    With --framed, HEX or standard input (hex lines, or --raw bytes) is a
+    serial stream of Proton frames.
     A datagram's 4-byte Proton 2.0 UDP header, when it has one, is read and
     its node id shown ("node_id").
 
@@ -207,77 +188,15 @@ def decode(
     bytes discarded between frames, and a frame the stream cut off).
 
     \b
-    Exit status: 0 every message decoded (discarded bytes and a cut-off last
-    frame show in the summary only, as for erc-codec decode --framed); 1 at
-    least one did not, or a line was not hex; 2 usage error, a configuration
+    Exit status: 0 every message decoded (rejected frames, discarded bytes and
+    a cut-off last frame show in the summary only, as for erc-codec decode
+    --framed); 1 at least one did not, a line was not hex, or there was
+    nothing to decode; 2 usage error, a configuration
     that does not load (one line naming its file, line and key), unreadable
     or damaged capture, or --pcap without dpkt.
     """
-    if capture is not None and (data or framed):
-        raise click.UsageError("--pcap reads the capture only: give no HEX, '-' or --framed")
-    if "-" in data and len(data) > 1:
-        raise click.UsageError("'-' (standard input) cannot be combined with HEX")
-    given = None
-    if data and data != ("-",):
-        try:
-            given = unhex(" ".join(data))
-        except ValueError as error:
-            raise click.BadParameter(str(error), param_hint="HEX") from None
-    codec = _codec(config_path, protocol, scratch)
-    printer = _Printer(codec)
-    summary: str | None = None
-    if capture is not None:
-        with Capture(capture) as packets:
-            summary = _from_capture(printer, packets)
-    else:
-        hex_text, chunks = (False, iter([given])) if given is not None else read_stdin()
-        if hex_text:
-            chunks = hex_lines(chunks, printer.not_hex)
-        if framed:
-            summary = _deframe(printer, chunks)
-        elif hex_text:
-            for message in chunks:
-                printer.message(message)
-        else:  # one message: HEX (even an empty one), or raw standard input unless empty
-            whole = b"".join(chunks)
-            if whole or given is not None:
-                printer.message(whole)
-    if summary is not None:
-        click.echo(summary, err=True)
-    sys.exit(1 if printer.failed or printer.bad_lines else 0)
-
-
-def _deframe(printer: _Printer, chunks: Iterable[bytes]) -> str:
-    deframer = Deframer(max_length=_MAX_FRAME)
-    for chunk in chunks:
-        for payload in deframer.feed(chunk):
-            printer.message(payload, udp=False)
-    stats = deframer.stats()  # before flush: what the stream itself threw away
-    parts = [plural(stats.frames, "frame"), f"{printer.failed} undecodable"]
-    if stats.discarded_bytes:
-        reasons = ", ".join(f"{why} {n}" for why, n in sorted(stats.discarded_bytes.items()))
-        parts.append(f"{plural(sum(stats.discarded_bytes.values()), 'byte')} discarded ({reasons})")
-    if unfinished := len(deframer.flush()):
-        parts.append(f"{plural(unfinished, 'byte')} left in an unfinished frame")
-    if printer.bad_lines:
-        parts.append(f"{plural(printer.bad_lines, 'line')} not hex")
-    return ", ".join(parts)
-
-
-def _from_capture(printer: _Printer, capture: Capture) -> str:
-    for datagram in capture.datagrams():
-        where = {"time": datagram.time, "src": datagram.source, "dst": datagram.destination}
-        printer.message(datagram.data, where)
-    skipped = capture.skipped
-    reasons = ", ".join(f"{count} {why}" for why, count in sorted(skipped.items()))
-    summary = (
-        f"{plural(printer.messages, 'datagram')}, {printer.failed} undecodable, "
-        f"{plural(sum(skipped.values()), 'packet')} skipped" + (f" ({reasons})" if reasons else "")
-    )
-    if capture.damage:
-        click.echo(summary, err=True)
-        raise Fatal(one_line(capture.damage))
-    return summary
+    printer = _Printer(_codec(config_path, protocol, scratch))
+    decode_input(printer, data, raw, framed, capture, ports, lambda: Deframer(_MAX_FRAME))
 
 
 @proton.command()
@@ -286,9 +205,7 @@ def _from_capture(printer: _Printer, capture: Capture) -> str:
 @_PROTOCOL
 @_SCRATCH
 @click.option("--count", type=click.IntRange(min=1), help="Stop after this many datagrams.")
-@click.option(
-    "--seconds", type=click.FloatRange(min=0, min_open=True), help="Stop after this long."
-)
+@click.option("--seconds", type=FINITE, help="Stop after this long.")
 def listen(
     address: str,
     config_path: Path,
@@ -314,7 +231,7 @@ def listen(
     with contextlib.suppress(KeyboardInterrupt):  # Ctrl-C ends it as --count would
         asyncio.run(_listen(printer, local, count, seconds))
     counters = {
-        "received": printer.messages,
+        "received": printer.datagrams,
         "bundles": printer.bundles,
         "undecodable": printer.errors,
     }
@@ -335,11 +252,11 @@ async def _listen(
         if finished.done():
             return  # already read when --count was reached, or output failed
         try:
-            printer.message(data, {"from": shown(sender)})
+            printer.datagram(data, {"from": shown(sender)})
         except OSError as error:  # stdout: a broken pipe, a full disk
             finished.set_exception(error)
             return
-        if count is not None and printer.messages >= count:
+        if count is not None and printer.datagrams >= count:
             finished.set_result(None)
 
     try:

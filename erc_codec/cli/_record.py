@@ -35,10 +35,18 @@ from .._errors import CodecError, EncodeError
 from .._mcap import McapWriter, recorded_payloads
 from .._recording import nanoseconds
 from .._transport import UdpEndpoint, open_udp
-from ._encode import MODE
-from ._net import parse_address, resolve, shown
 from ._pcap import Capture
-from ._shared import Fatal, load, one_line, plural, schema_options
+from ._shared import (
+    MODE,
+    Fatal,
+    load,
+    one_line,
+    parse_address,
+    plural,
+    resolve,
+    schema_options,
+    shown,
+)
 from ._writer import WriterProcess
 
 __all__ = ["capture_to_mcap", "record", "replay"]
@@ -115,8 +123,8 @@ def record(
     output: Path,
     count: int | None,
     seconds: float | None,
-    tree: Path | None,
-    root: str,
+    tree: str | None,
+    root: str | None,
 ) -> None:
     """Record the datagrams arriving on [HOST:]PORT (host 127.0.0.1 unless given) to an MCAP file.
 
@@ -346,8 +354,8 @@ def replay(
     mode: str,
     kinds: tuple[str, ...],
     with_drops: bool,
-    tree: Path | None,
-    root: str,
+    tree: str | None,
+    root: str | None,
 ) -> None:
     """Send a recording's datagrams to HOST:PORT with their recorded timing.
 

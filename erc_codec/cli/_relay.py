@@ -30,8 +30,7 @@ from .._envelope import Mode
 from .._errors import CodecError
 from .._router import Failsafe, FailsafeEvent, Route, Router
 from .._transport import UdpEndpoint, open_udp
-from ._net import parse_address, resolve, shown
-from ._shared import Fatal, load, one_line, schema_options
+from ._shared import Fatal, load, one_line, parse_address, resolve, schema_options, shown
 
 __all__ = ["relay"]
 
@@ -59,7 +58,7 @@ class Config(NamedTuple):
 @click.command()
 @click.argument("config", metavar="CONFIG.toml", type=click.Path(dir_okay=False, path_type=Path))
 @schema_options
-def relay(config: Path, tree: Path | None, root: str) -> None:
+def relay(config: Path, tree: str | None, root: str | None) -> None:
     """Route datagrams between UDP peers as CONFIG.toml says (see README: the relay).
 
     Each datagram goes to the destinations whose routes take its kind, direction or source, in

@@ -1,27 +1,36 @@
-"""What the erc-codec commands share: the schema options, loading, JSON in and out, hex, errors."""
+"""What the erc-codec commands share: the schema options, loading, JSON in and out, hex, errors,
+--mode, addresses and positive numbers."""
 
 import json
+import math
 import re
+import socket
 from collections.abc import Callable
-from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, TypeVar, cast
 
 import click
 from google.protobuf.message import Message
 
-from .._codec import Codec, default_tree
+from .._codec import Codec
+from .._discovery import SchemaSource, find_schema
 from .._errors import CodecError, EncodeError
 from .._json import load_json
 from .._json import to_dict as _to_dict
 
 __all__ = [
+    "FINITE",
+    "MODE",
     "Fatal",
     "emit",
     "envelope_from_json",
     "load",
     "one_line",
+    "parse_address",
     "plural",
+    "resolve",
     "schema_options",
+    "shown",
+    "source",
     "to_dict",
     "unhex",
 ]
@@ -51,25 +60,43 @@ def schema_options(command: _Command) -> _Command:
     command = click.option(
         "--root",
         metavar="NAME",
-        default="PBEnvelope",
-        show_default=True,
-        help="The envelope message.",
+        help="The envelope message. Default: the configuration's root, else PBEnvelope.",
     )(command)
     return click.option(
         "--proto",
         "tree",
-        type=click.Path(file_okay=False, path_type=Path),
         metavar="TREE",
-        help="Proto tree to load (its import root). Default: the packaged rover schema.",
+        help="Proto tree to load: its import root, a folder, or a git revision "
+        "GITDIR#ref=REF[,subdir=PATH] (read without a checkout). Default: $ERC_CODEC_PROTO, "
+        "else [tool.erc-codec] proto in the nearest pyproject.toml, else the packaged schema "
+        "(erc-codec schema says which).",
     )(command)
 
 
-def load(tree: Path | None, root: str) -> Codec:
-    """The codec ``--proto`` and ``--root`` name; a schema that does not load is exit 2."""
+def source(tree: str | None, root: str | None) -> SchemaSource:
+    """The schema ``--proto`` and ``--root`` name, or the one found (see ``find_schema``); a
+    configuration that cannot be read is exit 2. Options given before the command
+    (``erc-codec --proto TREE decode``) hold where the command gives none."""
+    context = click.get_current_context(silent=True)
+    if context is not None:
+        given = context.find_root().params
+        tree = tree if tree is not None else given.get("tree")
+        root = root if root is not None else given.get("root")
     try:
-        return Codec.from_path(tree or default_tree(), root)
+        return find_schema(tree, root)
     except CodecError as error:
         raise Fatal(one_line(str(error))) from None
+
+
+def load(tree: str | None, root: str | None) -> Codec:
+    """The codec ``--proto`` and ``--root`` name, or the one found; a schema that does not load
+    is exit 2, one line."""
+    found = source(tree, root)
+    try:
+        return Codec.from_source(found)
+    except CodecError as error:
+        where = "" if found.origin in ("--proto", "packaged") else f" (from {found.origin})"
+        raise Fatal(one_line(str(error)) + where) from None
 
 
 def unhex(text: str) -> bytes:
@@ -131,3 +158,65 @@ def _payload_of(codec: Codec, kind: str, document: Any) -> Any:
             f"{document['kind']}, or its message alone"
         )
     return document["message"]
+
+
+# -- what send, listen and proton listen share ------------------------------------------------
+
+MODE = click.option(
+    "--mode",
+    type=click.Choice(["strip", "exact", "pad"]),
+    default="strip",
+    show_default=True,
+    help="strip trailing zeros (the fleet's UDP form), exact protobuf, or pad to the envelope's "
+    "maximum size.",
+)
+
+
+class _Finite(click.FloatRange):
+    """A positive, finite number: click's ``FloatRange`` lets ``nan`` and ``inf`` through (NaN
+    fails no comparison with its bounds)."""
+
+    name = "positive number"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number.", param, ctx)
+        return number
+
+
+FINITE = _Finite(min=0, min_open=True)  # --seconds, --rate: a positive, finite number
+
+
+def parse_address(text: str, default_host: str | None = None) -> tuple[str, int]:
+    """``HOST:PORT`` (``[v6]:PORT`` too) as (host, port); ``PORT`` alone with a default host."""
+    host, _, port = text.rpartition(":")
+    host = host.removeprefix("[").removesuffix("]") if host.startswith("[") else host
+    if not host and default_host is None:
+        raise click.BadParameter(f"{text!r}: expected HOST:PORT")
+    try:
+        number = int(port)
+    except ValueError:
+        raise click.BadParameter(f"{text!r}: the port is not a number") from None
+    if not 0 <= number <= 65535:
+        raise click.BadParameter(f"{text!r}: the port must be within 0..65535")
+    return (host or cast(str, default_host)), number
+
+
+def resolve(host: str, port: int) -> tuple[socket.AddressFamily, tuple[Any, ...]]:
+    """The family and socket address of ``host`` (a name or an IPv4 or IPv6 address). A name
+    with addresses of both families takes IPv4, as the boards speak it: ``listen localhost:P``
+    must hear a board that sends to 127.0.0.1, wherever the system lists ::1 first."""
+    try:
+        found = socket.getaddrinfo(host, port, type=socket.SOCK_DGRAM)
+    except (OSError, UnicodeError) as error:
+        reason = error.strerror if isinstance(error, OSError) and error.strerror else error
+        raise Fatal(f"cannot resolve {host!r}: {reason}") from None
+    family, _, _, _, address = min(found, key=lambda entry: entry[0] != socket.AF_INET)
+    return family, address
+
+
+def shown(address: tuple[Any, ...]) -> str:
+    """``host:port``, with an IPv6 host in brackets so the port stays readable."""
+    host, port = address[0], address[1]
+    return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"

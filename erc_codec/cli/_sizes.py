@@ -1,17 +1,12 @@
 """``erc-codec sizes``: every message's nanopb maximum size, and the envelope's members."""
 
 import json
-import re
-from pathlib import Path
 
 import click
 
-from ..schema import descriptor_of, message_of
 from ._shared import load, schema_options
 
 __all__ = ["sizes"]
-
-_DIRECTION = re.compile(r"direction:\s*(.+)", re.IGNORECASE)
 
 
 @click.command()
@@ -23,23 +18,20 @@ _DIRECTION = re.compile(r"direction:\s*(.+)", re.IGNORECASE)
     default="text",
     show_default=True,
 )
-def sizes(tree: Path | None, root: str, output: str) -> None:
+def sizes(tree: str | None, root: str | None, output: str) -> None:
     """Print every message's nanopb maximum size and the envelope's members."""
     codec = load(tree, root)
-    members = []
-    for number, kind in sorted(codec.kinds().items()):
-        field = descriptor_of(codec.message_class(root)).fields_by_name[kind]
-        payload = message_of(field).full_name
-        note = _DIRECTION.search(codec.schema.comment(field.full_name))
-        members.append(
-            {
-                "number": number,
-                "kind": kind,
-                "type": payload,
-                "max_size": codec.max_size(payload),
-                "direction": note.group(1).strip() if note else None,
-            }
-        )
+    root = codec.root
+    members = [
+        {
+            "number": member.number,
+            "kind": member.kind,
+            "type": member.message,
+            "max_size": codec.max_size(member.message),
+            "direction": " -> ".join(member.direction) if member.direction else None,
+        }
+        for member in codec.members()
+    ]
     messages = dict(sorted(codec.sizes().items()))
     if output == "json":
         document = {"root": root, "max_size": codec.max_size(root), "members": members}

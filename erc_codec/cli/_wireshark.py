@@ -1,7 +1,5 @@
 """``erc-codec wireshark``: a Lua dissector for the schema's envelope, on standard output."""
 
-from pathlib import Path
-
 import click
 
 from .._errors import SchemaError
@@ -21,7 +19,7 @@ __all__ = ["wireshark"]
     help="A UDP port to dissect (repeatable). Default: 5000 and 7, the fleet's.",
 )
 @schema_options
-def wireshark(ports: tuple[int, ...], tree: Path | None, root: str) -> None:
+def wireshark(ports: tuple[int, ...], tree: str | None, root: str | None) -> None:
     """Print a Wireshark dissector (Lua) for the schema's envelope.
 
     \b

@@ -10,7 +10,7 @@ device or a file over ``SOURCE_LIMIT`` is refused, naming it); symlinked folders
 
 import functools
 import os
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
@@ -29,9 +29,18 @@ __all__ = ["Schema", "descriptor_of", "enum_of", "load_schema", "message_of"]
 class Schema:
     """The files a root message depends on, their descriptors, locations and message classes."""
 
-    def __init__(self, tree: Path, root: str, files: descriptor_pb2.FileDescriptorSet) -> None:
+    def __init__(
+        self,
+        tree: Path,
+        root: str,
+        files: descriptor_pb2.FileDescriptorSet,
+        shown: Path | None = None,
+    ) -> None:
         self.tree = tree
+        self.shown = tree if shown is None else shown  # where messages say the files are
         self.files = tuple(files.file)
+        # The tree's own files, judged now: a git revision's scratch folder is gone once loaded.
+        self._own = tuple(proto for proto in self.files if (tree / proto.name).is_file())
         self.pool = descriptor_pool.DescriptorPool()
         for proto in self.files:
             self.pool.AddSerializedFile(proto.SerializeToString())
@@ -44,7 +53,7 @@ class Schema:
         field, enum and enum value (values keyed under their enum: ``Enum.VALUE``)."""
         found: dict[str, tuple[SourceIndex, tuple[int, ...]]] = {}
         for proto in self.files:
-            source = SourceIndex(str(self.tree / proto.name), proto)
+            source = SourceIndex(str(self.shown / proto.name), proto)
             for declaration in declarations(proto):
                 found[declaration.name] = (source, declaration.path)
                 element = declaration.proto
@@ -96,16 +105,21 @@ class Schema:
         Files found on protoc's other search paths (google/protobuf/*, erc-codec's stand-in
         nanopb.proto) are imports, not part of the tree, and are left out.
         """
-        for proto in self.files:
-            if not (self.tree / proto.name).is_file():
-                continue
+        for proto in self._own:
             for declaration in declarations(proto):
                 if declaration.is_message:
                     yield self.pool.FindMessageTypeByName(declaration.name)
 
 
-def load_schema(tree: str | os.PathLike[str], root: str = "PBEnvelope") -> Schema:
-    """Compile the file under ``tree`` that defines message ``root``, with what it imports."""
+def load_schema(
+    tree: str | os.PathLike[str],
+    root: str = "PBEnvelope",
+    include: Sequence[str | os.PathLike[str]] = (),
+    shown: str | os.PathLike[str] | None = None,
+) -> Schema:
+    """Compile the file under ``tree`` that defines message ``root``, with what it imports
+    (searched in ``tree``, then in the ``include`` folders); ``shown`` is where messages and
+    locations say the tree is (a git revision's repository, where ``tree`` is a scratch copy)."""
     base = Path(tree)
     if not base.is_dir():
         raise SchemaError(f"{base}: not a directory holding a proto tree")
@@ -119,7 +133,7 @@ def load_schema(tree: str | os.PathLike[str], root: str = "PBEnvelope") -> Schem
     failure: SchemaError | None = None
     for name in candidates:
         try:
-            compiled = compile_files(base, [name])
+            compiled = compile_files(base, [name], [Path(folder) for folder in include])
         except FileError:
             raise  # a file protoc would read is refused: the tree is, whatever defines the root
         except SchemaError as error:
@@ -130,7 +144,7 @@ def load_schema(tree: str | os.PathLike[str], root: str = "PBEnvelope") -> Schem
     if len(found) > 1:
         raise SchemaError(f"message {root} is defined in both {found[0][0]} and {found[1][0]}")
     if found:
-        return Schema(base, root, found[0][1])
+        return Schema(base, root, found[0][1], None if shown is None else Path(shown))
     if failure is not None:
         raise failure
     raise SchemaError(f"{base}: no .proto file defines message {root}")

@@ -1,0 +1,183 @@
+"""Which schema a command or ``Codec.default()`` uses, and where that was said.
+
+The first of these that is there wins:
+1. the tree a caller names (``--proto TREE``);
+2. the environment variable ``ERC_CODEC_PROTO``;
+3. ``[tool.erc-codec] proto = "..."`` (with ``root`` and ``include``) in the nearest
+   ``pyproject.toml`` from the working folder up (paths there relative to that file's folder);
+4. the packaged rover schema.
+
+A tree is a folder or a git revision in erc-lint's spelling, ``GITDIR#ref=REF[,subdir=PATH]``,
+read from the repository's objects (``erc_codec.schema.open_tree``), never checked out. What a
+source names is only read when it is loaded: finding it costs a walk up the folders and, where a
+``pyproject.toml`` is found, reading that file.
+"""
+
+import functools
+import os
+import sys
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any, NamedTuple, TypeVar
+
+from ._errors import SchemaError
+from .schema import FileError, TreeSource, file_exists, open_tree, proto_files, read_text
+
+__all__ = ["ENVIRONMENT", "SchemaSource", "find_schema", "load_source", "packaged_tree"]
+
+ENVIRONMENT = "ERC_CODEC_PROTO"
+_CONFIG_LIMIT = 1024 * 1024  # a pyproject.toml larger than this is no configuration
+_TABLE = "erc-codec"
+_T = TypeVar("_T")
+
+
+class SchemaSource(NamedTuple):
+    """A schema to load: its ``tree`` (a folder or a git revision, as spelled), the envelope
+    message ``root``, further import folders ``include``, and ``origin``: ``"--proto"``,
+    ``"ERC_CODEC_PROTO"``, the path of the ``pyproject.toml`` that named it, or ``"packaged"``."""
+
+    tree: str
+    root: str
+    include: tuple[str, ...]
+    origin: str
+
+
+@functools.cache
+def packaged_tree() -> Path:
+    """The packaged proto tree: ``erc_codec/proto`` in a wheel, ``proto/`` in a checkout."""
+    from importlib import resources
+
+    packaged = Path(str(resources.files("erc_codec"))) / "proto"
+    if packaged.is_dir():
+        return packaged
+    return Path(__file__).resolve().parent.parent / "proto"
+
+
+def find_schema(
+    tree: str | None = None,
+    root: str | None = None,
+    start: str | os.PathLike[str] | None = None,
+    environ: Mapping[str, str] | None = None,
+) -> SchemaSource:
+    """The schema to use: ``tree`` if given, else ``ERC_CODEC_PROTO`` in ``environ`` (the
+    process's environment), else the nearest ``pyproject.toml`` from ``start`` (the working
+    folder) up that has a ``[tool.erc-codec]`` table, else the packaged one. ``root`` overrides
+    the root the source names (``PBEnvelope`` unless a configuration says otherwise).
+
+    A configuration that cannot be read or holds what it should not is a ``SchemaError`` naming
+    the file and the key."""
+    if tree is not None:
+        return SchemaSource(tree, root or "PBEnvelope", (), "--proto")
+    value = (os.environ if environ is None else environ).get(ENVIRONMENT, "")
+    if value.strip():
+        return SchemaSource(value, root or "PBEnvelope", (), ENVIRONMENT)
+    place = os.path.abspath(os.getcwd() if start is None else os.fspath(start))
+    while True:
+        config = os.path.join(place, "pyproject.toml")
+        if file_exists(config):
+            table = _table(Path(config))
+            if table is not None:
+                return _configured(Path(config), table, root)
+        above = os.path.dirname(place)
+        if above == place:
+            break
+        place = above
+    return SchemaSource(str(packaged_tree()), root or "PBEnvelope", (), "packaged")
+
+
+def _table(path: Path) -> dict[str, Any] | None:
+    """The ``[tool.erc-codec]`` table of a pyproject.toml, ``None`` if it has none."""
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # tomllib is tomli, joined to the standard library in 3.11
+        import tomli as tomllib
+
+    try:
+        document = tomllib.loads(read_text(path, _CONFIG_LIMIT))
+    except FileError:
+        raise
+    except tomllib.TOMLDecodeError as error:
+        raise SchemaError(f"{path}: {error}") from None
+    tool = document.get("tool", {})
+    table = tool.get(_TABLE) if isinstance(tool, dict) else None
+    if table is not None and not isinstance(table, dict):
+        raise SchemaError(f"{path}: tool.{_TABLE} must be a table")
+    return table
+
+
+def _configured(path: Path, table: dict[str, Any], root: str | None) -> SchemaSource:
+    unknown = sorted(set(table) - {"proto", "root", "include"})
+    if unknown:
+        raise SchemaError(
+            f"{path}: [tool.{_TABLE}] has no key {unknown[0]!r} (it takes proto, root, include)"
+        )
+    proto, named_root, include = (
+        table.get("proto"),
+        table.get("root", "PBEnvelope"),
+        table.get("include", []),
+    )
+    if not isinstance(proto, str) or not proto.strip():
+        raise SchemaError(
+            f"{path}: [tool.{_TABLE}] proto must be a tree: a folder or GITDIR#ref=REF"
+        )
+    if not isinstance(named_root, str) or not named_root:
+        raise SchemaError(f"{path}: [tool.{_TABLE}] root must be a message name")
+    if not isinstance(include, list) or not all(isinstance(i, str) and i for i in include):
+        raise SchemaError(f"{path}: [tool.{_TABLE}] include must be a list of folders")
+    here = path.parent
+    return SchemaSource(
+        _beside(here, proto),
+        root or named_root,
+        tuple(str(here / folder) for folder in include),
+        str(path),
+    )
+
+
+def _beside(here: Path, tree: str) -> str:
+    """``tree`` with its folder (or its GITDIR) taken relative to ``here``."""
+    if "#" in tree and not (here / tree).is_dir():
+        folder, _, options = tree.partition("#")
+        return f"{here / (folder or '.')}#{options}"
+    return str(here / tree)
+
+
+def load_source(source: SchemaSource, load: Callable[[TreeSource], _T]) -> _T:
+    """``load(tree)`` for ``source``'s tree opened as a folder (a git revision read into a
+    scratch folder for the call). A folder holding its ``.proto`` files below a folder they
+    import each other by (``--proto proto/components``) gets a one-line hint naming the folder
+    to give instead, not protoc's every line."""
+    with open_tree(source.tree) as opened:
+        try:
+            return load(opened)
+        except SchemaError as error:
+            hint = _hint(opened.folder, opened.shown, source.root, error)
+            if hint:
+                raise SchemaError(hint) from None
+            if opened.folder != opened.shown:  # a scratch copy: name the repository instead
+                text = str(error).replace(str(opened.folder), str(opened.shown))
+                raise SchemaError(text) from None
+            raise
+
+
+def _hint(folder: Path, shown: Path, root: str, error: SchemaError) -> str:
+    """One line for the common mistake of naming a folder inside the import root (``--proto
+    proto/components``): its protos import each other by paths from a folder above it."""
+    if isinstance(error, FileError) or not folder.is_dir():
+        return ""
+    text = str(error)
+    if "Import" not in text and "not found" not in text:
+        return ""
+    name = folder.resolve().name
+    files = proto_files(folder)
+    if not files:
+        return ""
+    for file in files:
+        for line in read_text(folder / file, errors="replace").splitlines():
+            stripped = line.strip()
+            if stripped.startswith("import") and f'"{name}/' in stripped:
+                return (
+                    f"{shown}: its files import each other as {name}/..., so the import root "
+                    f"is the folder above it: give {shown.parent if str(shown.parent) else '.'} "
+                    f"(root {root})"
+                )
+    return ""

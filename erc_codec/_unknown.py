@@ -1,0 +1,51 @@
+"""The fields a decoded message carried that its schema does not know: numbers it lacks, and
+numbers it knows arriving with another wire type (protobuf keeps both as unknown fields). A
+sender and a receiver of different schemas show here, instead of in silently dropped values.
+
+Found on demand, never by ``decode`` itself (its speed target, benchmarks/bench_codec.py): one
+walk over the message's set fields, nested messages, lists and maps included.
+"""
+
+from typing import NamedTuple
+
+from google.protobuf import unknown_fields as _protobuf_unknown
+from google.protobuf.message import Message
+
+__all__ = ["UnknownField", "unknown_fields"]
+
+
+class UnknownField(NamedTuple):
+    """A field the schema does not know: where (``path``, the field path of the message holding
+    it, ``""`` for the payload itself), its field ``number`` and its ``wire_type`` (0 varint,
+    1 64-bit, 2 length-delimited, 3/4 group, 5 32-bit)."""
+
+    path: str
+    number: int
+    wire_type: int
+
+
+def unknown_fields(message: Message) -> tuple[UnknownField, ...]:
+    """Every unknown field in ``message`` and the messages inside it, in field order."""
+    found: list[UnknownField] = []
+    _walk(message, "", found)
+    return tuple(found)
+
+
+def _walk(message: Message, path: str, found: list[UnknownField]) -> None:
+    unknown = _protobuf_unknown.UnknownFieldSet(message)
+    for index in range(len(unknown)):
+        field = unknown[index]
+        found.append(UnknownField(path, field.field_number, field.wire_type))
+    for field, value in message.ListFields():
+        if field.message_type is None:
+            continue
+        where = f"{path}.{field.name}" if path else field.name
+        if field.message_type.GetOptions().map_entry:
+            if field.message_type.fields_by_name["value"].message_type is not None:
+                for key, item in value.items():
+                    _walk(item, f"{where}[{key}]", found)
+        elif field.is_repeated:
+            for index, item in enumerate(value):
+                _walk(item, f"{where}[{index}]", found)
+        else:
+            _walk(value, where, found)

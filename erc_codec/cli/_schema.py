@@ -1,0 +1,73 @@
+"""``erc-codec schema``: which schema the commands use, and where that was said."""
+
+import json
+
+import click
+
+from .._codec import Codec
+from .._discovery import ENVIRONMENT, load_source
+from .._errors import CodecError
+from ..schema import TreeSource, load_schema
+from ._shared import Fatal, one_line, schema_options, source
+
+__all__ = ["schema"]
+
+_ORIGINS = {
+    "--proto": "given with --proto",
+    ENVIRONMENT: f"from the environment variable {ENVIRONMENT}",
+    "packaged": "the schema packaged with erc-codec (no --proto, no "
+    f"{ENVIRONMENT}, no [tool.erc-codec] in a pyproject.toml from here up)",
+}
+
+
+@click.command()
+@schema_options
+@click.option(
+    "--format",
+    "output",
+    type=click.Choice(["text", "json"]),
+    default="text",
+    show_default=True,
+)
+def schema(tree: str | None, root: str | None, output: str) -> None:
+    """Print which schema the commands use and where that was said.
+
+    The first of these wins: --proto TREE; the environment variable
+    ERC_CODEC_PROTO; [tool.erc-codec] proto = "TREE" (with root = "NAME" and
+    include = ["FOLDER", ...]) in the nearest pyproject.toml from the working
+    folder up, its paths relative to that file; the packaged rover schema.
+    Codec.default() finds its schema the same way. TREE is a folder (the
+    import root) or a git revision GITDIR#ref=REF[,subdir=PATH].
+
+    \b
+    Exit status: 0 printed; 2 a schema that does not load (one line).
+    """
+    found = source(tree, root)
+
+    def loaded(opened: TreeSource) -> tuple[str | None, Codec]:
+        schema = load_schema(opened.folder, found.root, found.include, opened.shown)
+        return opened.revision, Codec(schema)
+
+    try:
+        commit, codec = load_source(found, loaded)
+    except CodecError as error:
+        raise Fatal(one_line(str(error))) from None
+    size = codec.max_size(codec.root)
+    if output == "json":
+        document = {
+            "tree": found.tree,
+            "origin": found.origin,
+            "revision": commit,
+            "root": codec.root,
+            "include": list(found.include),
+            "members": len(codec.kinds()),
+            "max_size": size,
+        }
+        click.echo(json.dumps(document, indent=2))
+        return
+    origin = _ORIGINS.get(found.origin, f"from [tool.erc-codec] in {found.origin}")
+    click.echo(f"schema   {found.tree}" + (f" at commit {commit}" if commit else ""))
+    click.echo(f"found    {origin}")
+    click.echo(f"root     {codec.root}: {len(codec.kinds())} members, {codec.root}_size {size}")
+    if found.include:
+        click.echo(f"include  {', '.join(found.include)}")

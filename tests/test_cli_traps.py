@@ -1,0 +1,159 @@
+"""The traps a new user of erc-codec's command line fell into, each shut: nothing is decoded that
+was not given, standard input is hex lines unless --raw says otherwise, every failure is one line
+with its documented exit status, a serial stream's rejected frames are reported, a capture is
+filtered by port and kind, and output that goes away ends a command quietly."""
+
+import contextlib
+import json
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import IO
+
+import pytest
+from test_cli_codec import ETHERNET, records, run, udp4, write_capture
+
+import erc_codec
+
+
+@pytest.mark.parametrize("stdin", [b"", b"\n", b"  \n\t\n", b"\r\n"])
+def test_empty_input_and_whitespace_are_no_datagram(stdin: bytes) -> None:
+    """``echo | erc-codec decode`` printed a ph_info message: 0x0a is a valid tag."""
+    done = run("decode", stdin=stdin)
+    assert (done.code, done.out) == (1, "")
+    assert done.err == "standard input holds no datagram: it is empty or only whitespace\n"
+
+
+@pytest.mark.parametrize("hex_text", ["", ":::", " ", "::  :"])
+def test_hex_that_spells_no_bytes_is_a_usage_error(hex_text: str) -> None:
+    done = run("decode", hex_text)
+    assert (done.code, done.out) == (2, "")
+    assert done.err == "Error: Invalid value for HEX: it spells no bytes: give a datagram in hex\n"
+
+
+def test_odd_hex_on_stdin_is_not_raw_bytes() -> None:
+    """``echo 620b0 | erc-codec decode`` decoded the six bytes of text as a raw datagram."""
+    done = run("decode", stdin=b"620b0\n")
+    assert done.code == 1
+    assert records(done.out) == [
+        {
+            "error": "line 1 is not hex: odd number of hex digits (5)",
+            "reason": "not_hex",
+            "length": None,
+            "line": 1,
+        }
+    ]
+    assert done.err == "1 line not hex (raw bytes on standard input need --raw)\n"
+
+
+def test_raw_bytes_need_raw(codec: erc_codec.Codec) -> None:
+    datagram = codec.encode(codec.message_class("gps_info")(satellites=9, latitude=1.5))
+    done = run("decode", stdin=datagram)
+    assert done.code == 1
+    assert [r["reason"] for r in records(done.out)] == ["not_hex"]
+    assert records(done.out)[0]["line"] == 1
+    raw = run("decode", "--raw", stdin=datagram)
+    assert raw.code == 0, raw.err
+    assert records(raw.out)[0]["message"]["satellites"] == 9
+    assert run("decode", "--raw", "0a00").code == 2  # --raw is for standard input
+
+
+def test_framed_reports_rejected_frames_and_exits_1_if_nothing_decoded(
+    codec: erc_codec.Codec,
+) -> None:
+    """A bad CRC printed nothing and exited 0."""
+    good = erc_codec.frame(codec.encode(codec.message_class("gps_info")(satellites=3)))
+    bad = good[:-1] + bytes([good[-1] ^ 0xFF])
+    done = run("decode", "--framed", bad.hex())
+    assert (done.code, done.out) == (1, "")
+    assert "0 frames, 0 undecodable, 1 frame rejected (bad_crc 1)" in done.err
+    assert done.err.count("\n") == 1
+    both = run("decode", "--framed", (bad + good).hex())
+    assert both.code == 0, both.err
+    assert [r["kind"] for r in records(both.out)] == ["gps_info"]
+    assert "1 frame, 0 undecodable, 1 frame rejected (bad_crc 1)" in both.err
+
+
+def test_pcap_port_and_kind_filters(codec: erc_codec.Codec, tmp_path: Path) -> None:
+    """mDNS and RTPS packets on other ports became error lines, or a bogus rover message."""
+    gps = codec.encode(codec.message_class("gps_info")(satellites=4))
+    ph = codec.encode(codec.message_class("ph_info")(ph_value=7.0))
+    capture = tmp_path / "mixed.pcap"
+    packets = [
+        udp4(gps, 5005, 6006),
+        udp4(b"\x00\x00\x84\x00", 5353, 5353),  # mDNS
+        udp4(b"RTPS\x02\x03", 7400, 7401),  # ROS 2 discovery
+        udp4(ph, 6006, 5005),
+    ]
+    write_capture(capture, "pcap", ETHERNET, packets)
+    done = run("decode", "--pcap", str(capture), "--port", "6006")
+    assert done.code == 0, done.err
+    assert [r["kind"] for r in records(done.out)] == ["gps_info", "ph_info"]
+    assert done.err == "2 datagrams, 0 undecodable, 2 packets skipped (2 other port)\n"
+    repeated = run("decode", "--pcap", str(capture), "--port", "5353", "--port", "6006")
+    assert [r.get("kind", r.get("reason")) for r in records(repeated.out)] == [
+        "gps_info",
+        "corrupt",
+        "ph_info",
+    ]
+    kinds = run("decode", "--pcap", str(capture), "--port", "6006", "--kind", "ph_info")
+    assert [r["kind"] for r in records(kinds.out)] == ["ph_info"]
+    unknown = run("decode", "--pcap", str(capture), "--kind", "nope")
+    assert unknown.code == 2
+    assert unknown.err.startswith("Error: unknown kind 'nope': PBEnvelope")
+    assert run("decode", "--port", "5", "00").code == 2  # --port is for a capture
+
+
+def test_decode_into_a_closed_pipe_ends_quietly() -> None:
+    """``erc-codec decode ... | head -1``: exit 1, nothing on stderr, no traceback."""
+    decoder = subprocess.Popen(
+        [sys.executable, "-m", "erc_codec", "decode"],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert decoder.stdout is not None
+    assert decoder.stdin is not None
+    writer = threading.Thread(target=_feed, args=(decoder.stdin, b"0a00\n" * 200_000))
+    writer.start()
+    assert json.loads(decoder.stdout.readline())["kind"] == "ph_info"
+    decoder.stdout.close()
+    assert decoder.wait(timeout=60) == 1
+    writer.join()
+    assert decoder.stderr is not None
+    assert decoder.stderr.read() == b""
+    decoder.stderr.close()
+
+
+def _feed(stream: IO[bytes], data: bytes) -> None:
+    with contextlib.suppress(BrokenPipeError):  # it ended before reading everything: as it should
+        stream.write(data)
+    with contextlib.suppress(BrokenPipeError):
+        stream.close()
+
+
+def test_listen_into_a_closed_pipe_ends_quietly(codec: erc_codec.Codec) -> None:
+    listener = subprocess.Popen(
+        [sys.executable, "-m", "erc_codec", "listen", "0", "--format", "json"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert listener.stdout is not None
+    assert listener.stderr is not None
+    address = listener.stderr.readline().decode().split()[-1]
+    port = int(address.rpartition(":")[2])
+    datagram = codec.encode(codec.message_class("gps_info")(satellites=1))
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
+        sender.sendto(datagram, ("127.0.0.1", port))
+        assert json.loads(listener.stdout.readline())["kind"] == "gps_info"
+        listener.stdout.close()
+        deadline = time.monotonic() + 30
+        while listener.poll() is None and time.monotonic() < deadline:
+            sender.sendto(datagram, ("127.0.0.1", port))
+            time.sleep(0.01)
+    assert listener.wait(timeout=30) == 1
+    assert b"Traceback" not in listener.stderr.read()
+    listener.stderr.close()

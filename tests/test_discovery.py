@@ -1,0 +1,179 @@
+"""Schema discovery, the same for every command and for ``Codec.default()``: ``--proto TREE`` >
+``ERC_CODEC_PROTO`` > ``[tool.erc-codec]`` in the nearest pyproject.toml from the working folder
+up > the packaged schema; a tree may be a git revision, read without a checkout."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from conftest import PROTO, REPO
+from git_support import Repo
+
+import erc_codec
+from erc_codec._discovery import ENVIRONMENT, SchemaSource, find_schema, packaged_tree
+
+FLEET = REPO / "tests" / "fleet_tree" / "ERC-Protobufs"  # a stand-in for the fleet's tree
+
+
+def run(
+    *args: str, cwd: Path, env: dict[str, str] | None = None
+) -> subprocess.CompletedProcess[str]:
+    environment = {k: v for k, v in os.environ.items() if k != ENVIRONMENT}
+    return subprocess.run(
+        [sys.executable, "-m", "erc_codec", *args],
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd=cwd,
+        env={**environment, **(env or {})},
+    )
+
+
+def configured(folder: Path, table: str) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "pyproject.toml").write_text(f"[project]\nname = 'x'\n\n[tool.erc-codec]\n{table}\n")
+    return folder
+
+
+def test_the_order_is_proto_then_environment_then_pyproject_then_packaged(tmp_path: Path) -> None:
+    project = configured(tmp_path / "p", 'proto = "tree"\nroot = "Envelope"\ninclude = ["extra"]')
+    below = project / "a" / "b"
+    below.mkdir(parents=True)
+    nothing: dict[str, str] = {}
+    assert find_schema(start=below, environ=nothing) == SchemaSource(
+        str(project / "tree"),
+        "Envelope",
+        (str(project / "extra"),),
+        str(project / "pyproject.toml"),
+    )
+    assert find_schema(start=below, environ={ENVIRONMENT: "env"}) == SchemaSource(
+        "env", "PBEnvelope", (), ENVIRONMENT
+    )
+    assert find_schema("given", start=below, environ={ENVIRONMENT: "env"}) == SchemaSource(
+        "given", "PBEnvelope", (), "--proto"
+    )
+    assert find_schema(root="Other", start=below, environ=nothing).root == "Other"
+    assert find_schema(start=tmp_path, environ=nothing) == SchemaSource(
+        str(packaged_tree()), "PBEnvelope", (), "packaged"
+    )
+
+
+def test_a_pyproject_without_the_table_is_passed_by(tmp_path: Path) -> None:
+    project = configured(tmp_path, 'proto = "tree"')
+    inner = project / "inner"
+    inner.mkdir()
+    (inner / "pyproject.toml").write_text("[project]\nname = 'inner'\n")
+    assert find_schema(start=inner, environ={}).origin == str(project / "pyproject.toml")
+
+
+def test_a_git_revision_in_the_configuration_is_relative_to_it(tmp_path: Path) -> None:
+    project = configured(tmp_path, 'proto = "repo#ref=main,subdir=proto"')
+    assert (
+        find_schema(start=project, environ={}).tree == f"{project / 'repo'}#ref=main,subdir=proto"
+    )
+
+
+@pytest.mark.parametrize(
+    ("table", "problem"),
+    [
+        ('proto = ""', "proto must be a tree"),
+        ("proto = 3", "proto must be a tree"),
+        ('proto = "t"\nroot = 5', "root must be a message name"),
+        ('proto = "t"\ninclude = "x"', "include must be a list of folders"),
+        ('proto = "t"\nprotos = "x"', "has no key 'protos'"),
+        ('proto = "t', "pyproject.toml: "),
+    ],
+)
+def test_a_bad_configuration_is_a_schema_error_naming_the_file(
+    tmp_path: Path, table: str, problem: str
+) -> None:
+    configured(tmp_path, table)
+    with pytest.raises(erc_codec.SchemaError, match=problem) as raised:
+        find_schema(start=tmp_path, environ={})
+    assert str(tmp_path / "pyproject.toml") in str(raised.value)
+    done = run("sizes", cwd=tmp_path)
+    assert done.returncode == 2
+    assert done.stderr.count("\n") == 1
+    assert problem in done.stderr
+
+
+def test_sizes_reports_305_with_the_fleet_tree_in_pyproject(tmp_path: Path) -> None:
+    shutil.copytree(FLEET, tmp_path / "ERC-Protobufs")
+    configured(tmp_path, 'proto = "ERC-Protobufs"')
+    (tmp_path / "tools").mkdir()
+    done = run("sizes", cwd=tmp_path / "tools")
+    assert done.returncode == 0, done.stderr
+    assert "PBEnvelope_size 305" in done.stdout
+    assert "manual_arm_velocity" in done.stdout
+    shown = run("schema", "--format", "json", cwd=tmp_path / "tools")
+    document = json.loads(shown.stdout)
+    assert document["origin"] == str(tmp_path / "pyproject.toml")
+    assert (document["members"], document["max_size"]) == (26, 305)
+    # and the packaged one where no configuration is found
+    assert "PBEnvelope_size 255" in run("sizes", cwd=tmp_path.parent).stdout
+
+
+def test_the_environment_variable_names_the_tree(tmp_path: Path) -> None:
+    done = run("sizes", cwd=tmp_path, env={ENVIRONMENT: str(FLEET)})
+    assert "PBEnvelope_size 305" in done.stdout
+    text = run("schema", cwd=tmp_path, env={ENVIRONMENT: str(FLEET)}).stdout
+    assert f"from the environment variable {ENVIRONMENT}" in text
+    assert "26 members, PBEnvelope_size 305" in text
+
+
+def test_codec_default_finds_the_configured_schema(tmp_path: Path) -> None:
+    configured(tmp_path, f'proto = "{FLEET}"')
+    script = "import erc_codec; c = erc_codec.Codec.default(); print(c.max_size(c.root))"
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, cwd=tmp_path, check=True
+    )
+    assert done.stdout.strip() == "305"
+
+
+def test_a_git_revision_decodes_without_a_checkout(tmp_path: Path) -> None:
+    repo = Repo(tmp_path / "repo")
+    shutil.copytree(PROTO / "components", repo.root / "proto" / "components")
+    first = repo.commit("the packaged tree")
+    shutil.rmtree(repo.root / "proto")  # the working tree no longer holds it
+    repo.commit("removed")
+    spec = repo.spec(first)
+    done = run("--proto", spec, "decode", "620b09d8817346941e4a404802", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout)["message"]["latitude"] == 52.2389
+    shown = run("schema", "--proto", spec, cwd=tmp_path).stdout
+    assert f"at commit {first}" in shown
+    missing = run("sizes", "--proto", repo.spec("nosuchref"), cwd=tmp_path)
+    assert missing.returncode == 2
+    assert missing.stderr.count("\n") == 1
+
+
+def test_a_folder_inside_the_import_root_is_a_one_line_hint(tmp_path: Path) -> None:
+    done = run("sizes", "--proto", str(PROTO / "components"), cwd=tmp_path)
+    assert done.returncode == 2
+    assert done.stderr == (
+        f"Error: {PROTO / 'components'}: its files import each other as components/..., so "
+        f"the import root is the folder above it: give {PROTO} (root PBEnvelope)\n"
+    )
+
+
+def test_include_folders_from_the_configuration_are_searched(tmp_path: Path) -> None:
+    (tmp_path / "tree").mkdir()
+    (tmp_path / "shared").mkdir()
+    (tmp_path / "shared" / "common.proto").write_text(
+        'syntax = "proto3";\nmessage Ping { uint32 sequence = 1; }\n'
+    )
+    (tmp_path / "tree" / "envelope.proto").write_text(
+        'syntax = "proto3";\nimport "common.proto";\n'
+        "message Envelope { oneof payload { Ping ping = 1; } }\n"
+    )
+    configured(tmp_path, 'proto = "tree"\nroot = "Envelope"\ninclude = ["shared"]')
+    source = find_schema(start=tmp_path, environ={})
+    codec = erc_codec.Codec.from_source(source)
+    assert codec.root == "Envelope"
+    assert codec.kinds() == {1: "ping"}
+    assert codec.max_size("Envelope") == 8
+    assert [m.full_name for m in codec.schema.messages()] == ["Envelope"]  # the tree's own
