@@ -464,3 +464,38 @@ def test_symlinks_taking_more_than_max_link_steps_refuse_the_revision(
             GitError, match=r"repo: symlinks take more than 80050 steps to resolve: refused"
         ):
             repository.files(commit)
+
+
+@pytest.mark.parametrize(
+    ("name", "shown", "what"),
+    [
+        (b"a\nb.proto", "a\\nb.proto", "a control character"),
+        (b"\x1b[2J.proto", "\\x1b[2J.proto", "a control character"),
+        (b"\t.proto", "\\t.proto", "a control character"),
+        (b"-I.proto", "-I.proto", "a leading '-'"),
+        (b"--plugin=protoc-gen-e=x.proto", "--plugin=protoc-gen-e=x.proto", "a leading '-'"),
+        (b"@x.proto", "@x.proto", "a leading '@'"),
+    ],
+)
+def test_a_file_name_protoc_would_misread_refuses_the_revision(
+    tmp_path: Path, name: bytes, shown: str, what: str
+) -> None:
+    """git's fsck allows these names; protoc took ``-I.proto`` for an include folder (its
+    errors never reported) and printed a newline raw, splitting its diagnostics."""
+    repo = Repo(tmp_path / "repo")
+    bad = repo.blob(HEADER + "message B { int32 a = 1 }\n")
+    top = repo.tree([("100644", name, bad), ("100644", "ok.proto", repo.blob(PROTO))])
+    commit = repo.branch("names", repo.tree([("40000", "proto", top)]))
+    refusal = (
+        f"{repo.root}: {commit[:12]} holds '{shown}', a file name with {what}, which protoc "
+        "would misread: refused"
+    )
+    with Repository(repo.root) as repository:
+        with pytest.raises(GitError) as caught:
+            repository.files(commit, "proto")
+        assert str(caught.value) == refusal
+        if what.startswith("a leading"):  # proto/-I.proto is no option: it is not at the top
+            assert sorted(repository.files(commit)) == [f"proto/{shown}", "proto/ok.proto"]
+    done = erc_lint("check", repo.spec("names"))
+    assert done.returncode == 2, done
+    assert done.stderr == f"Error: {refusal}\n"

@@ -8,7 +8,9 @@ Guarantees:
   not ``.`` or ``..``, not ``.git`` in any spelling git's fsck refuses: any case, the trailing
   dots and spaces NTFS drops, the invisible code points HFS+ ignores) and appears once in its
   tree; anything else, or a tree that does not parse, is a ``GitError`` naming the entry and the
-  tree. A path made of entries therefore never leaves the folder it is joined to.
+  tree. A path made of entries therefore never leaves the folder it is joined to. A file listed
+  whose path holds a control character, or a ``.proto`` at the top beginning with ``-`` or
+  ``@``, refuses the listing: protoc would misread it (``compile_files`` refuses it too).
 - Symlinks are resolved in the commit's own trees, never on a file system: one leaving the
   repository, dangling, or going through more than 40 links (Linux's limit) is left out, as a
   checkout's would dangle. Each link's end is found once per folder in a listing (a chain
@@ -35,7 +37,7 @@ from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any
 
 from .._errors import SchemaError
-from ._files import SOURCE_LIMIT, size_text
+from ._files import SOURCE_LIMIT, has_control, size_text
 
 if TYPE_CHECKING:
     import subprocess
@@ -175,6 +177,7 @@ class Repository:
         links: dict[tuple[tuple[str, ...], str], tuple[_Target, int]] = {}
         steps = _Steps(f"{self.folder}: symlinks take more than {MAX_LINK_STEPS} steps to resolve")
         for path, folders, (kind, blob) in found:
+            _check_name(path, f"{self.folder}: {commit[:12]}")
             if kind == "link":
                 target = self._resolve(folders, blob, links, steps)
                 if isinstance(target, str):
@@ -467,6 +470,22 @@ class Repository:
             reason = done.stderr.strip().splitlines()
             raise GitError(f"{self.folder}: {reason[-1] if reason else 'not a git repository'}")
         return done.stdout
+
+
+def _check_name(path: str, where: str) -> None:
+    """Refuse a file name protoc would misread: one with a control character (protoc prints
+    names raw, so a newline in one splits its diagnostics into findings of their own), or a
+    ``.proto`` at the top beginning with ``-`` or ``@`` (protoc would take it for an option).
+    git's fsck allows them; no tree that builds holds one."""
+    if has_control(path):
+        what = "a control character"
+    elif path.endswith(".proto") and path.startswith(("-", "@")):
+        what = f"a leading {path[0]!r}"
+    else:
+        return
+    raise GitError(
+        f"{where} holds {path!r}, a file name with {what}, which protoc would misread: refused"
+    )
 
 
 class _Steps:
