@@ -26,7 +26,7 @@ from .._errors import CodecError, DecodeError
 from .._framing import Deframer
 from ..proton import BundleCodec, Value, load_config, split_udp_header
 from ._input import hex_lines, read_stdin
-from ._net import parse_address, resolve, shown
+from ._net import FINITE, parse_address, resolve, shown
 from ._pcap import Capture
 from ._shared import Fatal, emit, one_line, plural, unhex
 
@@ -286,9 +286,7 @@ def _from_capture(printer: _Printer, capture: Capture) -> str:
 @_PROTOCOL
 @_SCRATCH
 @click.option("--count", type=click.IntRange(min=1), help="Stop after this many datagrams.")
-@click.option(
-    "--seconds", type=click.FloatRange(min=0, min_open=True), help="Stop after this long."
-)
+@click.option("--seconds", type=FINITE, help="Stop after this long.")
 def listen(
     address: str,
     config_path: Path,
