@@ -12,7 +12,6 @@ import pytest
 
 import erc_codec
 
-
 # ``python -m erc_codec``, with Ctrl-C's handler restored first: a shell starting a job in the
 # background (``pytest &``, nohup, some CI runners) ignores SIGINT, the child inherits that, and
 # Python then installs no handler of its own: the SIGINT ending a listener would do nothing.

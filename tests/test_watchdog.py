@@ -96,7 +96,9 @@ def test_a_period_whose_default_timeout_overflows_is_refused() -> None:
         Watchdog().watch("gps_info", period=1e308)  # three periods: beyond every float
 
 
-@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf, HUGE, pytest.param(-(10**400), id="-10**400"), True, "1"])
+@pytest.mark.parametrize(
+    "bad", [math.nan, math.inf, -math.inf, HUGE, pytest.param(-(10**400), id="-10**400"), True, "1"]
+)
 def test_a_clock_reading_that_is_not_finite_is_refused(bad: float) -> None:
     dog, events = recorder()
     dog.watch("gps_info", period=0.1)
