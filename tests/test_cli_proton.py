@@ -301,8 +301,17 @@ def test_listen_refuses_a_time_or_count_that_is_not_finite_and_positive(
     option: str, value: str, problem: str
 ) -> None:
     done = subprocess.run(
-        [sys.executable, "-m", "erc_codec", "proton", "listen", *CONFIG, "127.0.0.1:0"]
-        + [option, value],
+        [
+            sys.executable,
+            "-m",
+            "erc_codec",
+            "proton",
+            "listen",
+            *CONFIG,
+            "127.0.0.1:0",
+            option,
+            value,
+        ],
         capture_output=True,
         text=True,
         timeout=30,  # inf listened for ever

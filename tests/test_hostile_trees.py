@@ -167,15 +167,16 @@ def place(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root
 
 
-_EMPTY = ("blob", HEADER.encode())
+def folder(*entries: tuple[bytes | None, bytes, Node]) -> Node:
+    return ("tree", list(entries))
+
+
+_EMPTY: Node = ("blob", HEADER.encode())
 # The reviewer's reproducer: protoc ran sub/a.proto as a plugin, and wrote its output in out/.
-OPTIONS: Node = (
-    "tree",
-    [
-        (None, b"--plugin=protoc-gen-e=sub", ("tree", [(None, b"a.proto", _EMPTY)])),
-        (None, b"--e_out=out", ("tree", [(None, b"x.proto", _EMPTY)])),
-        (None, b"ok.proto", ("blob", (HEADER + "message A { int32 x = 1; }\n").encode())),
-    ],
+OPTIONS = folder(
+    (None, b"--plugin=protoc-gen-e=sub", folder((None, b"a.proto", _EMPTY))),
+    (None, b"--e_out=out", folder((None, b"x.proto", _EMPTY))),
+    (None, b"ok.proto", ("blob", (HEADER + "message A { int32 x = 1; }\n").encode())),
 )
 
 

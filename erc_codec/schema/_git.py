@@ -34,7 +34,7 @@ Guarantees:
 import os
 from collections.abc import Collection, Generator
 from pathlib import Path
-from typing import IO, TYPE_CHECKING, Any
+from typing import IO, TYPE_CHECKING
 
 from .._errors import SchemaError
 from ._files import SOURCE_LIMIT, has_control, size_text
@@ -67,6 +67,11 @@ _HFS_IGNORED.update(dict.fromkeys(map(ord, "\u206a\u206b\u206c\u206d\u206e\u206f
 _Entry = tuple[str, str]  # (kind: "tree", "file", "link" or "gitlink"; object id)
 # Where a symlink leads: a file's blob, a folder (the folders from the root to it), or nowhere.
 _Target = str | tuple[str, ...] | None
+_Link = tuple[tuple[str, ...], str]  # a symlink: the folders from the root to its own, its blob
+# A walk down a link's target: yields each link it meets, is sent where that leads and through
+# how many links, returns where its own link leads and through how many.
+# (Sent None first, as a generator starts.)
+_Walk = Generator[_Link, tuple[_Target, int] | None, tuple[_Target, int]]
 
 
 class GitError(SchemaError):
@@ -174,7 +179,7 @@ class Repository:
         found = [(name, tuple(here), entries[name]) for name in top if name in entries]
         found += self._walk_tree(here)
         files: dict[str, str] = {}
-        links: dict[tuple[tuple[str, ...], str], tuple[_Target, int]] = {}
+        links: dict[_Link, tuple[_Target, int]] = {}
         steps = _Steps(f"{self.folder}: symlinks take more than {MAX_LINK_STEPS} steps to resolve")
         for path, folders, (kind, blob) in found:
             _check_name(path, f"{self.folder}: {commit[:12]}")
@@ -321,9 +326,9 @@ class Repository:
         self,
         folders: tuple[str, ...],
         link: str,
-        links: dict[tuple[tuple[str, ...], str], tuple["_Target", int]],
+        links: dict[_Link, tuple[_Target, int]],
         steps: "_Steps",
-    ) -> "_Target":
+    ) -> _Target:
         """Where the symlink ``link`` in the folder ``folders[-1]`` (``folders``: those from
         the root to it) leads, followed the way Linux does: the blob of a file, the folders to
         a folder, or None (it leaves the repository, dangles, or passes more than 40 links).
@@ -332,8 +337,8 @@ class Repository:
         the rest of the call: a chain many links share is walked once. A link met again while
         it is being resolved is a loop. Links are resolved on a stack of walks, not by
         recursion: a chain may be long before its 41st link is known to be too many."""
-        stack: list[tuple[tuple[tuple[str, ...], str], Generator[Any, Any, Any]]] = []
-        request: tuple[tuple[str, ...], str] | None = (folders, link)
+        stack: list[tuple[_Link, _Walk]] = []
+        request: _Link | None = (folders, link)
         answer: tuple[_Target, int] | None = None
         while True:
             if request is not None:
@@ -354,13 +359,12 @@ class Repository:
                 answer = None
             except StopIteration as done:
                 stack.pop()
-                answer = links[key] = done.value
+                result: tuple[_Target, int] = done.value
+                answer = links[key] = result
                 if not stack:
-                    return done.value[0]
+                    return result[0]
 
-    def _walk_link(
-        self, folders: list[str], pending: list[str], steps: "_Steps"
-    ) -> Generator[tuple[tuple[str, ...], str], tuple["_Target", int], tuple["_Target", int]]:
+    def _walk_link(self, folders: list[str], pending: list[str], steps: "_Steps") -> _Walk:
         """Walk a link's target (``pending``: its parts, last first) from ``folders``; yield
         each link met on the way (its folders and blob), to be sent back where it leads and
         through how many links; return where this link leads and through how many links,
@@ -385,7 +389,9 @@ class Repository:
                 continue
             if kind != "link":  # a file ("file/" is none), or a submodule
                 return (blob if kind == "file" and not pending else None), hops
-            target, passed = yield tuple(folders), blob
+            answer = yield tuple(folders), blob
+            assert answer is not None
+            target, passed = answer
             hops += passed
             if target is None or hops > _MAX_LINKS:
                 return None, 0
