@@ -15,16 +15,28 @@ __all__ = ["count", "duration", "instant"]
 
 def duration(name: str, value: float) -> float:
     """``value`` if it is a positive, finite number of seconds (a period, a timeout)."""
-    if isinstance(value, bool) or not isinstance(value, Real) or not 0 < value < math.inf:
+    if not 0 < _seconds(value) < math.inf:  # False for NaN, too
         raise ValueError(f"{name} must be a positive, finite number of seconds, not {value!r}")
     return value
 
 
 def instant(name: str, value: float) -> float:
     """``value`` if it is a finite clock reading in seconds (any origin, so any sign)."""
-    if not -math.inf < value < math.inf:  # False for NaN, too
+    if not -math.inf < _seconds(value) < math.inf:
         raise ValueError(f"{name} must be a finite clock reading in seconds, not {value!r}")
     return value
+
+
+def _seconds(value: object) -> float:
+    """``value`` as the float every later sum makes of it; NaN for what is no real number (a
+    bool is none), or a whole number too large for any float (``10**400``: an OverflowError
+    in the first sum)."""
+    if isinstance(value, bool) or not isinstance(value, Real):
+        return math.nan
+    try:
+        return float(value)
+    except OverflowError:
+        return math.nan
 
 
 def count(name: str, value: int, minimum: int = 1) -> int:

@@ -84,6 +84,7 @@ from collections.abc import Callable
 from itertools import repeat
 from typing import TYPE_CHECKING, NamedTuple
 
+from ._checks import count as whole
 from ._errors import DecodeError, EncodeError
 
 if TYPE_CHECKING:
@@ -143,9 +144,10 @@ class Deframer:
             from ._codec import Codec
 
             max_length = Codec.default().max_size(Codec.default().root)
-        if not 0 <= max_length <= _MAX_LENGTH:
-            raise ValueError(f"max_length must be within 0..{_MAX_LENGTH}")
-        self._max = max_length
+        length = whole("max_length", max_length, minimum=0)  # not 2.5, not True
+        if length > _MAX_LENGTH:
+            raise ValueError(f"max_length must be within 0..{_MAX_LENGTH}, not {max_length!r}")
+        self._max = length
         self._accept = accept
         self._buffer = bytearray()  # the window: the bytes not yet decided
         self._base = 0  # the stream offset of the window's first byte

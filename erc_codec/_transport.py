@@ -65,7 +65,9 @@ class UdpEndpoint:
     Made by ``open_udp``. With a watchdog it polls it every ``poll_interval`` seconds while the
     socket is open, so ``on_timeout`` fires while the loop runs. ``on_datagram(data, sender)``
     (an attribute, too) hears every datagram before the dispatcher does, with the sender's
-    address."""
+    address. If polling fails (the clock read NaN, ``on_timeout`` raised), the endpoint closes
+    and ``wait_closed()`` raises what stopped it, as Proton's links do: a watchdog that stopped
+    polling would otherwise be a silent one."""
 
     def __init__(
         self,
@@ -83,6 +85,7 @@ class UdpEndpoint:
         self._sock: UdpSocket | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._poller: asyncio.Task[None] | None = None
+        self._stopped: asyncio.Future[None] | None = None  # done once closed (or failed)
         self._unsent: deque[tuple[bytes, tuple[Any, ...]]] = deque()
         self._send_errors = 0
         self._writing = False  # a writer waits for room in the send buffer
@@ -115,9 +118,11 @@ class UdpEndpoint:
                 failure = failure or error
                 continue
             self._sock, self._loop = sock, loop
+            self._stopped = loop.create_future()
             loop.add_reader(sock.fileno(), self._readable)
             if self.watchdog is not None:
                 self._poller = loop.create_task(self._poll(self.watchdog))
+                self._poller.add_done_callback(self._poller_done)
             return
         raise failure or OSError(f"{host}:{port}: no address to bind")
 
@@ -167,12 +172,38 @@ class UdpEndpoint:
             sock.received, sock.kernel_dropped(), sock.unread, self.send_errors, sock.buffer
         )
 
+    @property
+    def closed(self) -> bool:
+        """Whether the endpoint has closed (``close()``, or a failure ``wait_closed()`` raises)."""
+        return self._closed
+
+    async def wait_closed(self) -> None:
+        """Until the endpoint closes: it returns after ``close()``, and raises what stopped it
+        otherwise (an exception from the watchdog's polling: its clock, ``on_timeout``)."""
+        import asyncio
+
+        assert self._stopped is not None, "the endpoint is not open"
+        await asyncio.shield(self._stopped)
+
     def close(self) -> None:
         """Stop polling the watchdog and reading; count what is still queued (``unread``) and
         what could not be sent yet (``send_errors``); close the socket."""
+        self._stop(None)
+
+    def _poller_done(self, poller: "asyncio.Task[None]") -> None:
+        if not poller.cancelled():
+            self._stop(poller.exception())
+
+    def _stop(self, failure: BaseException | None) -> None:
+        """Close once: the first failure (or none, for ``close()``) is what ``wait_closed``
+        reports."""
         if self._closed:
             return
         self._closed = True
+        if self._stopped is not None and failure is None:
+            self._stopped.set_result(None)
+        elif self._stopped is not None and failure is not None:
+            self._stopped.set_exception(failure)
         if self._poller is not None:
             self._poller.cancel()
             self._poller = None

@@ -12,10 +12,18 @@ import pytest
 
 import erc_codec
 
+# ``python -m erc_codec``, with Ctrl-C's handler restored first: a shell starting a job in the
+# background (``pytest &``, nohup, some CI runners) ignores SIGINT, the child inherits that, and
+# Python then installs no handler of its own: the SIGINT ending a listener would do nothing.
+LISTEN = (
+    "import runpy, signal; signal.signal(signal.SIGINT, signal.default_int_handler); "
+    "runpy.run_module('erc_codec', run_name='__main__')"
+)
+
 
 def start_listener(*args: str) -> tuple[subprocess.Popen[str], int]:
     listener = subprocess.Popen(
-        [sys.executable, "-m", "erc_codec", "listen", "127.0.0.1:0", *args],
+        [sys.executable, "-c", LISTEN, "listen", "127.0.0.1:0", *args],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -144,25 +152,30 @@ def test_listen_counts_what_the_kernel_dropped() -> None:
     codec = erc_codec.Codec.default()
     data = codec.encode(codec.message_class("DrivingBoardMotorMessage")(distance_to_go=1.0))
     sent = 40_000  # more than its receive buffer holds (8 MiB hold some 10,000 such datagrams)
-    before = rcvbuf_errors()
-    listener.send_signal(signal.SIGSTOP)  # its reader paused: the kernel queues, then drops
     try:
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as raw:
-            for _ in range(sent):
-                raw.sendto(data, ("127.0.0.1", port))
-    finally:
-        listener.send_signal(signal.SIGCONT)
-    after = rcvbuf_errors()
-    deadline = time.monotonic() + 20
-    assert listener.stdout is not None
-    shown = 0
-    while time.monotonic() < deadline and listener.stdout.readline():
-        shown += 1  # a line per datagram that was queued
-        if shown + (after - before) >= sent:
-            break
-    time.sleep(0.2)
-    listener.send_signal(signal.SIGINT)
-    out, err = listener.communicate(timeout=30)
+        before = rcvbuf_errors()
+        listener.send_signal(signal.SIGSTOP)  # its reader paused: the kernel queues, then drops
+        try:
+            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as raw:
+                for _ in range(sent):
+                    raw.sendto(data, ("127.0.0.1", port))
+        finally:
+            listener.send_signal(signal.SIGCONT)
+        after = rcvbuf_errors()
+        deadline = time.monotonic() + 20
+        assert listener.stdout is not None
+        shown = 0
+        while time.monotonic() < deadline and listener.stdout.readline():
+            shown += 1  # a line per datagram that was queued
+            if shown + (after - before) >= sent:
+                break
+        time.sleep(0.2)
+        listener.send_signal(signal.SIGINT)
+        out, err = listener.communicate(timeout=30)
+    finally:  # a failure above must not leave the listener running
+        if listener.poll() is None:
+            listener.kill()
+            listener.communicate()
     shown += len(out.splitlines())
     counters = json.loads(err.strip().splitlines()[-1].removeprefix("counters: "))
     assert counters["received"] == shown

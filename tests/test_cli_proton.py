@@ -288,6 +288,38 @@ def test_listen_prints_what_arrives() -> None:
     }
 
 
+@pytest.mark.parametrize(
+    ("option", "value", "problem"),
+    [
+        ("--seconds", "nan", "'nan' is not a finite number."),  # was exit 0, at once
+        ("--seconds", "inf", "'inf' is not a finite number."),  # was for ever
+        ("--seconds", "0", "0.0 is not in the range x>0."),
+        ("--count", "0", "0 is not in the range x>=1."),
+    ],
+)
+def test_listen_refuses_a_time_or_count_that_is_not_finite_and_positive(
+    option: str, value: str, problem: str
+) -> None:
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "erc_codec",
+            "proton",
+            "listen",
+            *CONFIG,
+            "127.0.0.1:0",
+            option,
+            value,
+        ],
+        capture_output=True,
+        text=True,
+        timeout=30,  # inf listened for ever
+    )
+    assert (done.returncode, done.stdout) == (2, "")
+    assert done.stderr == f"Error: Invalid value for '{option}': {problem}\n"
+
+
 def test_listen_into_a_closed_pipe_ends_quietly_with_status_1() -> None:
     """| head -1: the reader goes away. One quiet exit with status 1, as the command group ends
     any command whose reader left, not a traceback per datagram and a listener running on."""

@@ -55,6 +55,22 @@ def test_a_deframer_without_its_maximum_is_deprecated_and_takes_the_packaged_env
     assert deframer.feed(frame(bytes(263)) + frame(bytes(262))) == [bytes(262)]
 
 
+@pytest.mark.parametrize(
+    ("bad", "problem"),
+    [
+        (2.5, "must be a whole number of at least 0, not 2.5"),  # was taken: 2.5 < 3
+        (True, "must be a whole number of at least 0, not True"),  # was taken as 1
+        ("9", "must be a whole number of at least 0, not '9'"),
+        (-1, "must be a whole number of at least 0, not -1"),
+        (0x10000, "must be within 0..65535, not 65536"),
+    ],
+)
+def test_a_maximum_that_is_no_length_is_refused(bad: object, problem: str) -> None:
+    with pytest.raises(ValueError, match=rf"^max_length {problem}$"):
+        Deframer(max_length=bad)  # type: ignore[arg-type]
+    assert Deframer(max_length=0xFFFF).feed(frame(b"x")) == [b"x"]
+
+
 def test_garbage_bad_crcs_and_impossible_lengths_are_counted() -> None:
     deframer = Deframer(max_length=MAX)
     damaged = bytearray(frame(b"lost"))

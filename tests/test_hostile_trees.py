@@ -6,9 +6,12 @@ The property, for ``erc-lint check`` and ``erc-lint ledger update --history`` al
 exits 0, 1 or 2, never with a traceback or an internal error; a refusal is one line; nothing is
 written or removed anywhere but in its scratch folders, which are gone when it ends (the
 temporary folder is a fresh one per example, and everything around it is compared before and
-after, a sentinel folder that absolute and ``..`` names aim at included).
+after, a sentinel folder that absolute and ``..`` names aim at included). The commands run in
+that folder, beside a program ``sub/a.proto`` that a folder named ``--plugin=protoc-gen-e=sub``
+once had protoc run: it would write a file there.
 """
 
+import os
 import tempfile
 from pathlib import Path
 from typing import TypeAlias
@@ -16,7 +19,7 @@ from typing import TypeAlias
 import pytest
 from click.testing import CliRunner
 from git_support import HEADER, Repo, loose, loose_commit
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from erc_lint.cli import main
@@ -41,6 +44,13 @@ HOSTILE = st.sampled_from(
         b"../../x.proto",
         b"a/b.proto",
         SENTINEL + b"/abs.proto",
+        # names protoc would read as options (it has no end of options), or print raw
+        b"-I.proto",
+        b"@x.proto",
+        b"--plugin=protoc-gen-e=sub",
+        b"--e_out=out",
+        b"a\nb.proto",
+        b"\x1b[2J.proto",
     ]
 )
 # Names a tree may hold, and (in half the examples) names no git writes: so that half the
@@ -151,7 +161,23 @@ def place(tmp_path_factory: pytest.TempPathFactory) -> Path:
     (root / "sentinel" / "abs.proto").write_text("the sentinel\n")
     (root / "x.proto").write_text("beside the repository\n")
     (root / "out").mkdir()
+    (root / "sub").mkdir()
+    (root / "sub" / "a.proto").write_text(f"#!/bin/sh\necho ran > {root / 'PWNED'}\n")
+    (root / "sub" / "a.proto").chmod(0o755)
     return root
+
+
+def folder(*entries: tuple[bytes | None, bytes, Node]) -> Node:
+    return ("tree", list(entries))
+
+
+_EMPTY: Node = ("blob", HEADER.encode())
+# The reviewer's reproducer: protoc ran sub/a.proto as a plugin, and wrote its output in out/.
+OPTIONS = folder(
+    (None, b"--plugin=protoc-gen-e=sub", folder((None, b"a.proto", _EMPTY))),
+    (None, b"--e_out=out", folder((None, b"x.proto", _EMPTY))),
+    (None, b"ok.proto", ("blob", (HEADER + "message A { int32 x = 1; }\n").encode())),
+)
 
 
 @settings(
@@ -163,6 +189,8 @@ def place(tmp_path_factory: pytest.TempPathFactory) -> Path:
     node=TOPS,
     subdir=st.booleans(),
 )
+@example(node=OPTIONS, subdir=False)
+@example(node=OPTIONS, subdir=True)
 def test_hostile_objects_exit_0_1_or_2_and_write_only_scratch_files(
     place: Path, node: Node, subdir: bool
 ) -> None:
@@ -176,6 +204,8 @@ def test_hostile_objects_exit_0_1_or_2_and_write_only_scratch_files(
     ledger = scratch.with_suffix(".lock")  # the one file the commands may write
     before = snapshot(place)
     saved, tempfile.tempdir = tempfile.tempdir, str(scratch)
+    here = os.getcwd()
+    os.chdir(place)  # where protoc would run a plugin from, or write an output
     try:
         for args in (
             ["check", spec],
@@ -190,6 +220,7 @@ def test_hostile_objects_exit_0_1_or_2_and_write_only_scratch_files(
                 assert result.stderr.startswith("Error: ")
             assert list(scratch.iterdir()) == []  # every scratch folder removed
     finally:
+        os.chdir(here)
         tempfile.tempdir = saved
     after = snapshot(place)
     after.pop(str(ledger), None)

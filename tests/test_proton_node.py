@@ -2,6 +2,7 @@
 sending follows period_ms and Proton's node manager's priorities; heartbeats count and are
 watched; received bundles reach the registry and their handlers."""
 
+import math
 from typing import cast
 
 import pytest
@@ -9,7 +10,15 @@ from proton_values import TYPES_1_0, TYPES_2_0
 
 import erc_codec
 from erc_codec import Liveness
-from erc_codec.proton import Bundle, BundleCodec, Node, ProtonConfigError, Sent, parse_config
+from erc_codec.proton import (
+    Bundle,
+    BundleCodec,
+    Config,
+    Node,
+    ProtonConfigError,
+    Sent,
+    parse_config,
+)
 
 PERIODIC = parse_config(
     """\
@@ -148,6 +157,37 @@ def test_a_node_keeps_counting_its_own_heartbeats() -> None:
         node.receive(theirs.data, now)
     assert BundleCodec(PERIODIC).decode(mine.data).signals == {"beat": 1}
     assert node.get("beat") == 1  # the peer's counter (3) reached the peer's state, not ours
+
+
+UNWATCHED = parse_config(
+    """\
+nodes:
+  - {name: a, id: 0, endpoints: [{id: 0, type: udp4, ip: 127.0.0.1, port: 11416}]}
+  - {name: b, id: 1, endpoints: [{id: 0, type: udp4, ip: 127.0.0.1, port: 11417}]}
+connections:
+  - first: {node: a, id: 0}
+    second: {node: b, id: 0}
+signals:
+  - {name: x, id: 0x1000, type: int32}
+bundles:
+  - {name: once, id: 0x100, producers: [a], consumers: [b], signals: [0x1000]}
+""",
+    "unwatched.yaml",
+)
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -1.0, 0, True, "1"])
+@pytest.mark.parametrize(("config", "name"), [(UNWATCHED, "b"), (PERIODIC, "producer")])
+def test_a_peer_timeout_that_is_no_duration_is_refused(
+    config: Config, name: str, bad: object
+) -> None:
+    """Whether or not a peer is watched (b watches none: a sends it nothing periodic)."""
+    with pytest.raises(
+        ValueError,
+        match=rf"^peer_timeout must be a positive, finite number of seconds, not {bad!r}$",
+    ):
+        Node(config, name, peer_timeout=bad)  # type: ignore[arg-type]
+    assert Node(config, name, peer_timeout=0.5).name == name
 
 
 def test_heartbeat_timeout_and_peers_without_heartbeats() -> None:

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from git_support import HEADER, Repo, loose
+from git_support import HEADER, Repo, loose, loose_commit
 from git_support import tree as git_tree
 
 from erc_codec import SchemaError
@@ -358,3 +358,147 @@ def test_the_files_of_a_revision_are_bounded_in_all(
 
 def test_git_errors_are_schema_errors() -> None:
     assert issubclass(GitError, SchemaError)
+
+
+def shared_tree_bomb(repo: Path, copies: int) -> str:
+    """A commit of ``copies`` small distinct trees, each holding one shared tree of 99,000
+    files and a file of its own: some 3 MB of objects that flatten to ``copies`` * 99,001
+    paths. Flattening each subtree before the limit was checked cost 677 MB at 60 copies."""
+    blob = loose(repo, "blob", PROTO.encode())
+    shared = loose(
+        repo, "tree", git_tree([("100644", f"f{k:06}.proto", blob) for k in range(99_000)])
+    )
+    tops = []
+    for k in range(copies):
+        own = loose(repo, "blob", f"{PROTO}// {k}\n".encode())
+        inner = git_tree([("40000", "s", shared), ("100644", "u.proto", own)])
+        tops.append(("40000", f"d{k:05}", loose(repo, "tree", inner)))
+    return loose_commit(repo, loose(repo, "tree", git_tree(tops)))
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="the peak is read from Linux's /proc")
+def test_a_revision_sharing_one_big_tree_is_refused_in_little_memory(tmp_path: Path) -> None:
+    repo = Repo(tmp_path / "repo")
+    commit = shared_tree_bomb(repo.root, 30)
+    probe = (
+        "import sys\n"
+        "from pathlib import Path\n"
+        "from erc_codec.schema import GitError, Repository\n"
+        "with Repository(Path(sys.argv[1])) as repository:\n"
+        "    try:\n"
+        "        repository.files(sys.argv[2])\n"
+        "    except GitError as error:\n"
+        "        print(error)\n"
+        # this program's own peak (getrusage's ru_maxrss keeps the forking pytest's)
+        "peak = [l for l in open('/proc/self/status') if l.startswith('VmHWM:')]\n"
+        "print(int(peak[0].split()[1]) // 1024)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe, str(repo.root), commit],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=True,
+    )
+    refusal, megabytes = done.stdout.splitlines()
+    assert refusal.endswith(f"holds more than {MAX_FILES} .proto and .options files: refused")
+    # The shared tree's 99,000 parsed entries, and nothing per copy (it was 340 MB).
+    assert int(megabytes) < 150, done.stdout
+
+
+def test_a_revision_whose_paths_add_up_past_max_path_text_is_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Few files, long shared folder names: 100,000 paths of 64 KiB each would be 6.5 GB."""
+    monkeypatch.setattr("erc_codec.schema._git.MAX_PATH_TEXT", 4096)
+    repo = Repo(tmp_path / "repo")
+    inner = repo.tree([("100644", "x.proto", repo.blob(PROTO))])
+    long = repo.tree([("40000", "n" * 200, inner)])
+    fine = repo.branch("fine", repo.tree([("40000", f"{k:02}", long) for k in range(19)]))
+    over = repo.branch("over", repo.tree([("40000", f"{k:02}", long) for k in range(20)]))
+    with Repository(repo.root) as repository:
+        assert len(repository.files(fine)) == 19  # 19 * 211 characters
+        with pytest.raises(GitError, match=r"files add up to more than 4 KiB: refused"):
+            repository.files(over)  # 20 * 211
+
+
+def chain_of_links(repo: Path, entries: int, distinct: bool) -> tuple[str, str]:
+    """A commit whose ``entries`` symlinked .proto files each walk a chain of 40 links of
+    some 4 KiB of ``a/../`` steps to ``a/z.proto`` (``distinct``: each entry its own chain's
+    first link, which no memory of the others can shorten); the commit and z.proto's blob."""
+    blob = loose(repo, "blob", PROTO.encode())
+    entries_of = [("40000", "a", loose(repo, "tree", git_tree([("100644", "z.proto", blob)])))]
+    steps = "a/../" * 800
+    for k in range(40, 1, -1):
+        target = steps + (f"L{k + 1:02}" if k < 40 else "a/z.proto")
+        entries_of.append(("120000", f"L{k:02}", loose(repo, "blob", target.encode())))
+    for k in range(entries):
+        first = steps + "./" * (k if distinct else 0) + "L02"
+        entries_of.append(("120000", f"x{k:06}.proto", loose(repo, "blob", first.encode())))
+    top = loose(repo, "tree", git_tree(sorted(entries_of, key=lambda entry: entry[1])))
+    return loose_commit(repo, top), blob
+
+
+def test_symlinks_sharing_a_chain_are_resolved_once(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """200 links each walking 40 links of 1,600 steps took 9.3 s (100,000 would take 77
+    minutes): each link's target is found once per folder, within MAX_LINK_STEPS in all."""
+    repo = Repo(tmp_path / "repo")
+    commit, z = chain_of_links(repo.root, 200, distinct=False)
+    monkeypatch.setattr("erc_codec.schema._git.MAX_LINK_STEPS", 2 * 40 * 1601)  # two walks
+    with Repository(repo.root) as repository:
+        found = repository.files(commit)
+    assert found == {"a/z.proto": z} | {f"x{k:06}.proto": z for k in range(200)}
+
+
+def test_symlinks_taking_more_than_max_link_steps_refuse_the_revision(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    repo = Repo(tmp_path / "repo")
+    commit, z = chain_of_links(repo.root, 20, distinct=True)
+    with Repository(repo.root) as repository:
+        # The chain once (40 * 1,601 steps), then 1,600 steps of each entry's own to it.
+        assert repository.files(commit) == {"a/z.proto": z} | {
+            f"x{k:06}.proto": z for k in range(20)
+        }
+        monkeypatch.setattr("erc_codec.schema._git.MAX_LINK_STEPS", 50 * 1601)
+        with pytest.raises(
+            GitError, match=r"repo: symlinks take more than 80050 steps to resolve: refused"
+        ):
+            repository.files(commit)
+
+
+@pytest.mark.parametrize(
+    ("name", "shown", "what"),
+    [
+        (b"a\nb.proto", "a\\nb.proto", "a control character"),
+        (b"\x1b[2J.proto", "\\x1b[2J.proto", "a control character"),
+        (b"\t.proto", "\\t.proto", "a control character"),
+        (b"-I.proto", "-I.proto", "a leading '-'"),
+        (b"--plugin=protoc-gen-e=x.proto", "--plugin=protoc-gen-e=x.proto", "a leading '-'"),
+        (b"@x.proto", "@x.proto", "a leading '@'"),
+    ],
+)
+def test_a_file_name_protoc_would_misread_refuses_the_revision(
+    tmp_path: Path, name: bytes, shown: str, what: str
+) -> None:
+    """git's fsck allows these names; protoc took ``-I.proto`` for an include folder (its
+    errors never reported) and printed a newline raw, splitting its diagnostics."""
+    repo = Repo(tmp_path / "repo")
+    bad = repo.blob(HEADER + "message B { int32 a = 1 }\n")
+    top = repo.tree([("100644", name, bad), ("100644", "ok.proto", repo.blob(PROTO))])
+    commit = repo.branch("names", repo.tree([("40000", "proto", top)]))
+    refusal = (
+        f"{repo.root}: {commit[:12]} holds '{shown}', a file name with {what}, which protoc "
+        "would misread: refused"
+    )
+    with Repository(repo.root) as repository:
+        with pytest.raises(GitError) as caught:
+            repository.files(commit, "proto")
+        assert str(caught.value) == refusal
+        if what.startswith("a leading"):  # proto/-I.proto is no option: it is not at the top
+            assert sorted(repository.files(commit)) == [f"proto/{shown}", "proto/ok.proto"]
+    done = erc_lint("check", repo.spec("names"))
+    assert done.returncode == 2, done
+    assert done.stderr == f"Error: {refusal}\n"

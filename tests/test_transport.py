@@ -10,6 +10,7 @@ import math
 import socket
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -106,6 +107,46 @@ def test_a_serial_stream_is_deframed_and_dispatched() -> None:
     assert [m.latitude for m in got] == [1.0, 2.0]  # type: ignore[attr-defined]
     assert stats.frames == 2
     assert stats.discarded_bytes == {"garbage": 6}
+
+
+def test_a_watchdog_poll_that_fails_closes_the_endpoint_and_wait_closed_raises_it() -> None:
+    """A clock reading NaN once killed the poller task in silence: the watchdog stopped, the
+    endpoint went on as if guarded."""
+    readings = iter([0.0, 0.01])
+
+    def clock() -> float:
+        return next(readings, math.nan)
+
+    def on_timeout(kind: str) -> None:
+        raise RuntimeError(f"brakes on {kind} failed")
+
+    async def scenario(
+        clock: Callable[[], float], failing: bool
+    ) -> tuple[BaseException | None, bool, bool]:
+        watchdog = erc_codec.Watchdog(on_timeout=on_timeout if failing else None)
+        watchdog.watch("drive_motor", period=0.001)
+        watchdog.seen("drive_motor", 0.0)
+        endpoint = await erc_codec.open_udp(
+            erc_codec.Dispatcher(CODEC), watchdog=watchdog, poll_interval=0.001, clock=clock
+        )
+        failure = None
+        try:
+            await asyncio.wait_for(endpoint.wait_closed(), 10)
+        except (ValueError, RuntimeError) as error:
+            failure = error
+        reopened = await erc_codec.open_udp(erc_codec.Dispatcher(CODEC))
+        reopened.close()
+        await reopened.wait_closed()  # a close() is no failure
+        return failure, endpoint.closed, reopened.closed
+
+    failure, closed, reopened = asyncio.run(scenario(clock, failing=False))
+    assert isinstance(failure, ValueError)
+    assert str(failure) == "now must be a finite clock reading in seconds, not nan"
+    assert (closed, reopened) == (True, True)
+    failure, closed, _ = asyncio.run(scenario(iter(range(10**6)).__next__, failing=True))
+    assert isinstance(failure, RuntimeError)
+    assert str(failure) == "brakes on drive_motor failed"
+    assert closed
 
 
 def test_a_frame_cut_off_by_the_end_of_the_stream_is_counted() -> None:

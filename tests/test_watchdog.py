@@ -74,7 +74,8 @@ def test_unwatched_kinds() -> None:
         dog.watch("gps_info", period=0)
 
 
-NOT_SECONDS = [math.nan, math.inf, -math.inf, -1.0, 0, 0.0, True, "1"]
+HUGE = pytest.param(10**400, id="10**400")  # beyond every float: was an OverflowError
+NOT_SECONDS = [math.nan, math.inf, -math.inf, -1.0, 0, 0.0, True, "1", HUGE]
 
 
 @pytest.mark.parametrize("bad", NOT_SECONDS)
@@ -95,12 +96,14 @@ def test_a_period_whose_default_timeout_overflows_is_refused() -> None:
         Watchdog().watch("gps_info", period=1e308)  # three periods: beyond every float
 
 
-@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+@pytest.mark.parametrize(
+    "bad", [math.nan, math.inf, -math.inf, HUGE, pytest.param(-(10**400), id="-10**400"), True, "1"]
+)
 def test_a_clock_reading_that_is_not_finite_is_refused(bad: float) -> None:
     dog, events = recorder()
     dog.watch("gps_info", period=0.1)
     dog.seen("gps_info", 1.0)
-    with pytest.raises(ValueError, match=rf"^now must be a .* in seconds, not {bad}$"):
+    with pytest.raises(ValueError, match=rf"^now must be a .* in seconds, not {bad!r}$"):
         dog.seen("gps_info", bad)
     with pytest.raises(ValueError, match=r"^now must be a finite clock reading"):
         dog.poll(bad)

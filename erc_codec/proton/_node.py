@@ -43,6 +43,7 @@ import math
 from collections.abc import Callable
 from typing import NamedTuple, TypeVar
 
+from .._checks import duration
 from .._errors import DecodeError
 from .._watchdog import Liveness, Watchdog
 from ._codec import SCRATCH_BUFFER_SIZE, Bundle, BundleCodec
@@ -102,6 +103,8 @@ class Node:
         (default: three of its periods). ``on_peer(peer, state)`` hears every change of a
         peer's state. ``scratch_buffer_size``: as for ``BundleCodec``."""
         config.node(name)  # a KeyError naming it if there is none
+        if peer_timeout is not None:  # checked even when no peer is watched: it is a mistake
+            duration("peer_timeout", peer_timeout)
         self.name = name
         self.codec = BundleCodec(config, version, scratch_buffer_size)
         self.on_peer = on_peer

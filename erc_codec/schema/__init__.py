@@ -34,7 +34,7 @@ from ._descriptors import (
     services,
 )
 from ._files import SOURCE_LIMIT, FileError, file_exists, proto_files, read_file, read_text
-from ._git import MAX_DEPTH, MAX_FILES, GitError, Repository
+from ._git import MAX_DEPTH, MAX_FILES, MAX_LINK_STEPS, MAX_PATH_TEXT, GitError, Repository
 from ._options import Options, ResolvedOptions, options_class, resolve_options
 from ._protoc import ProtocError, compile_files
 from ._schema import Schema, descriptor_of, enum_of, load_schema, message_of
@@ -64,6 +64,8 @@ __all__ = [
     "LEN",
     "MAX_DEPTH",
     "MAX_FILES",
+    "MAX_LINK_STEPS",
+    "MAX_PATH_TEXT",
     "SGROUP",
     "SOURCE_LIMIT",
     "TREE_LIMIT",

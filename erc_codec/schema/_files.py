@@ -15,6 +15,7 @@ for its configuration and ledger. The largest file of the rover's tree is some 4
 """
 
 import os
+import re
 import stat
 from pathlib import Path
 
@@ -24,14 +25,17 @@ __all__ = [
     "SOURCE_LIMIT",
     "FileError",
     "file_exists",
+    "has_control",
     "proto_files",
     "read_file",
     "read_text",
+    "shown",
     "size_text",
 ]
 
 SOURCE_LIMIT = 16 * 1024 * 1024
 
+_CONTROL = re.compile("[\x00-\x1f\x7f-\x9f]")  # Unicode's control characters (Cc)
 _KINDS = {
     stat.S_IFIFO: "a FIFO",
     stat.S_IFCHR: "a character device",
@@ -145,3 +149,14 @@ def _listed(entry: os.DirEntry[str]) -> bool:
         return not stat.S_ISDIR(os.stat(entry.path).st_mode)
     except OSError:  # it dangles, or loops
         return False
+
+
+def has_control(name: str) -> bool:
+    """Whether ``name`` holds a control character (U+0000-U+001F, U+007F-U+009F)."""
+    return _CONTROL.search(name) is not None
+
+
+def shown(name: str) -> str:
+    """``name`` with each control character escaped as Python writes it (``\\n``, ``\\x1b``),
+    so that printing it cannot move the cursor or start a line."""
+    return _CONTROL.sub(lambda found: repr(found[0])[1:-1], name)

@@ -8,16 +8,23 @@ Guarantees:
   not ``.`` or ``..``, not ``.git`` in any spelling git's fsck refuses: any case, the trailing
   dots and spaces NTFS drops, the invisible code points HFS+ ignores) and appears once in its
   tree; anything else, or a tree that does not parse, is a ``GitError`` naming the entry and the
-  tree. A path made of entries therefore never leaves the folder it is joined to.
+  tree. A path made of entries therefore never leaves the folder it is joined to. A file listed
+  whose path holds a control character, or a ``.proto`` at the top beginning with ``-`` or
+  ``@``, refuses the listing: protoc would misread it (``compile_files`` refuses it too).
 - Symlinks are resolved in the commit's own trees, never on a file system: one leaving the
   repository, dangling, or going through more than 40 links (Linux's limit) is left out, as a
-  checkout's would dangle.
+  checkout's would dangle. Each link's end is found once per folder in a listing (a chain
+  many links share is walked once), and a listing walking more than ``MAX_LINK_STEPS`` parts
+  of link targets in all is refused.
 - Bounded: an object over its size limit is refused from its header, before it is read (a
   tree or a ``.proto`` 16 MiB, a symlink 4 KiB); a tree holding more than ``MAX_FILES``
-  ``.proto`` and ``.options`` files (a few small trees can nest to billions of paths), or one
-  more than ``MAX_DEPTH`` folders deep, is refused while it is flattened (without recursion).
-- A tree object is parsed once, whatever the number of commits that share it: walking a history
-  costs what changed in it, not its length times its size.
+  ``.proto`` and ``.options`` files (a few small trees can nest to billions of paths), one
+  more than ``MAX_DEPTH`` folders deep, or one whose paths of those files add up to more than
+  ``MAX_PATH_TEXT`` characters, is refused before a path is made: each tree is measured once,
+  to three numbers, without recursion. A listing's memory is its result's, whatever the trees
+  share.
+- A tree object is parsed and measured once, whatever the number of commits that share it:
+  walking a history parses what changed in it, not its length times its size.
 - Refs are resolved by git itself (``main``, ``origin/main``, ``HEAD~3``, a tag, an object id).
 
 ``subprocess`` is imported when a repository is opened: linting folders does not pay for it
@@ -25,21 +32,31 @@ Guarantees:
 """
 
 import os
-from collections.abc import Collection
+from collections.abc import Collection, Generator
 from pathlib import Path
 from typing import IO, TYPE_CHECKING
 
 from .._errors import SchemaError
-from ._files import SOURCE_LIMIT, size_text
+from ._files import SOURCE_LIMIT, has_control, size_text
 
 if TYPE_CHECKING:
     import subprocess
 
-__all__ = ["MAX_DEPTH", "MAX_FILES", "SUFFIXES", "GitError", "Repository"]
+__all__ = [
+    "MAX_DEPTH",
+    "MAX_FILES",
+    "MAX_LINK_STEPS",
+    "MAX_PATH_TEXT",
+    "SUFFIXES",
+    "GitError",
+    "Repository",
+]
 
 SUFFIXES = (".proto", ".options")  # the files of a proto tree
 MAX_FILES = 100_000  # of SUFFIXES in one tree
 MAX_DEPTH = 256  # folders above a file of SUFFIXES in a tree
+MAX_PATH_TEXT = 16 * 1024 * 1024  # characters of those files' paths, added up
+MAX_LINK_STEPS = 1_000_000  # parts of symlink targets walked in one listing of a tree
 
 _LINK_LIMIT = 4096  # PATH_MAX: a longer link's target is no path
 _MAX_LINKS = 40
@@ -48,7 +65,13 @@ _HFS_IGNORED = dict.fromkeys(map(ord, "\u200c\u200d\u200e\u200f\u202a\u202b\u202
 _HFS_IGNORED.update(dict.fromkeys(map(ord, "\u206a\u206b\u206c\u206d\u206e\u206f\ufeff")))
 
 _Entry = tuple[str, str]  # (kind: "tree", "file", "link" or "gitlink"; object id)
-_Flat = dict[str, _Entry]  # path below a tree → a file or link entry
+# Where a symlink leads: a file's blob, a folder (the folders from the root to it), or nowhere.
+_Target = str | tuple[str, ...] | None
+_Link = tuple[tuple[str, ...], str]  # a symlink: the folders from the root to its own, its blob
+# A walk down a link's target: yields each link it meets, is sent where that leads and through
+# how many links, returns where its own link leads and through how many.
+# (Sent None first, as a generator starts.)
+_Walk = Generator[_Link, tuple[_Target, int] | None, tuple[_Target, int]]
 
 
 class GitError(SchemaError):
@@ -79,7 +102,8 @@ class Repository:
             self.worktree = folder
         self._batch: subprocess.Popen[bytes] | None = None
         self._trees: dict[str, dict[str, _Entry]] = {}  # tree id → its entries by name
-        self._flat: dict[str, _Flat] = {}  # tree id → its SUFFIXES files, at any depth
+        # tree id → SUFFIXES files below it, their paths' characters, their deepest folder
+        self._sizes: dict[str, tuple[int, int, int]] = {}
 
     def __enter__(self) -> "Repository":
         return self
@@ -140,8 +164,7 @@ class Repository:
         under ``subdir`` at ``commit``, and of each file ``top`` names directly in ``subdir``;
         a symlink stands for the file it points to. Empty when the commit has no such folder
         (or, with ``missing_ok``, something else there)."""
-        root = self._root(commit)
-        here = [root]
+        here = [self._root(commit)]
         for part in subdir.strip("/").split("/") if subdir.strip("/") else []:
             entry = self._entries(here[-1]).get(part)
             if entry is None:
@@ -151,15 +174,18 @@ class Repository:
             if entry[0] != "tree":
                 raise GitError(f"{self.folder}: {subdir!r} at {commit[:12]} is not a folder")
             here.append(entry[1])
-        inside = subdir.strip("/")
-        found = dict(self._flatten(here[-1]))
+        self._measure(here[-1])
         entries = self._entries(here[-1])
-        found.update((name, entries[name]) for name in top if name in entries)
-        files = {}
-        for path, (kind, blob) in found.items():
+        found = [(name, tuple(here), entries[name]) for name in top if name in entries]
+        found += self._walk_tree(here)
+        files: dict[str, str] = {}
+        links: dict[_Link, tuple[_Target, int]] = {}
+        steps = _Steps(f"{self.folder}: symlinks take more than {MAX_LINK_STEPS} steps to resolve")
+        for path, folders, (kind, blob) in found:
+            _check_name(path, f"{self.folder}: {commit[:12]}")
             if kind == "link":
-                target = self._follow(root, f"{inside}/{path}" if inside else path, blob)
-                if target is not None:
+                target = self._resolve(folders, blob, links, steps)
+                if isinstance(target, str):
                     files[path] = target
             elif kind == "file":
                 files[path] = blob
@@ -220,77 +246,159 @@ class Repository:
         self._trees[tree_id] = entries
         return entries
 
-    def _flatten(self, tree_id: str) -> _Flat:
-        """The SUFFIXES files and links at any depth below a tree, by path (depth first,
-        without recursion: git lets trees nest thousands deep)."""
-        done = self._flat
+    def _measure(self, tree_id: str) -> None:
+        """Refuse a tree holding more than MAX_FILES SUFFIXES files, more than MAX_PATH_TEXT
+        characters of their paths in all, or any of them more than MAX_DEPTH folders deep; each
+        tree below is measured once (depth first, without recursion: git lets trees nest
+        thousands deep), to three numbers, before a single path is made."""
+        sizes = self._sizes
         pending = [tree_id]
         while pending:
             current = pending[-1]
-            if current in done:
+            if current in sizes:
                 pending.pop()
                 continue
             entries = self._entries(current)
-            below = [blob for kind, blob in entries.values() if kind == "tree" and blob not in done]
+            below = [
+                blob for kind, blob in entries.values() if kind == "tree" and blob not in sizes
+            ]
             if below:
                 pending.extend(below)
                 continue
             pending.pop()
-            flat: _Flat = {}
+            files = text = depth = 0
             for name, (kind, blob) in entries.items():
-                if kind == "tree":
-                    inner = done[blob]
-                    if len(flat) + len(inner) > MAX_FILES:
-                        raise GitError(
-                            f"{self.folder}: tree {tree_id} holds more than {MAX_FILES} .proto "
-                            "and .options files: refused"
-                        )
-                    if any(path.count("/") >= MAX_DEPTH for path in inner):
-                        raise GitError(
-                            f"{self.folder}: tree {tree_id} nests files more than {MAX_DEPTH} "
-                            "folders deep: refused"
-                        )
-                    flat.update((f"{name}/{path}", entry) for path, entry in inner.items())
+                if kind == "tree" and sizes[blob][0]:
+                    inner, inner_text, inner_depth = sizes[blob]
+                    files += inner
+                    text += inner_text + inner * (len(name) + 1)
+                    depth = max(depth, inner_depth + 1)
                 elif kind in ("file", "link") and name.endswith(SUFFIXES):
-                    flat[name] = (kind, blob)
-            done[current] = flat
-        return done[tree_id]
+                    files += 1
+                    text += len(name)
+            # capped: the numbers of a tree stay small, however many paths it nests to
+            sizes[current] = (
+                min(files, MAX_FILES + 1),
+                min(text, MAX_PATH_TEXT + 1),
+                min(depth, MAX_DEPTH + 1),
+            )
+        files, text, depth = sizes[tree_id]
+        if files > MAX_FILES:
+            raise GitError(
+                f"{self.folder}: tree {tree_id} holds more than {MAX_FILES} .proto and .options "
+                "files: refused"
+            )
+        if depth > MAX_DEPTH:
+            raise GitError(
+                f"{self.folder}: tree {tree_id} nests files more than {MAX_DEPTH} folders "
+                "deep: refused"
+            )
+        if text > MAX_PATH_TEXT:
+            raise GitError(
+                f"{self.folder}: the paths of tree {tree_id}'s .proto and .options files add up "
+                f"to more than {size_text(MAX_PATH_TEXT)}: refused"
+            )
 
-    def _follow(self, root: str, path: str, link: str) -> str | None:
-        """The blob the symlink at ``path`` (its own blob: ``link``) points to in the tree
-        ``root``, links on the way followed; None if it leaves the repository, dangles, ends
-        on a folder or passes more than 40 links."""
-        folders = [root]
-        for part in path.split("/")[:-1]:
-            folders.append(self._entries(folders[-1])[part][1])
-        pending = self._link_parts(link)
+    def _walk_tree(self, here: list[str]) -> list[tuple[str, tuple[str, ...], _Entry]]:
+        """The SUFFIXES files and links below the measured tree ``here[-1]`` (``here``: the
+        folders from the root to it): each path with the folders from the root to its own
+        folder, in the order of the entries (folders skipped that hold none)."""
+        found = []
+        folders = list(here)
+        prefixes = [""]
+        stack = [iter(self._entries(here[-1]).items())]
+        while stack:
+            for name, (kind, blob) in stack[-1]:
+                if kind == "tree" and self._sizes[blob][0]:
+                    folders.append(blob)
+                    prefixes.append(f"{prefixes[-1]}{name}/")
+                    stack.append(iter(self._entries(blob).items()))
+                    break
+                if kind in ("file", "link") and name.endswith(SUFFIXES):
+                    found.append((f"{prefixes[-1]}{name}", tuple(folders), (kind, blob)))
+            else:
+                stack.pop()
+                folders.pop()
+                prefixes.pop()
+        return found
+
+    def _resolve(
+        self,
+        folders: tuple[str, ...],
+        link: str,
+        links: dict[_Link, tuple[_Target, int]],
+        steps: "_Steps",
+    ) -> _Target:
+        """Where the symlink ``link`` in the folder ``folders[-1]`` (``folders``: those from
+        the root to it) leads, followed the way Linux does: the blob of a file, the folders to
+        a folder, or None (it leaves the repository, dangles, or passes more than 40 links).
+
+        ``links`` remembers each link's end, by folder, with the links passed on the way, for
+        the rest of the call: a chain many links share is walked once. A link met again while
+        it is being resolved is a loop. Links are resolved on a stack of walks, not by
+        recursion: a chain may be long before its 41st link is known to be too many."""
+        stack: list[tuple[_Link, _Walk]] = []
+        request: _Link | None = (folders, link)
+        answer: tuple[_Target, int] | None = None
+        while True:
+            if request is not None:
+                answer = links.get(request)
+                if answer is None:
+                    links[request] = (None, 0)  # while it is resolved: a loop, if met
+                    parts = self._link_parts(request[1])
+                    if parts is None:
+                        answer = links[request] = (None, 0)
+                    else:
+                        stack.append((request, self._walk_link(list(request[0]), parts, steps)))
+                if answer is not None and not stack:
+                    return answer[0]
+                request = None
+            key, walk = stack[-1]
+            try:
+                request = walk.send(answer)
+                answer = None
+            except StopIteration as done:
+                stack.pop()
+                result: tuple[_Target, int] = done.value
+                answer = links[key] = result
+                if not stack:
+                    return result[0]
+
+    def _walk_link(self, folders: list[str], pending: list[str], steps: "_Steps") -> _Walk:
+        """Walk a link's target (``pending``: its parts, last first) from ``folders``; yield
+        each link met on the way (its folders and blob), to be sent back where it leads and
+        through how many links; return where this link leads and through how many links,
+        itself included ((None, 0): nowhere)."""
         hops = 1
         while pending:
+            steps.take()
             part = pending.pop()
             if part in ("", "."):
                 continue
             if part == "..":
                 if len(folders) == 1:
-                    return None  # out of the repository
+                    return None, 0  # out of the repository
                 folders.pop()
                 continue
             entry = self._entries(folders[-1]).get(part)
             if entry is None:
-                return None
+                return None, 0
             kind, blob = entry
             if kind == "tree":
                 folders.append(blob)
-            elif kind == "link" and hops < _MAX_LINKS:
-                hops += 1
-                more = self._link_parts(blob)
-                if more is None:
-                    return None
-                pending.extend(more)
-            elif kind == "file" and not pending:  # "file/" is no file
-                return blob
-            else:
-                return None
-        return None  # a folder, or nowhere
+                continue
+            if kind != "link":  # a file ("file/" is none), or a submodule
+                return (blob if kind == "file" and not pending else None), hops
+            answer = yield tuple(folders), blob
+            assert answer is not None
+            target, passed = answer
+            hops += passed
+            if target is None or hops > _MAX_LINKS:
+                return None, 0
+            if isinstance(target, str):
+                return (None if pending else target), hops
+            folders = list(target)
+        return tuple(folders), hops  # a folder
 
     def _link_parts(self, link: str) -> list[str] | None:
         """A symlink's target as path parts, last first; None when it leaves any repository
@@ -368,6 +476,35 @@ class Repository:
             reason = done.stderr.strip().splitlines()
             raise GitError(f"{self.folder}: {reason[-1] if reason else 'not a git repository'}")
         return done.stdout
+
+
+def _check_name(path: str, where: str) -> None:
+    """Refuse a file name protoc would misread: one with a control character (protoc prints
+    names raw, so a newline in one splits its diagnostics into findings of their own), or a
+    ``.proto`` at the top beginning with ``-`` or ``@`` (protoc would take it for an option).
+    git's fsck allows them; no tree that builds holds one."""
+    if has_control(path):
+        what = "a control character"
+    elif path.endswith(".proto") and path.startswith(("-", "@")):
+        what = f"a leading {path[0]!r}"
+    else:
+        return
+    raise GitError(
+        f"{where} holds {path!r}, a file name with {what}, which protoc would misread: refused"
+    )
+
+
+class _Steps:
+    """A budget of steps, taken one at a time; the last one over it is a ``GitError``."""
+
+    def __init__(self, refusal: str) -> None:
+        self.left = MAX_LINK_STEPS
+        self.refusal = refusal
+
+    def take(self) -> None:
+        self.left -= 1
+        if self.left < 0:
+            raise GitError(f"{self.refusal}: refused")
 
 
 def _kind(mode: bytes) -> str | None:

@@ -7,7 +7,12 @@ it and must be a regular file within ``SOURCE_LIMIT`` (a FIFO would block it for
 ``/dev/zero`` fill memory): ``read_file`` refuses anything else, naming it. Only erc-codec's own
 include folders are taken on trust. protoc reports on the process's standard
 error descriptor, so compilation briefly points fd 2 at a scratch file; a lock keeps two
-compilations in this process from interleaving. Scratch files (protoc's output, its diagnostics,
+compilations in this process from interleaving. Nothing a tree holds is read as one of protoc's
+options: a file to compile whose name begins with ``-`` or ``@`` (protoc would take it for an
+option or a response file: ``--plugin=...`` folders run a program) and a search folder protoc
+would split (``:`` in it) are refused before protoc runs, as is any name with a
+control character (protoc prints names raw: a newline in one splits its diagnostics into
+findings of their own). Scratch files (protoc's output, its diagnostics,
 descriptors it is given) live in a temporary folder that is gone when the compilation ends.
 """
 
@@ -25,7 +30,7 @@ import grpc_tools
 from google.protobuf import descriptor_pb2
 
 from .._errors import SchemaError
-from ._files import read_text
+from ._files import FileError, has_control, read_text, shown
 from ._text import imports as imported
 
 try:
@@ -90,8 +95,25 @@ def compile_files(
     be a regular file within ``SOURCE_LIMIT`` (else ``FileError``); ``read`` spares that for
     files under ``root`` the caller has read with ``read_file`` itself: their names, each with
     the import spellings protoc will find in it.
+
+    A name protoc would read as something else (see the module's guarantees) is a
+    ``FileError`` naming it.
     """
     search = [str(root), *map(str, includes)]
+    for name in files:
+        if name.startswith(("-", "@")):
+            # protoc has no end of options: "-I.proto" is an include folder, "@x" a response
+            # file, "--plugin=protoc-gen-e=x/evil.proto" a program to run. nanopb's generator
+            # reads such names as options too; no tree that builds holds one.
+            raise FileError(
+                os.path.join(root, name),
+                f"a file name beginning with {name[0]!r}, which protoc reads as an option: refused",
+            )
+    for folder in search:
+        if ":" in folder:  # protoc splits --proto_path=a:b into two folders, whatever we do
+            raise FileError(
+                folder, "a folder name holding ':', which protoc reads as a separator: refused"
+            )
     if defaults and known is not None and {file.name for file in known.file} & _default_names():
         known = descriptor_pb2.FileDescriptorSet(file=[*known.file, *_defaults().file])
     elif defaults:
@@ -103,7 +125,9 @@ def compile_files(
         out = os.path.join(scratch, "set.pb")
         args = [
             "protoc",
-            *(f"--proto_path={path}" for path in search),
+            # "=folder": the folder under the empty virtual path, so that protoc never splits
+            # a name holding "=" into a virtual path and another folder ("v=d").
+            *(f"--proto_path=={path}" for path in search),
             f"--descriptor_set_out={out}",
             *(["--include_imports"] if imports else []),
             *(["--include_source_info"] if locations else []),
@@ -135,6 +159,11 @@ def _vet(search: Sequence[str], files: Sequence[str], read: Mapping[str, Iterabl
     pending, seen = list(files), set()
     while pending:
         name = pending.pop().partition("\0")[0]  # protoc's names are C strings
+        if has_control(name):
+            raise FileError(
+                os.path.join(search[0], shown(name)),
+                "a file name holding a control character: refused",
+            )
         if name in seen or name.startswith("/") or {"", ".", ".."} & set(name.split("/")):
             continue
         seen.add(name)
