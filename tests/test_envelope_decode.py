@@ -389,6 +389,20 @@ def test_a_cut_datagram_is_not_taken_for_a_stripped_one(
     assert dispatcher.stats().undecodable == {"truncated": 1}
 
 
+def test_a_payload_missing_a_required_field_is_judged_not_refused() -> None:
+    """A proto2 payload without its required field parses, so decode takes it in every form.
+    Judging its restored zeros serialized it, and protobuf's serializer raised its own
+    EncodeError for the missing field, out of decode (a traceback from erc-codec decode)."""
+    every = Codec.from_path(Path(__file__).resolve().parent / "wireshark_tree", "Env")
+    closed = new(every, "Closed", modes=[1, 0])  # no id
+    for data in (h("12 04 12 02 01"), h("1a 00 12 04 12 02 01")):  # fast path, general path
+        assert every.decode(data) == ("closed", closed)
+    for data in (h("12 04 12 02 81"), h("1a 00 12 04 12 02 81")):  # the last item cut: 81 00
+        with pytest.raises(DecodeError, match=r"in Closed\.modes continues a varint") as caught:
+            every.decode(data)
+        assert caught.value.reason == "truncated"
+
+
 def test_the_first_datagram_cut_is_a_fix_that_was_sent(codec: Codec) -> None:
     """620b...4048 is 620b...404802, fix_quality DGPS_FIX, with its last byte lost."""
     GPSInfo = codec.message_class("SensorBoardGPSInfo")
