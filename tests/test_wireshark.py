@@ -124,6 +124,12 @@ def document(item: ElementTree.Element, descriptor: Descriptor) -> dict[str, Any
     """What the items under ``item`` say, merged as protobuf merges the wire (a scalar given twice
     keeps the last, a message given twice merges, a oneof member clears the others), then with
     every field decode prints that the wire lacked at its default: decode's JSON of it."""
+    return _with_defaults(_wire(item, descriptor), descriptor)
+
+
+def _wire(item: ElementTree.Element, descriptor: Descriptor) -> dict[str, Any]:
+    """What the items under ``item`` say, merged, without defaults: those come after merging, as
+    a later occurrence of a message lacks the fields it merges into the earlier one."""
     found: dict[str, Any] = {}
     for child in item.findall("field"):
         _, _, name = child.attrib["name"].rpartition(".")
@@ -140,7 +146,7 @@ def document(item: ElementTree.Element, descriptor: Descriptor) -> dict[str, Any
                 if other.name != name:
                     found.pop(other.name, None)
         if field.type == _T.TYPE_MESSAGE:
-            _add_message(found, field, document(child, message_of(field)))
+            _add_message(found, field, _wire(child, message_of(field)))
         elif field.type in (_T.TYPE_STRING, _T.TYPE_BYTES):  # the bytes: labels escape text
             raw = bytes.fromhex(child.attrib.get("value", ""))
             value = raw.decode() if field.type == _T.TYPE_STRING else base64.b64encode(raw).decode()
@@ -154,7 +160,7 @@ def document(item: ElementTree.Element, descriptor: Descriptor) -> dict[str, Any
                 found.setdefault(name, []).append(value)
             else:
                 found[name] = value
-    return _with_defaults(found, descriptor)
+    return found
 
 
 def _merge(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
@@ -184,7 +190,7 @@ def _with_defaults(found: dict[str, Any], descriptor: Descriptor) -> dict[str, A
 def _add_message(found: dict[str, Any], field: FieldDescriptor, sub: dict[str, Any]) -> None:
     """A submessage's item into ``found``: a map's entry, a repeated item, or merged."""
     if _is_map(field):
-        found.setdefault(field.name, {}).update(_map_item(sub))
+        found.setdefault(field.name, {}).update(_map_item(_with_defaults(sub, message_of(field))))
     elif field.is_repeated:
         found.setdefault(field.name, []).append(sub)
     else:
