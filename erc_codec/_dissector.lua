@@ -9,7 +9,10 @@
 --    left open or closed by another field, lengths past the end, 100 levels of nesting, bad
 --    UTF-8 in a proto3 string, a packed field cut inside an element are all corrupt; a known
 --    field on another wire type, and an unknown field, are kept aside as unknown fields;
--- 4. the payload is the last envelope member on the wire; without one the datagram is refused
+-- 4. where zeros were restored, a restoration no encoder could have sent is a datagram cut short,
+--    refused with reason "truncated" (erc_codec's _truncation): a field without presence at its
+--    default as the deepest last field, or the last byte that arrived continuing a varint;
+-- 5. the payload is the last envelope member on the wire; without one the datagram is refused
 --    (no payload, an unknown member, or a member on the wrong wire type).
 -- Nothing is added to the tree before the whole datagram has parsed, so a corrupt datagram shows
 -- its reason and its bytes, never a field that is not there. Numbers are exact: 64-bit varints
@@ -19,7 +22,7 @@
 local MAX_DEPTH = 100 -- upb's default nesting limit
 local T = {
     DOUBLE = 1, FLOAT = 2, INT64 = 3, UINT64 = 4, INT32 = 5, FIXED64 = 6, FIXED32 = 7, BOOL = 8,
-    STRING = 9, MESSAGE = 11, BYTES = 12, UINT32 = 13, ENUM = 14, SFIXED32 = 15, SFIXED64 = 16,
+    STRING = 9, GROUP = 10, MESSAGE = 11, BYTES = 12, UINT32 = 13, ENUM = 14, SFIXED32 = 15, SFIXED64 = 16,
     SINT32 = 17, SINT64 = 18,
 }
 local WIRE = { [T.DOUBLE] = 1, [T.FIXED64] = 1, [T.SFIXED64] = 1, [T.FLOAT] = 5, [T.FIXED32] = 5,
@@ -435,6 +438,180 @@ local function payload_alone(s, n)
     return stop <= SCHEMA.max_size
 end
 
+-- -- cut, not stripped (erc_codec's _truncation) --------------------------------------------------
+
+-- A stripped datagram lost zeros that all belong to the last field at every level of nesting.
+-- Restoring them is wrong where no encoder could have written the result: a field without
+-- presence at its default (proto3 encoders leave those out), or a varint ending in a restored zero
+-- after a continuation byte (encoders write varints in their shortest form). Both walks go over
+-- the parsed, restored envelope and judge only fields the schema declares, on a wire type they may
+-- arrive in (a repeated scalar packed or not), as erc_codec's presence_table lists them.
+local SENT, ZERO_VARINT, ZERO_FIXED, EMPTY, NESTED = 1, 2, 3, 4, 5
+local WIDE = { [T.INT64] = true, [T.UINT64] = true, [T.SINT64] = true, [T.BOOL] = true }
+
+-- What the walks ask of field ``number`` of message ``spec`` arriving on wire type wt, and the
+-- field; nil for what the schema does not declare so (it travels as it came).
+local function asked(spec, number, wt)
+    local f = spec.by_number[number]
+    if not f or f.type == T.GROUP then return nil end -- a group: explicitly present, no varint
+    local w = wire_of(f.type)
+    if f.type == T.MESSAGE then
+        if wt == 2 then return NESTED, f end
+    elseif f.repeated then
+        if wt == w then return SENT, f end -- an item: its zero is sent
+        if wt == 2 then return EMPTY, f end -- packed: never an empty list
+    elseif wt == w then
+        if f.presence or spec.map_entry then return SENT, f end -- their zeros are sent
+        if w == 0 then return ZERO_VARINT, f end
+        if w == 2 then return EMPTY, f end
+        return ZERO_FIXED, f
+    end
+    return nil
+end
+
+-- The chain of last fields from message m (of spec) down to the deepest one, if that one holds a
+-- default no encoder writes (a 32-bit field keeps the low 32 bits of its varint); else nil.
+local function cut_field(s, m, spec)
+    local chain = {}
+    while true do
+        local last = m.entries[#m.entries]
+        if not last then return nil end
+        local ask, f = asked(spec, last.number, last.wt)
+        if not ask or ask == SENT then return nil end
+        chain[#chain + 1] = { f = f, entry = last }
+        if ask == NESTED then
+            if last.content == last.stop then return nil end -- a present empty submessage
+            m, spec = last.sub, SCHEMA.messages[f.message]
+        elseif ask == ZERO_VARINT then
+            local lo, hi = varint(s, last.vstart, last.stop, 10)
+            return (lo == 0 and (hi == 0 or not WIDE[f.type])) and chain or nil
+        elseif ask == ZERO_FIXED then
+            for i = last.vstart + 1, last.stop do
+                if s:byte(i) ~= 0 then return nil end
+            end
+            return chain
+        else
+            return (last.content == last.stop) and chain or nil
+        end
+    end
+end
+
+-- The chain of fields from message m (of spec) down to the one whose varint (a tag, a length, a
+-- varint value, an item of a packed varint list) holds byte ``last``; nil if no declared field's.
+local function varint_cut(m, spec, last)
+    local chain = {}
+    while true do
+        local found
+        for _, entry in ipairs(m.entries) do
+            if last < entry.stop then found = entry; break end
+        end
+        if not found then return nil end
+        local ask, f = asked(spec, found.number, found.wt)
+        if not ask then return nil end
+        chain[#chain + 1] = { f = f, entry = found }
+        if last < (found.content or found.vstart) or found.wt == 0 then return chain end
+        if ask ~= NESTED then -- fixed-width, text, bytes, or a packed list: of varints, or not
+            return (ask == EMPTY and f.repeated and wire_of(f.type) == 0) and chain or nil
+        end
+        m, spec = found.sub, SCHEMA.messages[f.message]
+    end
+end
+
+-- The parsed occurrences of message field f in the messages ``occurrences`` that protobuf merges
+-- into one: all of them, those before a later member of f's oneof cleared.
+local function merged(occurrences, f)
+    local out = {}
+    for _, m in ipairs(occurrences) do
+        for _, e in ipairs(m.entries) do
+            if e.f == f then out[#out + 1] = e.sub
+            elseif f.oneof and e.f and e.f.oneof == f.oneof then out = {} end
+        end
+    end
+    return out
+end
+
+-- A map entry's key (s: the bytes its parse ``entry`` points into), as the JSON mapping writes it.
+local function key_text(s, entry, spec)
+    local key = spec.by_number[1]
+    local found
+    for _, e in ipairs(entry.entries) do
+        if e.f == key then found = e end
+    end
+    local t = key.type
+    if not found then return (t == T.BOOL and "false") or (t == T.STRING and "") or "0" end
+    if t == T.STRING then return s:sub(found.content + 1, found.stop) end
+    if t == T.BOOL then return found.value and "true" or "false" end
+    local at = found.vstart
+    if t == T.FIXED32 then return string.format("%d", le32(s, at)) end
+    if t == T.SFIXED32 then return string.format("%d", signed32(le32(s, at))) end
+    if t == T.FIXED64 then return tostring(UInt64(le32(s, at), le32(s, at + 4))) end
+    if t == T.SFIXED64 then return tostring(Int64(le32(s, at), le32(s, at + 4))) end
+    if type(found.value) == "number" then return string.format("%d", found.value) end
+    return tostring(found.value)
+end
+
+-- The full path of a chain's last field from the payload type, as decode names it: items by index
+-- in the message protobuf builds (the last item, as the chain follows last fields), map entries
+-- by key (LimitsRecord.places[key=7].x).
+local function cut_path(s, envelope, chain)
+    local member = chain[1].f
+    local path = SCHEMA.messages[member.message].name
+    local current = merged({ envelope }, member)
+    local i = 2
+    while i <= #chain do
+        local f, entry = chain[i].f, chain[i].entry
+        local sub = f.type == T.MESSAGE and SCHEMA.messages[f.message]
+        if sub and sub.map_entry then
+            path = path .. "." .. f.name .. "[key=" .. key_text(s, entry.sub, sub) .. "]"
+            current = merged({ entry.sub }, sub.by_number[2])
+            i = i + 1 -- the entry's key or value field: the walk goes on inside it
+        elseif sub and f.repeated then
+            local items = 0
+            for _, m in ipairs(current) do
+                for _, e in ipairs(m.entries) do
+                    if e.f == f then items = items + 1 end
+                end
+            end
+            path = path .. "." .. f.name .. "[" .. (items - 1) .. "]"
+            current = { entry.sub }
+        else
+            path = path .. "." .. f.name
+            if sub then current = merged(current, f) end
+        end
+        i = i + 1
+    end
+    return path
+end
+
+local function default_text(f)
+    if f.type == T.ENUM then return SCHEMA.enums[f.enum][0] or "0" end
+    if f.type == T.STRING or f.type == T.BYTES then return '""' end
+    if f.type == T.BOOL then return "false" end
+    if f.type == T.FLOAT or f.type == T.DOUBLE then return "0.0" end
+    return "0"
+end
+
+-- Why restoring the zeros after the first n bytes of s (the restored envelope, parsed to
+-- ``envelope``) made what no encoder sends, in decode's words; nil for a stripped datagram.
+local function cut_reason(s, envelope, n)
+    local root = SCHEMA.messages[SCHEMA.root]
+    local last = s:byte(n) -- the last byte that arrived
+    if last >= 128 then
+        local chain = varint_cut(envelope, root, n - 1)
+        if chain then
+            local where = #chain > 1 and ("in " .. cut_path(s, envelope, chain) .. " ") or ""
+            return "its last byte " .. where .. "continues a varint that only a restored zero " ..
+                "would end (" .. string.format("0x%02x", last) .. " 0x00, which no encoder writes)"
+        end
+    end
+    local chain = cut_field(s, envelope, root)
+    if not chain then return nil end
+    local f = chain[#chain].f
+    local value = f.repeated and "[] (an empty packed list)" or default_text(f)
+    return "restoring its stripped zeros would make " .. cut_path(s, envelope, chain) .. " = " ..
+        value .. ", a default no proto3 encoder sends for a field without presence"
+end
+
 -- -- showing -----------------------------------------------------------------------------------
 
 local show_message
@@ -622,6 +799,13 @@ function erc.dissector(tvb, pinfo, tree)
     if not envelope then
         return refuse(top, tvb, pinfo, "corrupt", "not a valid " ..
             SCHEMA.messages[SCHEMA.root].name .. ": " .. err)
+    end
+    if form == "strip" then
+        local why = cut_reason(exact, envelope, n)
+        if why then
+            return refuse(top, tvb, pinfo, "truncated",
+                "datagram of " .. n .. " bytes was cut short: " .. why)
+        end
     end
     local chosen
     for _, entry in ipairs(envelope.entries) do

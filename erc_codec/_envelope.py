@@ -202,7 +202,12 @@ class Envelope:
                 None if cls in self._members else (headers, screen, check, cls.SerializeToString)
             )
             self._payloads[field.name] = cls
-            self._restoring[field.name] = (cls.SerializeToString, presence_table(payload, tables))
+            # Partial: a proto2 payload missing a required field decodes (protobuf parses it), and
+            # the comparison with its restored bytes must not raise where the parse did not.
+            self._restoring[field.name] = (
+                cls.SerializePartialToString,
+                presence_table(payload, tables),
+            )
             if len(tag) <= 2:
                 self._tags[int.from_bytes(tag, "little")] = (field.name, cls.FromString, len(tag))
             if len(tag) == 1:
@@ -541,7 +546,7 @@ class Envelope:
                 f"datagram of {len(data)} bytes is not a valid {self._name}{form}: {error}"
             ) from None
         if len(exact) > len(data):
-            canonical = envelope.SerializeToString() == exact
+            canonical = envelope.SerializePartialToString() == exact  # see _restoring
             cut = cut_reason(self._table, exact, envelope, len(data), canonical, inside=True)
             if cut:
                 raise _cut_short(data, cut)

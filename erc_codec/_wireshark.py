@@ -60,8 +60,9 @@ def wireshark_dissector(codec: Codec | None = None, ports: Iterable[int] = DEFAU
                     enum_tables.append(f"        [{enums[enum.full_name]}] = {{ {values} }},")
                 entries.append(f"enum = {enums[enum.full_name]}")
             rows.append(f"            {{ {', '.join(entries)} }},")
+        entry = ", map_entry = true" if message.GetOptions().map_entry else ""
         message_tables.append(
-            f"        [{index[message.full_name]}] = {{ name = {_lua(message.full_name)}, "
+            f"        [{index[message.full_name]}] = {{ name = {_lua(message.full_name)}{entry}, "
             "fields = {\n" + "\n".join(rows) + "\n        } },"
         )
     size = codec.max_size(codec.root)
@@ -90,6 +91,7 @@ _HEADER = """\
 -- It reads UDP ports {ports}. Use it once:     tshark -X lua_script:erc_envelope.lua -r run.pcap
 -- or for good: copy it into Wireshark's personal Lua plugins folder (Help > About > Folders).
 -- It restores stripped trailing zeros and cuts zero padding exactly as `erc-codec decode` does,
+-- refuses a datagram cut short as decode does (erc.reason "truncated", naming the field),
 -- names the envelope member, shows every field by name (filter on erc.<Message>.<field>), and
 -- marks unknown members and corrupt datagrams with expert info (erc.refused, erc.unknown_member).
 -- Regenerate it when the schema changes: erc-codec wireshark > erc_envelope.lua

@@ -503,3 +503,62 @@ def mutated_datagrams(codec: Codec) -> st.SearchStrategy[bytes]:
 def hostile_datagrams(codec: Codec) -> st.SearchStrategy[bytes]:
     """Whatever may arrive: any bytes, bytes behind a member tag, mutated datagrams."""
     return st.one_of(arbitrary_bytes(codec), behind_a_member_tag(codec), mutated_datagrams(codec))
+
+
+# -- cut, not stripped (test_envelope_decode.py, test_wireshark.py) -----------------------------
+
+# (id, schema, datagram, what the error names). The packaged schema's, then tests/contract_tree's
+# (strings, bytes, packed lists, repeated messages, maps). Each restores, as the last field at the
+# deepest level, a field without presence at its default, or a varint ending in 80 00.
+TRUNCATED: list[tuple[str, str, str, str]] = [
+    ("gps fix_quality DGPS_FIX cut off", "rover", "62 0b 09 d8 81 73 46 94 1e 4a 40 48",
+     "SensorBoardGPSInfo.fix_quality = NO_FIX"),
+    ("the same behind another member", "rover", "0a 00 62 0b 09 d8 81 73 46 94 1e 4a 40 48",
+     "SensorBoardGPSInfo.fix_quality = NO_FIX"),
+    ("a float restored to 0.0", "rover", "0a 05 0d", "SensorBoardPHInfo.ph_value = 0.0"),
+    ("a double restored to 0.0", "rover", "62 09 09 00 00 00", "SensorBoardGPSInfo.latitude = 0.0"),
+    ("a nested enum", "rover", "5a 04 32 02 48",
+     "SensorBoardDiagnostics.gps_sensor_1.fix_quality = NO_FIX"),
+    ("a bool restored to false", "rover", "72 02 28",
+     "SensorBoardLoadCellInfo.is_calibrated = false"),
+    ("an int64, two-byte member tag", "rover", "aa 01 02 50",
+     "BasestationRoverLocalization.timestamp_ms = 0"),
+    ("a varint cut in the middle", "rover", "62 03 40 a0",
+     "its last byte in SensorBoardGPSInfo.satellites continues a varint"),
+    ("a nested varint cut in the middle", "rover", "5a 05 32 03 40 a0",
+     "in SensorBoardDiagnostics.gps_sensor_1.satellites continues a varint"),
+    ("an empty string", "limits", "0a 02 0a", 'LimitsRecord.name = ""'),
+    ("an empty bytes value", "limits", "0a 02 12", 'LimitsRecord.blob = ""'),
+    ("an empty packed list", "limits", "0a 02 1a", "LimitsRecord.counts = [] (an empty packed"),
+    ("an item of a repeated message", "limits", "0a 06 2a 00 2a 02 10",
+     "LimitsRecord.points[1].x = 0"),
+    ("a submessage's enum", "limits", "0a 04 4a 02 08",
+     "LimitsRecord.origin.colour = LIMITS_COLOUR_NONE"),
+    ("a map's message value", "limits", "0a 08 52 06 08 07 12 02 10",
+     "LimitsRecord.places[key=7].x = 0"),
+    ("a varint in a map entry", "limits", "0a 07 32 05 08 07 10 85",
+     "in LimitsRecord.palette[key=7] continues a varint"),
+    ("a tag cut in the middle", "limits", "0a 05 2a 00 b8",
+     "its last byte in LimitsRecord.small continues a varint"),
+    ("the same behind another member", "limits", "12 00 0a 05 2a 00 b8",
+     "its last byte in LimitsRecord.small continues a varint"),
+]  # fmt: skip
+
+
+# What stays ambiguous, and so decodes (README, "Three transmission forms"): each restores a value
+# some encoder does send. (id, schema, datagram, kind, the payload's fields).
+AMBIGUOUS: list[tuple[str, str, str, str, dict[str, Any]]] = [
+    ("the member present and empty", "rover", "4a", "drive_motor", {}),
+    ("an envelope cut to its tag", "rover", "32", "arm_target", {}),
+    ("a present empty submessage", "rover", "5a 02 32", "sensor_diag", {"gps_sensor_1": {}}),
+    ("a tiny float", "rover", "0a 05 0d 01", "ph_info", {"ph_value": 1e-45}),
+    ("a bytes value ending in zeros", "limits", "0a 04 12 02 01", "record", {"blob": b"\1\0"}),
+    ("a string ending in a NUL", "limits", "0a 04 0a 02 61", "record", {"name": "a\0"}),
+    ("a packed list ending in 0", "limits", "0a 04 1a 02 05", "record", {"counts": [5, 0]}),
+    ("an unpacked item 0", "limits", "0a 02 18", "record", {"counts": [0]}),
+    ("an empty item of a repeated message", "limits", "0a 02 2a", "record", {"points": [{}]}),
+    ("a map entry's value 0", "limits", "0a 06 32 04 08 01 10", "record", {"palette": {1: 0}}),
+    ("a map entry's key 0", "limits", "0a 04 32 02 08", "record", {"palette": {0: 0}}),
+    ("an empty map value", "limits", "0a 06 52 04 08 07 12", "record", {"places": {7: {}}}),
+    ("a field this schema lacks", "limits", "0a 02 78", "record", {}),
+]  # fmt: skip
