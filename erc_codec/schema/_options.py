@@ -130,7 +130,10 @@ def _annotations(data: bytes) -> Iterator[Options]:
 def _read_rules(path: Path) -> Rules:
     if not file_exists(path):  # a FIFO or a device is there: read_text refuses it
         return []
-    from google.protobuf import text_format  # only when there is a file to read
+    # Imported only when there is a file to read: text_format costs every erc-lint run some
+    # milliseconds of start-up, and the rover's tree has no .options file (the erc-lint/buf
+    # ratio of benchmarks/bench_lint.py, <= 1.0, counts that start-up).
+    from google.protobuf import text_format
 
     rules: Rules = []
     cls = options_class()
