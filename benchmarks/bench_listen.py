@@ -19,7 +19,7 @@ others leave: so the CPU time listen spent per datagram received (``/proc/PID/st
 printed too, with the rate that would fill one CPU (``1 / that``): the figure to compare between
 two versions, as it hardly depends on the load.
 
-The datagrams are the README's ``send`` example (a driving_motor_message, 7 bytes); with
+The datagrams are the README's ``send`` example (a drive_motor, 7 bytes); with
 ``--mix``, one random payload of every kind in turn (``bench_codec.corpus``), whose conversion
 to JSON costs far more. The machine is shared and noisy: repeat a run before believing it.
 Exit status 1 when a rate's datagrams are not all accounted for (sent != received + kernel
@@ -173,7 +173,7 @@ def main() -> int:
         return 0
     rates = [5000] if args.quick else [int(rate) for rate in args.rates.split(",")]
     seconds = 1.0 if args.quick else args.seconds
-    print(f"datagrams: {'one of every kind' if args.mix else 'driving_motor_message, 7 bytes'}")
+    print(f"datagrams: {'one of every kind' if args.mix else 'drive_motor, 7 bytes'}")
     print(
         "rate/s    sent  received     shown  dropped  kernel dropped  unread  system    buffer"
         "  CPU µs/datagram  (1 CPU: /s)"

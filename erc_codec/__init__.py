@@ -11,7 +11,7 @@ from typing import Any
 
 from google.protobuf.message import Message
 
-from ._codec import Codec
+from ._codec import Codec, Direction, Member
 from ._detections import AssemblerStats, DetectionAssembler, DetectionFrame, FrameLoss, Rejected
 from ._dispatch import Dispatcher, DispatchStats, Drop
 from ._envelope import Decoded, Mode
@@ -30,12 +30,14 @@ __all__ = [
     "DeframerStats",
     "DetectionAssembler",
     "DetectionFrame",
+    "Direction",
     "DispatchStats",
     "Dispatcher",
     "Drop",
     "EncodeError",
     "FrameLoss",
     "Liveness",
+    "Member",
     "Mode",
     "Rejected",
     "SchemaError",

@@ -2,16 +2,39 @@
 
 import functools
 import os
+import re
 from importlib import resources
 from pathlib import Path
+from typing import NamedTuple
 
 from google.protobuf.message import Message
 
 from ._contract import contract
 from ._envelope import Envelope
-from .schema import Schema, Sizes, load_schema
+from .schema import Schema, Sizes, load_schema, message_of
 
-__all__ = ["Codec", "default_tree"]
+__all__ = ["Codec", "Direction", "Member", "default_tree"]
+
+# A member's trailing comment, as the rover's envelope writes it: ``// direction: ROS2 -> BS``.
+_DIRECTION = re.compile(r"direction:[ \t]*(\S.*?)[ \t]*->[ \t]*(\S.*?)[ \t]*$", re.MULTILINE)
+
+
+class Direction(NamedTuple):
+    """Who sends an envelope member and who receives it, as its ``// direction:`` comment says."""
+
+    sender: str
+    receiver: str
+
+
+class Member(NamedTuple):
+    """One member of the envelope's oneof: its field ``number``, its ``kind`` (the member name a
+    decode returns), the full name of its ``message`` type, and its ``direction`` (``None`` where
+    the schema does not give one)."""
+
+    number: int
+    kind: str
+    message: str
+    direction: Direction | None
 
 
 def default_tree() -> Path:
@@ -71,8 +94,22 @@ class Codec(Envelope):
         return self._sizes.all()
 
     def message_class(self, name: str) -> type[Message]:
-        """The message class for a full message name, e.g. ``"SensorBoardGPSInfo"``."""
+        """The message class for a kind (``"gps_info"``) or a full message name
+        (``"SensorBoardGPSInfo"``); a kind wins where a message has the same name."""
+        if name in self.kinds().values():
+            return self.payload_class(name)
         return self._schema.message_class(name)
+
+    def members(self) -> tuple[Member, ...]:
+        """The envelope's members in field-number order, each with its direction, read from
+        the trailing ``// direction: SENDER -> RECEIVER`` comment of its declaration."""
+        members = []
+        for number, kind in sorted(self.kinds().items()):
+            field = self._schema.root.fields_by_number[number]
+            found = _DIRECTION.search(self._schema.comment(field.full_name))
+            direction = Direction(found[1], found[2]) if found else None
+            members.append(Member(number, kind, message_of(field).full_name, direction))
+        return tuple(members)
 
 
 @functools.cache

@@ -44,7 +44,10 @@ class FrameLoss(NamedTuple):
 
 
 class Rejected(NamedTuple):
-    """A detected object that cannot belong to its frame."""
+    """A detected object that cannot belong to its frame.
+
+    ``index`` is the object's own index field; as a field of a named tuple it hides
+    ``tuple.index`` (use ``tuple(rejected).index(value)`` for that)."""
 
     frame_id: int
     index: int  # type: ignore[assignment]  # the object's index, as its message names it

@@ -27,13 +27,13 @@ PAYLOADS: list[tuple[str, dict[str, Any]]] = [
         {"latitude": 52.2389, "longitude": 6.8566, "satellites": 9, "fixQuality": "DGPS_FIX"},
     ),
     (
-        "arm_diagnostics",
+        "arm_diag",
         {
             "state": "ARM_BOARD_STATE_OPERATING",
             "base_motor": {"motorId": 3, "rpm": -12.5, "state": "MOTOR_STATE_OPERATING"},
         },
     ),
-    ("arm_movement_feedback", {}),
+    ("arm_feedback", {}),
 ]
 
 
@@ -146,7 +146,7 @@ def test_a_framed_payload_that_does_not_decode_is_reported() -> None:
     assert done.code == 1
     first, second = records(done.out)
     assert first["reason"] == "unknown_member"
-    assert second["kind"] == "arm_movement_feedback"
+    assert second["kind"] == "arm_feedback"
     assert done.err == "2 frames, 1 undecodable\n"
 
 
@@ -172,7 +172,7 @@ def test_stdin_hex_lines_go_on_after_a_bad_line() -> None:
         "unknown_member",
         "not_hex",
         "not_hex",
-        "arm_movement_feedback",
+        "arm_feedback",
         "gps_info",
     ]
     assert lines[1]["length"] == 3
@@ -229,7 +229,7 @@ def test_encode_errors_are_one_line(args: list[str], code: int, text: str) -> No
 
 
 def test_encode_reads_json_from_stdin() -> None:
-    done = run("encode", "arm_movement_feedback", "-", "--mode", "exact", stdin=b"{}")
+    done = run("encode", "arm_feedback", "-", "--mode", "exact", stdin=b"{}")
     assert (done.code, done.out) == (0, "2200\n")
 
 
@@ -358,7 +358,7 @@ def test_pcap_decodes_every_udp_payload(
         "192.168.1.20:5005",
         "192.168.1.2:6006",
     )
-    assert (second["kind"], second["length"]) == ("arm_movement_feedback", len(stop))
+    assert (second["kind"], second["length"]) == ("arm_feedback", len(stop))
     assert (second["time"], second["src"], second["dst"]) == (
         1_700_000_000.5,
         "[fd00::1]:7007",
@@ -533,7 +533,7 @@ def test_hex_text_arriving_slowly_on_stdin_is_hex() -> None:
     done = run_slowly(b"2", b"200\n", b"0a00\n")
     assert done.code == 0, done
     assert [(r["kind"], r["length"]) for r in records(done.out)] == [
-        ("arm_movement_feedback", 2),
+        ("arm_feedback", 2),
         ("ph_info", 2),
     ]
     done = run_slowly(b"\n  ", b"  22", b"00\n")  # blank lines first: judged on the first line

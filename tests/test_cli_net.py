@@ -37,9 +37,7 @@ def send(port: int, *args: str) -> subprocess.CompletedProcess[str]:
 
 def test_send_to_listen() -> None:
     listener, port = start_listener("--count", "4", "--seconds", "30", "--format", "json")
-    sent = send(
-        port, "driving_motor_message", '{"distance_to_go": 1.5}', "--count", "3", "--rate", "50"
-    )
+    sent = send(port, "drive_motor", '{"distance_to_go": 1.5}', "--count", "3", "--rate", "50")
     assert sent.returncode == 0, sent.stderr
     assert "sent 3 datagram(s) of 7 bytes" in sent.stderr
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as raw:
@@ -48,9 +46,9 @@ def test_send_to_listen() -> None:
     assert listener.returncode == 0, err
     lines = [json.loads(line) for line in out.splitlines()]
     assert [line.get("kind", line.get("reason")) for line in lines] == [
-        "driving_motor_message",
-        "driving_motor_message",
-        "driving_motor_message",
+        "drive_motor",
+        "drive_motor",
+        "drive_motor",
         "unknown_member",
     ]
     assert lines[0]["message"] == {"distance_to_go": 1.5, "turning_radius": 0.0}
@@ -60,7 +58,7 @@ def test_send_to_listen() -> None:
     assert counters.pop("receive_buffer") >= 2 * 212992  # at least what Linux grants by default
     assert counters == {
         "received": 4,
-        "handled": {"driving_motor_message": 3},
+        "handled": {"drive_motor": 3},
         "undecodable": {"unknown_member": 1},
         "dropped": 1,
         "kernel_dropped": 0,

@@ -5,6 +5,7 @@ the codec's own do.
 """
 
 import copy
+from pathlib import Path
 from typing import Any, cast
 
 import pytest
@@ -71,6 +72,46 @@ def test_payload_class_is_the_class_each_member_carries(codec: Codec) -> None:
     assert codec.payload_class("gps_info") is codec.message_class("SensorBoardGPSInfo")
     with pytest.raises(erc_codec.SchemaError, match=r"'gps' is not a payload kind of PBEnvelope"):
         codec.payload_class("gps")
+
+
+def test_message_class_takes_a_kind_or_a_message_name(codec: Codec) -> None:
+    assert codec.message_class("gps_info") is codec.message_class("SensorBoardGPSInfo")
+    assert codec.message_class("drive_motor") is codec.payload_class("drive_motor")
+    with pytest.raises(erc_codec.SchemaError, match=r"no message named 'gps'"):
+        codec.message_class("gps")
+
+
+def test_members_are_the_envelope_members_with_their_directions(codec: Codec) -> None:
+    members = codec.members()
+    assert [(m.number, m.kind) for m in members] == sorted(ENVELOPE_MEMBERS.items())
+    assert all(codec.message_class(m.message) is codec.payload_class(m.kind) for m in members)
+    by_kind = {m.kind: m for m in members}
+    assert by_kind["gps_info"] == erc_codec.Member(
+        12, "gps_info", "SensorBoardGPSInfo", erc_codec.Direction("Hardware", "ROS2")
+    )
+    assert by_kind["drive_motor"].direction == ("ROS2", "Hardware")
+    assert by_kind["rover_localization"].direction == ("ROS2", "BS")
+    assert by_kind["control_mode"].direction == ("BS", "ROS2")
+
+
+def test_a_member_without_a_direction_comment_has_none(tmp_path: Path) -> None:
+    (tmp_path / "e.proto").write_text(
+        'syntax = "proto3";\n'
+        "message A { int32 x = 1; }\n"
+        "message PBEnvelope {\n"
+        "  oneof payload {\n"
+        "    A quiet = 3;\n"
+        "    A told = 1;  // direction:  Base station  ->  Jetson   \n"
+        "    A other = 2;  // sent now and then\n"
+        "  }\n"
+        "}\n"
+    )
+    members = Codec.from_path(tmp_path).members()
+    assert members == (
+        erc_codec.Member(1, "told", "A", erc_codec.Direction("Base station", "Jetson")),
+        erc_codec.Member(2, "other", "A", None),
+        erc_codec.Member(3, "quiet", "A", None),
+    )
 
 
 def test_schema_and_nanopb_are_the_codecs_own(codec: Codec) -> None:
@@ -213,7 +254,7 @@ def test_module_level_functions_round_trip(codec: Codec) -> None:
 def test_module_level_functions_use_the_default_codec(codec: Codec) -> None:
     assert Codec.default() is codec
     assert erc_codec.decode(h("22")) == (
-        "arm_movement_feedback",
+        "arm_feedback",
         new(codec, "ArmBoardMovementFeedback"),
     )
     with pytest.raises(DecodeError):

@@ -71,7 +71,7 @@ def test_naive_receivers_fail_where_the_codec_does_not(codec: Codec) -> None:
     with pytest.raises(ProtobufDecodeError):
         envelope.FromString(padded)
     for data in (stripped, padded):
-        assert codec.decode(data) == ("driving_motor_periodic_progress", payload)
+        assert codec.decode(data) == ("drive_progress", payload)
 
 
 def test_negative_zero_survives_every_form(codec: Codec) -> None:
@@ -117,7 +117,7 @@ DECODE_ERRORS: list[tuple[str, bytes, str]] = [
     ("payload cut inside a submessage", h("5a 07 12 06 0d 01"), r"SensorBoardDiagnostics"),
     ("submessage longer than its payload", h("5a 03 12 05 0d"), r"SensorBoardDiagnostics"),
     ("payload varint cut off", h("5a 02 08 81"), r"SensorBoardDiagnostics"),
-    ("length of zeros only", h("22 05"), r"ArmBoardMovementFeedback|arm_movement_feedback"),
+    ("length of zeros only", h("22 05"), r"ArmBoardMovementFeedback|arm_feedback"),
     ("payload longer than the envelope", h("82 01 ff 01"), r"255"),
     ("payload length 1000", h("0a e8 07 01"), r"255"),
     ("garbage after zero padding", h("22 00 00 01"), r"offset 2.*offset 3"),

@@ -62,7 +62,7 @@ def test_a_whole_envelope_encodes_like_its_payload(codec: Codec) -> None:
 
 def test_a_whole_envelope_with_an_empty_payload(codec: Codec) -> None:
     envelope = new(codec, "PBEnvelope")
-    envelope.arm_movement_feedback.SetInParent()
+    envelope.arm_feedback.SetInParent()
     assert codec.encode(envelope, "exact") == h("22 00")
     assert codec.encode(envelope, "strip") == h("22")
     assert codec.encode(envelope, "pad") == h("22") + bytes(MAX - 1)
@@ -125,7 +125,7 @@ def test_the_biggest_payload_stripped_and_two_byte_length(codec: Codec) -> None:
     stripped = codec.encode(payload, "strip")
     assert stripped == exact[:-1]
     for data in (exact, stripped, exact[:-1] + b"\0"):
-        assert_decodes_to(codec, data, "driving_diagnostics", payload)
+        assert_decodes_to(codec, data, "drive_diag", payload)
 
 
 @pytest.mark.parametrize("kind", list(ENVELOPE_MEMBERS.values()))
@@ -200,7 +200,7 @@ def test_unknown_fields_that_still_fit_are_sent(codec: Codec) -> None:
     assert len(payload.SerializeToString()) == 252
     exact = codec.encode(payload, "exact")
     assert len(exact) == MAX
-    assert exact == envelope_bytes(codec, "driving_motor_message", payload)
+    assert exact == envelope_bytes(codec, "drive_motor", payload)
     assert codec.decode(exact).message.SerializeToString() == payload.SerializeToString()
 
 
@@ -210,7 +210,7 @@ def test_unknown_fields_past_the_envelope_size_are_refused(
 ) -> None:
     payload = with_unknown_field(codec, "DrivingBoardMotorMessage", 245)
     assert len(payload.SerializeToString()) == 253  # envelope would be 256 bytes
-    envelope = new(codec, "PBEnvelope", driving_motor_message=payload)
+    envelope = new(codec, "PBEnvelope", drive_motor=payload)
     for message in (payload, envelope):
         with pytest.raises(EncodeError, match=r"DrivingBoardMotorMessage|PBEnvelope") as caught:
             codec.encode(message, mode)

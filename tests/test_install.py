@@ -136,7 +136,7 @@ def test_packaged_schema_works_from_an_installed_wheel(tmp_path: Path) -> None:
     assert report["exact"] == "52050dc2160100"
     assert report["stripped"] == "52050dc21601"
     assert report["padded_length"] == 255
-    assert report["kind"] == report["padded_kind"] == "driving_motor_periodic_progress"
+    assert report["kind"] == report["padded_kind"] == "drive_progress"
     assert report["equal"] is True
     assert report["feedback"] == "22"
-    assert report["feedback_decoded"] == "arm_movement_feedback"
+    assert report["feedback_decoded"] == "arm_feedback"

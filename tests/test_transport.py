@@ -50,7 +50,7 @@ def test_udp_endpoints_talk_over_loopback() -> None:
 
     got, stats, address = asyncio.run(scenario())
     assert got == [GPS(latitude=52.2389, satellites=9)]
-    assert stats.unhandled == {"driving_motor_message": 1}
+    assert stats.unhandled == {"drive_motor": 1}
     assert stats.undecodable == {"too_long": 1}
     assert address[0] == "127.0.0.1"
 
@@ -62,7 +62,7 @@ def test_the_watchdog_engages_when_a_stream_stops() -> None:
             on_timeout=lambda kind: events.append(f"timeout {kind}"),
             on_recover=lambda kind: events.append(f"recover {kind}"),
         )
-        watchdog.watch("driving_motor_message", period=0.02, timeout=0.3)  # ample for a busy CI
+        watchdog.watch("drive_motor", period=0.02, timeout=0.3)  # ample for a busy CI
         listening = await erc_codec.open_udp(
             erc_codec.Dispatcher(CODEC), watchdog=watchdog, poll_interval=0.01
         )
@@ -79,8 +79,8 @@ def test_the_watchdog_engages_when_a_stream_stops() -> None:
 
     # After the one recovering message the stream stops again, so a later timeout may follow.
     assert asyncio.run(scenario())[:2] == [
-        "timeout driving_motor_message",
-        "recover driving_motor_message",
+        "timeout drive_motor",
+        "recover drive_motor",
     ]
 
 

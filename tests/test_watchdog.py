@@ -20,19 +20,19 @@ def recorder() -> tuple[Watchdog, list[tuple[str, str]]]:
 
 def test_a_stopped_stream_times_out_once_and_recovers() -> None:
     dog, events = recorder()
-    dog.watch("driving_motor_message", period=0.2)  # timeout: three periods, 0.6 s
-    assert dog.state("driving_motor_message") is Liveness.INACTIVE
+    dog.watch("drive_motor", period=0.2)  # timeout: three periods, 0.6 s
+    assert dog.state("drive_motor") is Liveness.INACTIVE
     for now in (0.0, 0.2, 0.4):
-        dog.seen("driving_motor_message", now)
-    assert dog.state("driving_motor_message") is Liveness.ACTIVE
+        dog.seen("drive_motor", now)
+    assert dog.state("drive_motor") is Liveness.ACTIVE
     assert dog.poll(0.9) == []
-    assert dog.poll(1.1) == ["driving_motor_message"]
+    assert dog.poll(1.1) == ["drive_motor"]
     assert dog.poll(2.0) == []
-    assert events == [("timeout", "driving_motor_message")]
-    assert dog.state("driving_motor_message") is Liveness.INACTIVE
-    dog.seen("driving_motor_message", 2.1)
-    assert events[-1] == ("recover", "driving_motor_message")
-    assert dog.state("driving_motor_message") is Liveness.ACTIVE
+    assert events == [("timeout", "drive_motor")]
+    assert dog.state("drive_motor") is Liveness.INACTIVE
+    dog.seen("drive_motor", 2.1)
+    assert events[-1] == ("recover", "drive_motor")
+    assert dog.state("drive_motor") is Liveness.ACTIVE
 
 
 def test_nothing_fires_before_the_first_arrival() -> None:

@@ -110,7 +110,7 @@ def send(
     """Send one payload (protobuf JSON, as for encode) to HOST:PORT, COUNT times at RATE Hz.
 
     \b
-      erc-codec send 127.0.0.1:5000 driving_motor_message \\
+      erc-codec send 127.0.0.1:5000 drive_motor \\
           '{"distance_to_go": 1.5}' --rate 10 --count 50
     """
     host, port = parse_address(target)
