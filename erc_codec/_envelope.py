@@ -96,7 +96,9 @@ class Envelope:
         # Payload class → (tag-and-length header for each payload length that fits, contract
         # screen and check, serializer); None marks a type two members share, which cannot be
         # wrapped without naming the member. The serializer is the class's own method: looking
-        # it up on each instance costs more in upb than serializing a small message does.
+        # it up on each instance costs more in upb than serializing a small message does. It is
+        # the partial one, so that an unset proto2 required field is the contract's EncodeError
+        # (naming the field) rather than protobuf's own.
         self._members: dict[type[Message], _Member | None] = {}
         # First tag byte (or first | second << 8 for two-byte tags) → (kind, the payload class's
         # parser, offset of the length prefix).
@@ -116,7 +118,9 @@ class Envelope:
             cls = _member_class(envelope, field.name)
             screen, check = rules or (None, None)
             self._members[cls] = (
-                None if cls in self._members else (headers, screen, check, cls.SerializeToString)
+                None
+                if cls in self._members
+                else (headers, screen, check, cls.SerializePartialToString)
             )
             self._payloads[field.name] = cls
             if len(tag) <= 2:
