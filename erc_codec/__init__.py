@@ -11,7 +11,7 @@ from typing import Any
 
 from google.protobuf.message import Message
 
-from ._codec import Codec, Direction, Member
+from ._codec import Codec, Direction, Member, MessageCodec
 from ._detections import AssemblerStats, DetectionAssembler, DetectionFrame, FrameLoss, Rejected
 from ._dispatch import Dispatcher, DispatchStats, Drop
 from ._envelope import Decoded, Mode
@@ -38,6 +38,7 @@ __all__ = [
     "FrameLoss",
     "Liveness",
     "Member",
+    "MessageCodec",
     "Mode",
     "Rejected",
     "SchemaError",

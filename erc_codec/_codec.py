@@ -3,17 +3,21 @@
 import functools
 import os
 import re
+from collections.abc import Sequence
 from importlib import resources
 from pathlib import Path
 from typing import NamedTuple
 
+from google.protobuf.descriptor import Descriptor
 from google.protobuf.message import Message
 
 from ._contract import contract
 from ._envelope import Envelope
+from ._plain import Plain
+from ._strict import refusal
 from .schema import Schema, Sizes, load_schema, message_of
 
-__all__ = ["Codec", "Direction", "Member", "default_tree"]
+__all__ = ["Codec", "Direction", "Member", "MessageCodec", "default_tree", "is_envelope"]
 
 # A member's trailing comment, as the rover's envelope writes it: ``// direction: ROS2 -> BS``.
 _DIRECTION = re.compile(r"direction:[ \t]*(\S.*?)[ \t]*->[ \t]*(\S.*?)[ \t]*$", re.MULTILINE)
@@ -50,20 +54,26 @@ class Codec(Envelope):
 
     Loading compiles the root's file and its imports, computes every message's nanopb maximum size
     and checks that everything reachable from the root is fixed-size; any problem is a
-    ``SchemaError`` naming the file and line.
+    ``SchemaError`` naming the file and line. ``options_file`` and ``settings`` are nanopb's
+    generator's ``-f`` and ``-s`` (see ``erc_codec.schema.Sizes``).
     """
 
-    def __init__(self, schema: Schema) -> None:
-        self._schema = schema
-        self._sizes = Sizes(schema)
-        root = schema.root
-        self._sizes.require_fixed(root)
-        self.root = root.full_name
+    def __init__(
+        self, schema: Schema, options_file: str = "%s.options", settings: Sequence[str] = ()
+    ) -> None:
+        self._load(schema, options_file, settings)
         super().__init__(
-            schema.message_class(root.full_name),
-            self._sizes.max_size(root.full_name),
+            schema.message_class(self.root),
+            self._sizes.max_size(self.root),
             functools.partial(contract, self._sizes),
+            functools.partial(refusal, self._sizes),
         )
+
+    def _load(self, schema: Schema, options_file: str, settings: Sequence[str]) -> None:
+        self._schema = schema
+        self._sizes = Sizes(schema, options_file, settings)
+        self._sizes.require_fixed(schema.root)
+        self.root = schema.root.full_name
 
     @property
     def schema(self) -> Schema:
@@ -76,9 +86,24 @@ class Codec(Envelope):
         return self._sizes
 
     @classmethod
-    def from_path(cls, tree: str | os.PathLike[str], root: str = "PBEnvelope") -> "Codec":
-        """Load the proto tree under ``tree`` (the import root), starting from message ``root``."""
-        return cls(load_schema(tree, root))
+    def from_path(
+        cls,
+        tree: str | os.PathLike[str],
+        root: str = "PBEnvelope",
+        include: Sequence[str | os.PathLike[str]] = (),
+        options_file: str = "%s.options",
+        settings: Sequence[str] = (),
+    ) -> "Codec":
+        """Load the proto tree under ``tree`` (the import root), starting from message ``root``
+        (its full name), with ``include`` as further import folders (``-I``).
+
+        An envelope root (a message that is one oneof of messages) gives the envelope codec; any
+        other message a ``MessageCodec``, which sends that message alone in the same three forms.
+        """
+        schema = load_schema(tree, root, include)
+        if cls is Codec and not is_envelope(schema.root):
+            return MessageCodec(schema, options_file, settings)
+        return cls(schema, options_file, settings)
 
     @classmethod
     def default(cls) -> "Codec":
@@ -110,6 +135,37 @@ class Codec(Envelope):
             direction = Direction(found[1], found[2]) if found else None
             members.append(Member(number, kind, message_of(field).full_name, direction))
         return tuple(members)
+
+
+def is_envelope(descriptor: Descriptor) -> bool:
+    """Whether a message is an envelope: one oneof, whose members (all its fields) are
+    messages."""
+    oneofs = descriptor.oneofs
+    fields = descriptor.fields
+    return (
+        len(oneofs) == 1
+        and len(oneofs[0].fields) == len(fields) > 0
+        and all(field.message_type is not None for field in fields)
+    )
+
+
+class MessageCodec(Plain, Codec):
+    """A ``Codec`` rooted at a plain message (not an envelope): ``encode`` takes an instance of
+    the root, ``decode`` returns it with the root's full name as the kind; the three forms,
+    the contract and the errors are the envelope codec's. ``kinds()`` and ``members()`` are
+    empty."""
+
+    def __init__(
+        self, schema: Schema, options_file: str = "%s.options", settings: Sequence[str] = ()
+    ) -> None:
+        self._load(schema, options_file, settings)
+        Plain.__init__(
+            self,
+            schema.message_class(self.root),
+            self._sizes.max_size(self.root),
+            functools.partial(contract, self._sizes),
+            functools.partial(refusal, self._sizes),
+        )
 
 
 @functools.cache

@@ -24,6 +24,7 @@ from typing import Literal, NamedTuple
 
 from google.protobuf.descriptor import Descriptor
 from google.protobuf.message import DecodeError as ProtobufDecodeError
+from google.protobuf.message import EncodeError as ProtobufEncodeError
 from google.protobuf.message import Message
 
 from ._contract import Contract
@@ -78,8 +79,10 @@ class Envelope:
         envelope: type[Message],
         max_size: int,
         contract: Callable[[Descriptor], Contract | None],
+        refusal: Callable[[Message], str | None] | None = None,
     ) -> None:
         descriptor = descriptor_of(envelope)
+        self._refusal = refusal  # what nanopb's decoder refuses, for strict decodes
         oneofs = descriptor.oneofs
         if len(oneofs) != 1 or len(oneofs[0].fields) != len(descriptor.fields):
             raise SchemaError(
@@ -96,9 +99,7 @@ class Envelope:
         # Payload class → (tag-and-length header for each payload length that fits, contract
         # screen and check, serializer); None marks a type two members share, which cannot be
         # wrapped without naming the member. The serializer is the class's own method: looking
-        # it up on each instance costs more in upb than serializing a small message does. It is
-        # the partial one, so that an unset proto2 required field is the contract's EncodeError
-        # (naming the field) rather than protobuf's own.
+        # it up on each instance costs more in upb than serializing a small message does.
         self._members: dict[type[Message], _Member | None] = {}
         # First tag byte (or first | second << 8 for two-byte tags) → (kind, the payload class's
         # parser, offset of the length prefix).
@@ -118,9 +119,7 @@ class Envelope:
             cls = _member_class(envelope, field.name)
             screen, check = rules or (None, None)
             self._members[cls] = (
-                None
-                if cls in self._members
-                else (headers, screen, check, cls.SerializePartialToString)
+                None if cls in self._members else (headers, screen, check, cls.SerializeToString)
             )
             self._payloads[field.name] = cls
             if len(tag) <= 2:
@@ -147,7 +146,14 @@ class Envelope:
             data = self._encode_other(message)
         else:
             headers, screen, check, serialize = member
-            body = serialize(message)
+            try:
+                body = serialize(message)
+            except ProtobufEncodeError:  # an unset proto2 required field: the check names it
+                if check is not None:
+                    check(message)
+                raise EncodeError(
+                    f"{message.DESCRIPTOR.full_name}: unset required fields"
+                ) from None
             if check is not None and (screen is None or screen(body)):
                 check(message)
             try:
@@ -242,8 +248,12 @@ class Envelope:
             return kind, data[start:] + bytes(end - size)
         return None
 
-    def decode(self, data: bytes) -> Decoded:
-        """The payload of a datagram in exact, stripped or zero-padded form."""
+    def decode(self, data: bytes, strict: bool = False) -> Decoded:  # noqa: C901 - see below
+        """The payload of a datagram in exact, stripped or zero-padded form; with ``strict``, a
+        ``DecodeError`` too for what nanopb's decoder refuses (a missing required field, a
+        string, bytes or array over its limit, a fixed-length field of the wrong size)."""
+        if strict:
+            return self._strict(data)
         # peek's arithmetic, written out here once more: the call to peek would cost a tenth of
         # a decode, and the decode target of benchmarks/bench_codec.py (exact datagrams in at
         # most 1.25x the bare runtime's time) has no tenth to spare. tests/test_envelope_decode.py
@@ -288,6 +298,13 @@ class Envelope:
                 f"datagram of {size} bytes: its {kind} payload of {len(payload)} bytes is "
                 f"not a valid {self._payload_name(kind)}: {error}"
             ) from None
+
+    def _strict(self, data: bytes) -> Decoded:
+        decoded = self.decode(data)
+        why = self._refusal(decoded.message) if self._refusal is not None else None
+        if why is not None:
+            raise DecodeError(f"nanopb's decoder refuses the {decoded.kind} payload: {why}")
+        return decoded
 
     def _payload_name(self, kind: str) -> str:
         return message_of(descriptor_of(self._class).fields_by_name[kind]).full_name
