@@ -275,10 +275,10 @@ def _element_check(sizes: Sizes, field: FieldDescriptor) -> Callable[[Any, str],
         return _enum_item(field)
     if field.type in (_T.TYPE_STRING, _T.TYPE_BYTES):
         limit = sizes.max_bytes(field)
+        # fixed_length bytes without presence too: protobuf sends b"" as nothing, which nanopb
+        # reads as max_size zeros (and sends as such), not as the b"" that was meant.
         exact = field.type == _T.TYPE_BYTES and bool(sizes.options(field).fixed_length)
-        # Without presence, b"" is what nanopb's all-zero value decodes to: it may be sent.
-        empty = not (field.is_repeated or field.has_presence)
-        return _sized_item(limit, field.type == _T.TYPE_STRING, exact, empty)
+        return _sized_item(limit, field.type == _T.TYPE_STRING, exact)
     bounds = sizes.int_range(field)
     if bounds is not None:
         return _ranged_item(*bounds)
@@ -300,14 +300,12 @@ def _enum_item(field: FieldDescriptor) -> Callable[[Any, str], None]:
     return enum_item
 
 
-def _sized_item(
-    limit: int | None, text: bool, exact: bool = False, empty: bool = False
-) -> Callable[[Any, str], None]:
+def _sized_item(limit: int | None, text: bool, exact: bool = False) -> Callable[[Any, str], None]:
     def sized_item(value: Any, path: str) -> None:
         length = len(value.encode("utf-8")) if text else len(value)
         if limit is not None and length > limit:
             raise EncodeError(f"{path} is {length} bytes long, more than the {limit} allowed")
-        if exact and length != limit and (length or not empty):
+        if exact and length != limit:
             raise EncodeError(f"{path} is {length} bytes long; fixed_length needs exactly {limit}")
         if text and "\0" in value:
             raise EncodeError(

@@ -72,8 +72,7 @@ def _value(sizes: Sizes, field: FieldDescriptor, path: str, value: Any) -> str |
         if limit is not None and length > limit:
             return f"{path} is {length} bytes long, more than the {limit} allowed (overflow)"
         fixed = field.type == _T.TYPE_BYTES and sizes.options(field).fixed_length
-        empty = not (field.is_repeated or field.has_presence)
-        if fixed and length != limit and (length or not empty):
+        if fixed and length not in (0, limit):  # nanopb reads an empty value as zeros
             return f"{path} is {length} bytes long; fixed_length needs exactly {limit}"
         return None
     bounds = sizes.int_range(field)

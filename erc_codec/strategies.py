@@ -122,11 +122,7 @@ class _Builder:
         limit = self._codec.nanopb.max_bytes(field)
         if kind == _T.TYPE_BYTES:
             if limit is not None and self._codec.nanopb.options(field).fixed_length:
-                exact = st.binary(min_size=limit, max_size=limit)
-                if field.is_repeated or field.has_presence:
-                    return exact
-                # Without presence nanopb sends all zeros as nothing, which decodes as b"".
-                return exact.map(lambda value: value if any(value) else b"")
+                return st.binary(min_size=limit, max_size=limit)
             return st.binary(max_size=_UNBOUNDED_TEXT if limit is None else limit)
         if kind == _T.TYPE_STRING:
             room = _UNBOUNDED_TEXT if limit is None else limit
