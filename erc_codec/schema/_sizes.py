@@ -188,8 +188,12 @@ class Sizes:
         options = self.options(field)
         if options.type in (_FT_CALLBACK, _FT_POINTER):
             return f"nanopb type {'FT_CALLBACK' if options.type == _FT_CALLBACK else 'FT_POINTER'}"
-        if field.is_repeated and self.max_count(field) is None:
+        if self._repeated(field) and self.max_count(field) is None:
             return "repeated field without nanopb max_count"
+        sub = field.message_type
+        if sub is not None and not self._generated(sub):
+            # the generator writes "#if defined(Sub_size)" around a size that never is defined
+            return f"its type {sub.full_name} is not generated (skip_message, or deprecated)"
         if field.type in (_T.TYPE_STRING, _T.TYPE_BYTES) and self.max_bytes(field) is None:
             kind = "string" if field.type == _T.TYPE_STRING else "bytes"
             return f"{kind} field without nanopb max_size"
@@ -257,6 +261,13 @@ class Sizes:
                 groups.append((oneof, unions[oneof.full_name]))
         return groups
 
+    def _repeated(self, field: FieldDescriptor) -> bool:
+        """Whether nanopb sees ``field`` as repeated (its ``label_override``, else the label)."""
+        options = self.options(field)
+        if options.HasField("label_override"):
+            return bool(options.label_override == _T.LABEL_REPEATED)
+        return field.is_repeated
+
     def _field_size(self, field: FieldDescriptor) -> int | None:
         if self._problem(field) is not None:
             return None
@@ -267,9 +278,10 @@ class Sizes:
             sub = self._memo.get(message_of(field).full_name)  # absent: open, contains itself
             payload = None if sub is None else sub + varint_size(sub)
         elif kind in (_T.TYPE_STRING, _T.TYPE_BYTES):
+            # max_length sizes a field written as a string, whatever its type_override
             limit = (
                 options.max_length + 1
-                if kind == _T.TYPE_STRING and options.HasField("max_length")
+                if field.type == _T.TYPE_STRING and options.HasField("max_length")
                 else options.max_size
             )
             payload = varint_size(limit) + limit - (1 if kind == _T.TYPE_STRING else 0)
@@ -282,7 +294,7 @@ class Sizes:
         if payload is None:
             return None
         tag = varint_size(field.number << 3)
-        if not field.is_repeated:
+        if not self._repeated(field):
             return tag + payload
         count = int(options.max_count)
         return (tag + payload) * count + (1 if count == 1 else 0)
