@@ -262,3 +262,32 @@ def test_nesting_deeper_than_python_recurses(tmp_path: Path) -> None:
 
 def test_default_codec_is_unchanged() -> None:
     assert type(erc_codec.Codec.default()) is Codec
+
+
+# -- the command line ----------------------------------------------------------------------------
+
+
+def erc_codec_cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "erc_codec", *args], capture_output=True, text=True, check=False
+    )
+
+
+def test_the_cli_encodes_and_decodes_a_plain_root() -> None:
+    tree = ("--proto", str(TREES / "rules"), "--root", "Probe")
+    done = erc_codec_cli("encode", *tree, "Probe", '{"key": "YWJjZA==", "quad": [1, 2, 3, 4]}')
+    assert done.returncode == 0, done.stderr
+    datagram = done.stdout.strip()
+    assert datagram == "0a0461626364121001000000020000000300000004"  # stripped: 3 zeros fewer
+    decoded = erc_codec_cli("decode", *tree, datagram)
+    assert decoded.returncode == 0, decoded.stderr
+    assert '"kind": "Probe"' in decoded.stdout
+    assert '"quad": [1, 2, 3, 4]' in decoded.stdout
+    refused = erc_codec_cli("encode", *tree, "Probe", '{"quad": [1, 2, 3, 4]}')
+    assert refused.returncode == 1
+    assert refused.stderr == "Error: Probe.key is 0 bytes long; fixed_length needs exactly 4\n"
+    wrong = erc_codec_cli("encode", *tree, "probe", "{}")
+    assert wrong.returncode == 2
+    assert "Probe has no members: it is a plain message, KIND Probe" in wrong.stderr
+    sizes = erc_codec_cli("sizes", *tree)
+    assert re.search(r"^\s+Probe\.Inner\s+5$", sizes.stdout, re.MULTILINE), sizes.stdout

@@ -135,10 +135,14 @@ def envelope_from_json(codec: Codec, kind: str, text: str) -> Message:
     Unknown kinds are a usage error (exit 2), bad JSON a bad-input error (exit 1), one line each.
     """
     members = list(codec.kinds().values())
-    if kind not in members:
-        raise Fatal(f"unknown kind {kind!r}: {codec.root} has {', '.join(members)}")
-    envelope = codec.message_class(codec.root)()
-    message = getattr(envelope, kind)
+    if not members and kind == codec.root:  # a plain-message root: the message itself
+        envelope = message = codec.message_class(codec.root)()
+    elif kind not in members:
+        known = ", ".join(members) or f"no members: it is a plain message, KIND {codec.root}"
+        raise Fatal(f"unknown kind {kind!r}: {codec.root} has {known}")
+    else:
+        envelope = codec.message_class(codec.root)()
+        message = getattr(envelope, kind)
     try:
         document = json.loads(text, object_pairs_hook=_unique_keys)
     except (ValueError, RecursionError) as error:
