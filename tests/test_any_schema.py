@@ -10,6 +10,7 @@ import re
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -79,7 +80,7 @@ def test_a_codec_with_an_include_folder_and_settings() -> None:
     )
     assert isinstance(codec, MessageCodec)
     assert codec.max_size("Reading") == 33  # units.options, found beside units.proto on -I
-    app = codec.message_class("App")(label="x" * 19, counts=[1, 2, 3])
+    app: Any = codec.message_class("App")(label="x" * 19, counts=[1, 2, 3])
     app.reading.unit = "kPa"
     assert codec.decode(codec.encode(app)).message == app
     with pytest.raises(EncodeError, match=r"App\.label is 20 bytes long, more than the 19"):
