@@ -1,18 +1,19 @@
-"""``Codec``: one loaded schema with its nanopb sizes and its envelope encoder/decoder."""
+"""``Codec``: one loaded schema with its nanopb sizes, its envelope encoder/decoder and its JSON."""
 
 import functools
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 from google.protobuf.descriptor import Descriptor
 from google.protobuf.message import Message
 
 from ._contract import contract
 from ._envelope import Envelope
+from ._errors import SchemaError
 from ._plain import Plain
 from ._strict import refusal
 from .schema import Schema, Sizes, load_schema, message_of
@@ -135,6 +136,62 @@ class Codec(Envelope):
             direction = Direction(found[1], found[2]) if found else None
             members.append(Member(number, kind, message_of(field).full_name, direction))
         return tuple(members)
+
+    # -- protobuf's JSON mapping -----------------------------------------------------------------
+    # Each method imports ``_json`` (and with it json and json_format) when first called: erc-lint
+    # imports erc_codec at start-up, which bench_lint.py times and tests/test_lint_cli.py keeps
+    # free of json; after the first call the import is a dict look-up.
+
+    def to_dict(self, message: Message) -> dict[str, Any]:
+        """``message`` (of any type) in protobuf's JSON mapping, as ``erc-codec decode`` prints
+        it: field names as in the .proto, in its order at every level, every field without
+        presence shown, enums by name, 64-bit integers as strings, bytes in base64, a float as
+        the shortest decimal of its 32 bits, ``"NaN"`` and ``"Infinity"`` as strings."""
+        from ._json import to_dict
+
+        return to_dict(message)
+
+    def to_json(self, message: Message) -> str:
+        """``to_dict(message)`` as one line of JSON text."""
+        from ._json import to_json
+
+        return to_json(message)
+
+    def from_dict(self, kind_or_class: str | type[Message], document: Mapping[str, Any]) -> Message:
+        """The message ``document`` spells in protobuf's JSON mapping (what ``to_dict`` gives, or
+        json.loads of such text), of payload kind ``kind_or_class`` (``"gps_info"``), of the
+        message so named (``"SensorBoardGPSInfo"``) or of that message class. Names as in the
+        .proto or in lowerCamelCase, enums by name or a declared number, 64-bit integers as
+        numbers or strings; every value range-checked before it is converted. A value that does
+        not fit is an ``EncodeError`` naming its full path and what the field takes; an unknown
+        kind or name a ``SchemaError``. nanopb's own limits are checked by ``encode``."""
+        from ._json import from_dict
+
+        return from_dict(self._json_class(kind_or_class), document)
+
+    def from_json(self, kind_or_class: str | type[Message], text: str | bytes) -> Message:
+        """``from_dict`` of JSON text, read strictly (a key given twice is an ``EncodeError``,
+        numbers are read exactly)."""
+        from ._json import from_json
+
+        return from_json(self._json_class(kind_or_class), text)
+
+    def _json_class(self, kind_or_class: str | type[Message]) -> type[Message]:
+        if isinstance(kind_or_class, type) and issubclass(kind_or_class, Message):
+            return kind_or_class
+        if not isinstance(kind_or_class, str):
+            raise TypeError(
+                "from_dict and from_json take a kind, a message name or a message class, not "
+                f"{type(kind_or_class).__name__}"
+            )
+        kinds = self.kinds().values()
+        try:
+            return self.message_class(kind_or_class)  # a kind or a message name
+        except SchemaError:
+            raise SchemaError(
+                f"{kind_or_class!r} is neither a payload kind of {self.root} ({', '.join(kinds)}) "
+                "nor a message of its schema"
+            ) from None
 
 
 def is_envelope(descriptor: Descriptor) -> bool:

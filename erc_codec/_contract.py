@@ -18,8 +18,12 @@ happen to look like an enum tag can too, and then the exact check merely runs fo
 
 The exact check is straight-line Python compiled once per message type (as dataclasses and
 protobuf's own pure-Python runtime do): each submessage fetched once, all of its enum fields tested
-in one ``if``, and it names the field that is wrong. Strings, bytes, repeated fields and
-``int_size`` leave no trace the screen could see, so a type that has them has no screen.
+in one ``if``, and it names the field that is wrong by its full path from the payload type:
+``LimitsRecord.points[1].colour``, a map's value by its key as JSON writes it
+(``LimitsRecord.palette[key=1]``). The path is only put together when something is wrong: a check
+takes the path of the message it checks (``p``, the type's name by default), and an item that is
+a message is checked with its own path. Strings, bytes, repeated fields and ``int_size`` leave no
+trace the screen could see, so a type that has them has no screen.
 
 Both tricks serve one target, the encode ratio of ``benchmarks/bench_codec.py`` (wrap, check and
 serialize in at most twice the bare serialization); ``tests/test_contract.py`` holds the compiled
@@ -37,11 +41,12 @@ from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from google.protobuf.message import Message
 
 from ._errors import EncodeError
+from ._paths import entry_path
 from .schema import Sizes, encode_varint, enum_of, message_of
 
 __all__ = ["Contract", "contract"]
 
-Check = Callable[[Message], None]
+Check = Callable[..., None]  # check(message, path=its type's full name)
 _T = FieldDescriptor
 
 
@@ -127,9 +132,8 @@ def _required_check(sizes: Sizes, descriptor: Descriptor) -> Check | None:
                 pending.append(sub)
     if not wanted:
         return None
-    top = descriptor.full_name
 
-    def check(root: Message) -> None:
+    def check(root: Message, top: str) -> None:
         stack: list[tuple[Message, str]] = [(root, top)]
         while stack:
             message, path = stack.pop()
@@ -150,7 +154,7 @@ def _submessages(message: Message, path: str) -> Iterator[tuple[Message, str]]:
         if field.message_type.GetOptions().map_entry:
             for key, item in value.items():
                 if isinstance(item, Message):
-                    yield item, f"{here}[{key!r}]"
+                    yield item, entry_path(here, key)
         elif field.is_repeated:
             for j, item in enumerate(value):
                 yield item, f"{here}[{j}]"
@@ -159,18 +163,20 @@ def _submessages(message: Message, path: str) -> Iterator[tuple[Message, str]]:
 
 
 def _compile(descriptor: Descriptor, source: "_Source", body: list[str]) -> Check:
-    """The check function whose lines ``source`` emitted as ``body``."""
-    top = descriptor.full_name
+    """The check function whose lines ``source`` emitted as ``body``: ``check(m, p)``, ``p``
+    the path of ``m`` (by default its type's full name)."""
     enums = source.enums
 
-    def fail(message: Message) -> None:
+    def fail(message: Message, prefix: str) -> None:
         for path, allowed, enum_name in enums:
             value = attrgetter(path)(message)
             if value not in allowed:
-                raise EncodeError(f"{top}.{path} = {value} is not a declared value of {enum_name}")
+                raise EncodeError(
+                    f"{prefix}.{path} = {value} is not a declared value of {enum_name}"
+                )
 
-    namespace: dict[str, Any] = {"fail": fail, **source.names}
-    exec("\n".join(["def check(m):", *body]), namespace)  # our own generated code
+    namespace: dict[str, Any] = {"fail": fail, "top": descriptor.full_name, **source.names}
+    exec("\n".join(["def check(m, p=top):", *body]), namespace)  # our own generated code
     return namespace["check"]  # type: ignore[no-any-return]
 
 
@@ -189,7 +195,7 @@ class _Source:
         if not prefix:  # the top: one walk checks required fields at every depth
             required = _required_check(self._sizes, descriptor)
             if required is not None:
-                lines.append(f" {self._name(required)}({var})")
+                lines.append(f" {self._name(required)}({var}, p)")
                 self.reads += 1
         tests: list[str] = []
         for field in descriptor.fields:
@@ -206,11 +212,12 @@ class _Source:
                 or field.type in (_T.TYPE_STRING, _T.TYPE_BYTES)
                 or self._sizes.int_range(field) is not None
             ):
-                check = _field_check(self._sizes, field, f"{descriptor.full_name}.{field.name}")
+                check = _field_check(self._sizes, field, path)
+                call = f"{self._name(check)}({read}, p)"
                 if _checked_when_set(self._sizes, field):
-                    lines.append(f" if {var}.HasField({field.name!r}): {self._name(check)}({read})")
+                    lines.append(f" if {var}.HasField({field.name!r}): {call}")
                 else:
-                    lines.append(f" {self._name(check)}({read})")
+                    lines.append(f" {call}")
                 self.reads += 1
             elif field.type == _T.TYPE_ENUM:
                 allowed = frozenset(value.number for value in enum_of(field).values)
@@ -225,7 +232,7 @@ class _Source:
                     lines += [f" {inner} = {read}", *nested]
                     self.reads += 1
         if tests:
-            lines.insert(0, f" if {' or '.join(tests)}: fail(m)")
+            lines.insert(0, f" if {' or '.join(tests)}: fail(m, p)")
         return lines
 
     def _name(self, value: object) -> str:
@@ -245,24 +252,29 @@ def _checked_when_set(sizes: Sizes, field: FieldDescriptor) -> bool:
     )
 
 
-def _field_check(sizes: Sizes, field: FieldDescriptor, where: str) -> Callable[[Any], None]:
-    """Check the value of one repeated, string, bytes or int_size field."""
+def _field_check(sizes: Sizes, field: FieldDescriptor, path: str) -> Callable[[Any, str], None]:
+    """Check the value of one repeated, string, bytes or int_size field at ``path`` below the
+    message whose path a call gives."""
     element = _element_check(sizes, field)
     if not field.is_repeated:
-        return lambda value: element(value, where)
+        return lambda value, prefix: element(value, f"{prefix}.{path}")
     count = sizes.max_count(field)
     fixed = count is not None and bool(sizes.options(field).fixed_count)
 
-    def check(value: Any) -> None:
+    def check(value: Any, prefix: str) -> None:
+        where = f"{prefix}.{path}"
         if count is not None and len(value) > count:
             raise EncodeError(f"{where} holds {len(value)} items, more than its max_count {count}")
         if fixed and len(value) != count:
             raise EncodeError(
                 f"{where} holds {len(value)} items; fixed_count needs exactly {count}"
             )
-        items = value.values() if isinstance(value, Mapping) else value
-        for index, item in enumerate(items):
-            element(item, f"{where}[{index}]")
+        if isinstance(value, Mapping):
+            for key, item in value.items():
+                element(item, entry_path(where, key))
+        else:
+            for index, item in enumerate(value):
+                element(item, f"{where}[{index}]")
 
     return check
 
@@ -285,7 +297,7 @@ def _element_check(sizes: Sizes, field: FieldDescriptor) -> Callable[[Any, str],
     if field.type == _T.TYPE_MESSAGE:
         nested = checker(sizes, message_of(field))
         if nested is not None:
-            return lambda value, path: nested(value)
+            return nested  # nested(item, its path)
     return lambda value, path: None
 
 

@@ -8,15 +8,21 @@ What this module guarantees:
   last top-level field, so restoring them takes one walk over the top-level fields (one, in an
   envelope): bytes past the end count as zeros for as long as that field needs, and a zero byte
   where a tag is expected ends the message, provided nothing but zeros follows it.
+- It restores only zeros some encoder could have written: a restoration giving a field without
+  presence its default is a datagram cut short, reason ``truncated`` (see ``_truncation``).
+- ``encode`` never produces a datagram ``decode`` refuses, and ``decode`` takes any bytes-like
+  object (a ``str`` is a ``TypeError``).
 - Every failure is a ``DecodeError``/``EncodeError`` saying what and where (offset, field path).
 
 Both directions run per datagram, so the common case is the protobuf call plus a few byte
 operations. Encoding looks the payload class up in a dict and prepends a precomputed tag-and-length
 header to the payload's own serialization. Decoding reads that header itself (``peek``: tag → kind,
 length → where the payload ends), so protobuf parses only the payload bytes: a stripped datagram
-gets its missing zeros appended and a padded one is cut, by arithmetic, before the one parse.
-Datagrams of any other shape (several top-level fields, unknown members, corruption) take the
-general path: the repair walk over the whole envelope, then the envelope parse.
+gets its missing zeros appended and a padded one is cut, by arithmetic, before the one parse;
+only a datagram whose zeros were restored has its parse serialized again, and only when that
+differs from the restored bytes is the payload walked for a cut field. Datagrams of any other
+shape (several top-level fields, unknown members, corruption) take the general path: the repair
+walk over the whole envelope, then the envelope parse.
 """
 
 from collections.abc import Callable
@@ -29,6 +35,7 @@ from google.protobuf.message import Message
 
 from ._contract import Contract
 from ._errors import DecodeError, EncodeError, SchemaError
+from ._truncation import Table, cut_reason, presence_table
 from .schema import (
     EGROUP,
     LEN,
@@ -45,6 +52,7 @@ from .schema import (
 __all__ = ["Decoded", "Envelope", "Mode"]
 
 Mode = Literal["strip", "exact", "pad"]
+_Tag = tuple[str, Callable[[bytes], Message], int]
 _Member = tuple[
     list[bytes],
     Callable[[bytes], object] | None,
@@ -102,9 +110,16 @@ class Envelope:
         # it up on each instance costs more in upb than serializing a small message does.
         self._members: dict[type[Message], _Member | None] = {}
         # First tag byte (or first | second << 8 for two-byte tags) → (kind, the payload class's
-        # parser, offset of the length prefix).
-        self._tags: dict[int, tuple[str, Callable[[bytes], Message], int]] = {}
+        # parser, offset of the length prefix). ``_first`` holds the one-byte tags' again, by
+        # index: a list lookup spares decode a method call (see decode).
+        self._tags: dict[int, _Tag] = {}
+        self._first: list[_Tag | None] = [None] * 256
         self._payloads: dict[str, type[Message]] = {}  # kind → payload class
+        # What judging restored zeros takes: the envelope's presence table (general path), and
+        # per kind the payload's serializer and table (fast path).
+        tables: dict[str, Table] = {}
+        self._table = presence_table(descriptor, tables)
+        self._restoring: dict[str, tuple[Callable[[Message], bytes], Table]] = {}
         for field in descriptor.fields:
             payload = field.message_type
             if payload is None:
@@ -122,8 +137,11 @@ class Envelope:
                 None if cls in self._members else (headers, screen, check, cls.SerializeToString)
             )
             self._payloads[field.name] = cls
+            self._restoring[field.name] = (cls.SerializeToString, presence_table(payload, tables))
             if len(tag) <= 2:
                 self._tags[int.from_bytes(tag, "little")] = (field.name, cls.FromString, len(tag))
+            if len(tag) == 1:
+                self._first[tag[0]] = self._tags[tag[0]]
         self._by_name = {cls.DESCRIPTOR.full_name: member for cls, member in self._members.items()}
 
     def kinds(self) -> dict[int, str]:
@@ -143,26 +161,28 @@ class Envelope:
         """The datagram carrying ``message`` (a payload, or a whole envelope) in ``mode``."""
         member = self._members.get(type(message))
         if member is None:
-            data = self._encode_other(message)
-        else:
-            headers, screen, check, serialize = member
-            try:
-                body = serialize(message)
-            except ProtobufEncodeError:  # an unset proto2 required field: the check names it
-                if check is not None:
-                    check(message)
-                raise EncodeError(
-                    f"{message.DESCRIPTOR.full_name}: unset required fields"
-                ) from None
-            if check is not None and (screen is None or screen(body)):
+            return self._encode_other(message, mode)
+        headers, screen, check, serialize = member
+        try:
+            body = serialize(message)
+        except ProtobufEncodeError:  # an unset proto2 required field: the check names it
+            if check is not None:
                 check(message)
-            try:
-                header = headers[len(body)]
-            except IndexError:
-                raise self._too_long(message, headers, body) from None
-            if mode == "strip":  # a body is empty or ends in a field, never in its tag
-                return header + body.rstrip(b"\0") if body else header.rstrip(b"\0")
-            data = header + body
+            raise EncodeError(f"{message.DESCRIPTOR.full_name}: unset required fields") from None
+        if check is not None and (screen is None or screen(body)):
+            check(message)
+        try:
+            header = headers[len(body)]
+        except IndexError:
+            raise self._too_long(message, headers, body) from None
+        if mode == "strip":  # a body is empty or ends in a field, never in its tag
+            return header + body.rstrip(b"\0") if body else header.rstrip(b"\0")
+        if mode == "exact":
+            return header + body
+        return self._in_form(header + body, mode)
+
+    def _in_form(self, data: bytes, mode: Mode) -> bytes:
+        """An exact datagram in transmission form ``mode``."""
         if mode == "strip":
             return data.rstrip(b"\0")
         if mode == "exact":
@@ -171,7 +191,7 @@ class Envelope:
             return data + bytes(self._max_size - len(data))
         raise EncodeError(f"unknown mode {mode!r}: use 'strip', 'exact' or 'pad'")
 
-    def _encode_other(self, message: Message) -> bytes:
+    def _encode_other(self, message: Message, mode: Mode) -> bytes:
         """An envelope, a payload of a class built elsewhere (generated code), or an error."""
         name = message.DESCRIPTOR.full_name
         if name == self._name:
@@ -184,7 +204,17 @@ class Envelope:
             data = message.SerializeToString()
             if len(data) > self._max_size:
                 raise self._too_long(message, [b""], data)
-            return data
+            datagram = self._in_form(data, mode)
+            # An envelope parsed from bytes keeps the fields this schema does not know, and some
+            # (a group at the top level) are what decode refuses: never send those.
+            try:
+                self.decode(datagram)
+            except DecodeError as error:
+                raise EncodeError(
+                    f"{self._name} cannot be sent: its own decoder would refuse the datagram "
+                    f"({error}; unknown fields from a newer sender?)"
+                ) from None
+            return datagram
         member = self._by_name.get(name, ())
         if not member:
             raise EncodeError(
@@ -199,7 +229,7 @@ class Envelope:
         body = message.SerializeToString()
         if len(body) >= len(headers):
             raise self._too_long(message, headers, body)
-        return headers[len(body)] + body
+        return self._in_form(headers[len(body)] + body, mode)
 
     def _too_long(self, message: Message, headers: list[bytes], body: bytes) -> EncodeError:
         """The error for a ``body`` too long to fit, ``headers`` being its member's (or ``[b""]``
@@ -216,19 +246,21 @@ class Envelope:
     def peek(self, data: bytes) -> tuple[str, bytes] | None:
         """The kind and exact payload bytes of a datagram in its usual shape (one member, with
         a tag of at most two bytes and a length of at most two, sent exact, stripped or
-        zero-padded), found by arithmetic on its header, without parsing the payload; ``None``
-        for any other datagram, which only the general decoder can judge."""
+        zero-padded), found by arithmetic on its header; ``None`` for any other datagram, which
+        only the general decoder can judge, and for a cut one (see ``decode``). Only a datagram
+        whose zeros were restored has its payload parsed, to tell stripped from cut."""
+        if type(data) is not bytes:
+            data = _as_bytes(data)
         size = len(data)
         if not 0 < size <= self._max_size:
             return None
         first = data[0]
-        if first < 0x80:
-            member = self._tags.get(first)
-        else:
-            member = self._tags.get(first | data[1] << 8) if size > 1 else None
+        member = self._first[first]
         if member is None:
-            return None
-        kind, _, start = member
+            member = self._tags.get(first | data[1] << 8) if first >= 0x80 and size > 1 else None
+            if member is None:
+                return None
+        kind, parse, start = member
         if start == size:  # stripped: the length was a single zero byte
             return kind, b""
         length = data[start]
@@ -245,29 +277,41 @@ class Envelope:
         if end < size:  # zero-padded, unless something other than zeros follows
             return (kind, data[start:end]) if data.count(0, end) == size - end else None
         if end <= self._max_size:  # stripped: the payload's last bytes were zeros
-            return kind, data[start:] + bytes(end - size)
+            payload = data[start:] + bytes(end - size)
+            try:
+                message = parse(payload)
+            except ProtobufDecodeError:
+                return kind, payload  # not a payload at all: its parse says what is wrong
+            cut = self._restored_cut(kind, payload, message, size - start)
+            return None if cut else (kind, payload)
         return None
 
-    def decode(self, data: bytes, strict: bool = False) -> Decoded:  # noqa: C901 - see below
-        """The payload of a datagram in exact, stripped or zero-padded form; with ``strict``, a
-        ``DecodeError`` too for what nanopb's decoder refuses (a missing required field, a
-        string, bytes or array over its limit, a fixed-length field of the wrong size)."""
+    def decode(self, data: bytes, strict: bool = False) -> Decoded:  # noqa: C901
+        """The payload of a datagram in exact, stripped or zero-padded form.
+
+        ``data`` is bytes or any bytes-like object (``bytearray``, ``memoryview``). Restored
+        zeros that give a field without presence its default, which no proto3 encoder sends,
+        are a datagram cut short: ``DecodeError`` with reason ``"truncated"``. With ``strict``,
+        a ``DecodeError`` too for what nanopb's decoder refuses (a missing required field, a
+        string, bytes or array over its limit, a fixed-length field of the wrong size).
+        """
         if strict:
             return self._strict(data)
         # peek's arithmetic, written out here once more: the call to peek would cost a tenth of
         # a decode, and the decode target of benchmarks/bench_codec.py (exact datagrams in at
         # most 1.25x the bare runtime's time) has no tenth to spare. tests/test_envelope_decode.py
         # holds decode equal to peek and a parse, on every form and on hostile bytes.
+        if type(data) is not bytes:
+            data = _as_bytes(data)
         size = len(data)
         if not 0 < size <= self._max_size:
             return self._decode_envelope(data)  # raises the right error
         first = data[0]
-        if first < 0x80:
-            member = self._tags.get(first)
-        else:
-            member = self._tags.get(first | data[1] << 8) if size > 1 else None
+        member = self._first[first]
         if member is None:
-            return self._decode_envelope(data)
+            member = self._tags.get(first | data[1] << 8) if first >= 0x80 and size > 1 else None
+            if member is None:
+                return self._decode_envelope(data)
         kind, parse, start = member
         if start == size:  # stripped: the length was a single zero byte
             end = size
@@ -288,16 +332,13 @@ class Envelope:
                 return self._decode_envelope(data)
             payload = data[start:end]
         elif end <= self._max_size:  # stripped: the payload's last bytes were zeros
-            payload = data[start:] + bytes(end - size)
+            return self._decode_stripped(data, kind, parse, start, end)
         else:
             return self._decode_envelope(data)
         try:
             return _decoded(Decoded, (kind, parse(payload)))
         except ProtobufDecodeError as error:
-            raise DecodeError(
-                f"datagram of {size} bytes: its {kind} payload of {len(payload)} bytes is "
-                f"not a valid {self._payload_name(kind)}: {error}"
-            ) from None
+            raise self._invalid(data, kind, payload, error) from None
 
     def _strict(self, data: bytes) -> Decoded:
         decoded = self.decode(data)
@@ -306,8 +347,40 @@ class Envelope:
             raise DecodeError(f"nanopb's decoder refuses the {decoded.kind} payload: {why}")
         return decoded
 
-    def _payload_name(self, kind: str) -> str:
-        return message_of(descriptor_of(self._class).fields_by_name[kind]).full_name
+    def _decode_stripped(
+        self, data: bytes, kind: str, parse: Callable[[bytes], Message], start: int, end: int
+    ) -> Decoded:
+        """The payload at ``data[start:end]``, whose zeros past the end are restored, unless
+        restoring them makes what no encoder sends."""
+        payload = data[start:] + bytes(end - len(data))
+        try:
+            message = parse(payload)
+        except ProtobufDecodeError as error:
+            raise self._invalid(data, kind, payload, error) from None
+        cut = self._restored_cut(kind, payload, message, len(data) - start)
+        if cut:
+            raise _cut_short(data, cut)
+        return _decoded(Decoded, (kind, message))
+
+    def _restored_cut(self, kind: str, payload: bytes, message: Message, boundary: int) -> str:
+        """What a restoration of ``payload``'s zeros from offset ``boundary`` on makes that no
+        encoder sends (see ``_truncation``), or ``""`` when it is a stripped payload.
+
+        Protobuf serializes no field without presence at its default, nor a varint that ends
+        in ``80 00``, so a payload that serializes back to itself has neither, and most are
+        spared the walk.
+        """
+        serialize, table = self._restoring[kind]
+        return cut_reason(table, payload, message, boundary, serialize(message) == payload)
+
+    def _invalid(
+        self, data: bytes, kind: str, payload: bytes, error: ProtobufDecodeError
+    ) -> DecodeError:
+        name = message_of(descriptor_of(self._class).fields_by_name[kind]).full_name
+        return DecodeError(
+            f"datagram of {len(data)} bytes: its {kind} payload of {len(payload)} bytes is "
+            f"not a valid {name}: {error}"
+        )
 
     def _decode_envelope(self, data: bytes) -> Decoded:
         """The general path: restore the whole envelope, parse it, find the payload."""
@@ -329,12 +402,18 @@ class Envelope:
         data = bytes(data)
         exact = self._restore(data)
         try:
-            return self._from_string(exact)
+            envelope = self._from_string(exact)
         except ProtobufDecodeError as error:
             form = "" if exact == data else " (after restoring its trailing zeros)"
             raise DecodeError(
                 f"datagram of {len(data)} bytes is not a valid {self._name}{form}: {error}"
             ) from None
+        if len(exact) > len(data):
+            canonical = envelope.SerializeToString() == exact
+            cut = cut_reason(self._table, exact, envelope, len(data), canonical, inside=True)
+            if cut:
+                raise _cut_short(data, cut)
+        return envelope
 
     def _restore(self, data: bytes) -> bytes:
         """The exact encoding of a datagram sent exact, stripped or zero-padded."""
@@ -386,3 +465,20 @@ class Envelope:
             "(sent by a newer schema?)",
             "unknown_member",
         )
+
+
+def _cut_short(data: bytes, why: str) -> DecodeError:
+    """The error for a datagram whose restored zeros make what no encoder sends."""
+    return DecodeError(f"datagram of {len(data)} bytes was cut short: {why}", "truncated")
+
+
+def _as_bytes(data: object) -> bytes:
+    """The bytes of a bytes-like object; ``TypeError`` for anything else."""
+    if isinstance(data, str):
+        raise TypeError("a datagram is bytes (or bytearray, memoryview), not str")
+    try:
+        return memoryview(data).tobytes()  # type: ignore[arg-type]
+    except TypeError:
+        raise TypeError(
+            f"a datagram is bytes (or bytearray, memoryview), not {type(data).__name__}"
+        ) from None

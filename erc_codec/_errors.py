@@ -23,7 +23,9 @@ class DecodeError(CodecError):
     """A datagram is not an exact, stripped or zero-padded encoding of a known envelope.
 
     ``reason`` sorts the failure for counters: ``"empty"``, ``"too_long"``, ``"no_payload"``,
-    ``"unknown_member"`` (a payload number this schema lacks: a newer sender) or ``"corrupt"``.
+    ``"unknown_member"`` (a payload number this schema lacks: a newer sender), ``"truncated"``
+    (cut short, not stripped: restoring its zeros would make what no encoder sends, a field
+    without presence at its default or a varint ending in ``80 00``) or ``"corrupt"``.
     """
 
     def __init__(self, message: str, reason: str = "corrupt") -> None:

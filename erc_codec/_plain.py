@@ -9,6 +9,9 @@ What this module guarantees, as ``_envelope`` does for envelopes:
   walk over the top-level fields restores them (bytes past the end count as zeros for as long as
   that field needs), and a zero byte where a tag is expected ends the message, provided nothing
   but zeros follows it. An empty datagram is the message with every field at its default.
+  Restored zeros that make what no encoder sends (a field without presence at its default, a
+  varint ending in ``80 00``: see ``_truncation``) are a datagram cut short, reason
+  ``"truncated"``, as for envelopes.
 - Every failure is a ``DecodeError``/``EncodeError`` saying what and where.
 """
 
@@ -21,6 +24,7 @@ from google.protobuf.message import Message
 from ._contract import Contract
 from ._envelope import Decoded, Mode
 from ._errors import DecodeError, EncodeError, SchemaError
+from ._truncation import cut_reason, presence_table
 from .schema import WireError, descriptor_of, next_field
 
 __all__ = ["Plain"]
@@ -43,6 +47,7 @@ class Plain:
         self._max_size = max_size
         rules = contract(descriptor)
         self._check = rules.check if rules is not None else None
+        self._table = presence_table(descriptor)
 
     def kinds(self) -> dict[int, str]:
         """A plain message has no envelope members: ``{}``."""
@@ -86,9 +91,13 @@ class Plain:
             return None
 
     def decode(self, data: bytes, strict: bool = False) -> Decoded:
-        """The message of a datagram in exact, stripped or zero-padded form; with ``strict``, a
-        ``DecodeError`` too for what nanopb's decoder refuses (as ``Envelope.decode``)."""
-        exact = self._restore(bytes(data))
+        """The message of a datagram in exact, stripped or zero-padded form (bytes or any
+        bytes-like object); with ``strict``, a ``DecodeError`` too for what nanopb's decoder
+        refuses (as ``Envelope.decode``)."""
+        if isinstance(data, str):
+            raise TypeError("a datagram is bytes (or bytearray, memoryview), not str")
+        received = bytes(data)
+        exact = self._restore(received)
         try:
             message = self._class.FromString(exact)
         except ProtobufDecodeError as error:
@@ -96,10 +105,17 @@ class Plain:
             raise DecodeError(
                 f"datagram of {len(data)} bytes is not a valid {self._name}{form}: {error}"
             ) from None
+        if len(exact) > len(received):  # zeros were restored: stripped, or cut short?
+            canonical = message.SerializePartialToString() == exact
+            cut = cut_reason(self._table, exact, message, len(received), canonical)
+            if cut:
+                raise DecodeError(
+                    f"datagram of {len(data)} bytes was cut short: {cut}", "truncated"
+                )
         if strict and self._refusal is not None:
-            why = self._refusal(message)
-            if why is not None:
-                raise DecodeError(f"nanopb's decoder refuses the {self._name}: {why}")
+            refused = self._refusal(message)
+            if refused is not None:
+                raise DecodeError(f"nanopb's decoder refuses the {self._name}: {refused}")
         return Decoded(self._name, message)
 
     def _restore(self, data: bytes) -> bytes:

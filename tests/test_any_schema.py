@@ -292,3 +292,14 @@ def test_the_cli_encodes_and_decodes_a_plain_root() -> None:
     assert "Probe has no members: it is a plain message, KIND Probe" in wrong.stderr
     sizes = erc_codec_cli("sizes", *tree)
     assert re.search(r"^\s+Probe\.Inner\s+5$", sizes.stdout, re.MULTILINE), sizes.stdout
+
+
+def test_a_plain_root_tells_a_cut_datagram_from_a_stripped_one(plain: MessageCodec) -> None:
+    probe: Any = plain.message_class("Probe")(key=b"abcd", quad=[1, 2, 3, 4])
+    probe.inner.a = 0x80  # its varint ends in 80 01: cut after the 80, it reads as cut
+    exact = plain.encode(probe, "exact")
+    with pytest.raises(DecodeError, match=r"cut short: .* in Probe\.inner\.a continues a varint"):
+        plain.decode(exact[:-1])
+    assert plain.decode(memoryview(exact)) == ("Probe", probe)  # any bytes-like object
+    with pytest.raises(TypeError, match="not str"):
+        plain.decode(exact.hex())  # type: ignore[arg-type]

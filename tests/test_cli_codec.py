@@ -214,11 +214,56 @@ def test_an_undecodable_datagram_is_one_json_line_and_exit_1(data: str, reason: 
         (
             ["gps_info", '{"fix_quality": 9}'],
             1,
-            "SensorBoardGPSInfo.fix_quality = 9 is not a declared value of GPSFixQuality",
+            "SensorBoardGPSInfo.fix_quality: 9 is not a declared value: GPSFixQuality takes one "
+            "of NO_FIX, GPS_FIX, DGPS_FIX, PPS_FIX, RTK_FIX, RTK_FLOAT",
         ),
-        (["gps_info", '{"fix_quality": "FIX_OF_THE_DAY"}'], 1, "Invalid enum value"),
-        (["gps_info", '{"altitude_m": 3}'], 1, 'has no field named "altitude_m"'),
-        (["gps_info", '{"satellites": 4294967296}'], 1, "satellites"),
+        (
+            ["gps_info", '{"fix_quality": "FIX_OF_THE_DAY"}'],
+            1,
+            'SensorBoardGPSInfo.fix_quality: "FIX_OF_THE_DAY" is not one of its names',
+        ),
+        (
+            ["gps_info", '{"altitude_m": 3}'],
+            1,
+            'SensorBoardGPSInfo: no field named "altitude_m": SensorBoardGPSInfo has latitude, '
+            "longitude, altitude, speed,",
+        ),
+        (
+            ["gps_info", '{"satellites": 4294967296}'],
+            1,
+            "SensorBoardGPSInfo.satellites: 4294967296 is out of range for int32",
+        ),
+        # Values json_format wraps or takes for another before the undeclared-value check.
+        (
+            ["gps_info", '{"fix_quality": 1099511627776}'],
+            1,
+            "SensorBoardGPSInfo.fix_quality: 1099511627776 is not a declared value",
+        ),
+        (
+            ["gps_info", '{"fix_quality": 4294967298}'],
+            1,
+            "SensorBoardGPSInfo.fix_quality: 4294967298 is not a declared value",
+        ),
+        (
+            ["gps_info", '{"fix_quality": 1.5}'],
+            1,
+            "SensorBoardGPSInfo.fix_quality: 1.5 is not an integer: GPSFixQuality takes one of",
+        ),
+        (
+            ["gps_info", '{"fix_quality": true}'],
+            1,
+            "SensorBoardGPSInfo.fix_quality: true is not a name or an integer",
+        ),
+        (  # an OverflowError traceback, once
+            ["gps_info", '{"error_code": Infinity}'],
+            1,
+            "SensorBoardGPSInfo.error_code: Infinity is not an integer: GPSErrorCode takes one",
+        ),
+        (
+            ["sensor_diag", '{"gps_sensor_1": {"utc_timestamp": 1e30}}'],
+            1,
+            "SensorBoardDiagnostics.gps_sensor_1.utc_timestamp: 1e+30 is out of range for int64",
+        ),
         (["gps_info", "{satellites: 9}"], 1, "JSON is not valid"),
         (["gps_info", "[9]"], 1, "JSON must be an object"),
         (["gps_fix", "{}"], 2, "unknown kind 'gps_fix': PBEnvelope has ph_info, "),
@@ -231,6 +276,34 @@ def test_encode_errors_are_one_line(args: list[str], code: int, text: str) -> No
 def test_encode_reads_json_from_stdin() -> None:
     done = run("encode", "arm_feedback", "-", "--mode", "exact", stdin=b"{}")
     assert (done.code, done.out) == (0, "2200\n")
+
+
+def test_a_decoded_line_encodes_back_to_its_datagram(codec: erc_codec.Codec) -> None:
+    """What decode prints is what encode reads: the whole line, or its message alone."""
+    gps = codec.message_class("SensorBoardGPSInfo")
+    sent = gps(latitude=-33.5, altitude=1e-40, satellites=12, utc_timestamp=-(2**63))
+    datagram = codec.encode(sent).hex()
+    line = run("decode", datagram).out
+    message = json.dumps(records(line)[0]["message"])
+    whole, alone, wrong = run_many(
+        ["encode", "gps_info", line],
+        ["encode", "gps_info", message],
+        ["encode", "ph_info", line],
+    )
+    assert whole.out == alone.out == datagram + "\n", (whole, alone)
+    assert "decoded gps_info datagram, not ph_info" in one_line_error(wrong, 1)
+    piped = run("encode", "gps_info", "-", stdin=line.encode())
+    assert piped.out == datagram + "\n", piped
+
+
+def test_decode_prints_a_truncated_datagram_as_an_error() -> None:
+    """620b...4048 is 620b...404802 (fix_quality DGPS_FIX) cut by a byte: not a stripped form."""
+    done = run("decode", stdin=b"620b09d8817346941e4a4048\n620b09d8817346941e4a404802\n")
+    assert done.code == 1
+    cut, whole = records(done.out)
+    assert cut["reason"] == "truncated"
+    assert "SensorBoardGPSInfo.fix_quality = NO_FIX" in cut["error"]
+    assert whole["message"]["fix_quality"] == "DGPS_FIX"
 
 
 def test_another_schema_with_proto_and_root(codec: erc_codec.Codec) -> None:

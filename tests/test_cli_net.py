@@ -78,7 +78,7 @@ def test_listen_draws_a_table() -> None:
 def test_send_refuses_what_a_board_would_drop() -> None:
     done = send(9, "gps_info", '{"fix_quality": 9}')
     assert done.returncode == 1
-    assert "fix_quality = 9 is not a declared value of GPSFixQuality" in done.stderr
+    assert "fix_quality: 9 is not a declared value: GPSFixQuality takes one of" in done.stderr
     assert done.stderr.count("\n") == 1
 
 

@@ -97,21 +97,44 @@ def record(**values: Any) -> Message:
         ({"blob": b"12345"}, r"LimitsRecord.blob is 5 bytes long, more than the 4 allowed"),
         ({"counts": [1, 2, 3, 4]}, r"LimitsRecord.counts holds 4 items, more than its max_count 3"),
         ({"colours": [1, 7]}, r"LimitsRecord.colours\[1\] = 7 is not a declared value"),
-        ({"points": [{"x": 200}]}, r"LimitsPoint.x = 200 does not fit nanopb int_size"),
-        ({"points": [{"colour": 2}]}, r"LimitsPoint.colour = 2 is not a declared value"),
+        (
+            {"points": [{"x": 200}]},
+            r"LimitsRecord.points\[0\].x = 200 does not fit nanopb int_size",
+        ),
+        ({"points": [{}, {"colour": 2}]}, r"LimitsRecord.points\[1\].colour = 2 is not a declared"),
         ({"palette": {1: 1, 2: 1, 3: 1}}, r"LimitsRecord.palette holds 3 items"),
-        ({"palette": {1: 5}}, r"LimitsRecord.palette\[0\] = 5 is not a declared value"),
+        ({"palette": {1: 5}}, r"LimitsRecord.palette\[key=1\] = 5 is not a declared value"),
         ({"small": 65536}, r"LimitsRecord.small = 65536 does not fit nanopb int_size \(0..65535\)"),
         ({"colour": 299}, r"LimitsRecord.colour = 299 is not a declared value of LimitsColour"),
         ({"origin": {"colour": 2}}, r"LimitsRecord.origin.colour = 2 is not a declared value"),
-        ({"origin": {"x": 128}}, r"LimitsPoint.x = 128 does not fit nanopb int_size"),
+        ({"origin": {"x": 128}}, r"LimitsRecord.origin.x = 128 does not fit nanopb int_size"),
         ({"places": {1: {}, 2: {}, 3: {}}}, r"LimitsRecord.places holds 3 items"),
-        ({"places": {7: {"x": -129}}}, r"LimitsPoint.x = -129 does not fit nanopb int_size"),
+        ({"places": {7: {"x": -129}}}, r"LimitsRecord.places\[key=7\].x = -129 does not fit"),
     ],
 )
 def test_nanopb_limits_are_enforced(values: dict[str, Any], complaint: str) -> None:
+    """Each complaint names the field by its full path from the payload type: an item by its
+    index, a map's value by its key as JSON writes it."""
     with pytest.raises(erc_codec.EncodeError, match=complaint):
         LIMITS.encode(record(**values))
+
+
+@pytest.mark.parametrize(
+    ("values", "path"),
+    [
+        ({"points": [{}, {"colour": 2}]}, "LimitsRecord.points[1].colour = 2"),
+        ({"palette": {1: 5}}, "LimitsRecord.palette[key=1] = 5"),
+        ({"places": {7: {"x": -129}}}, "LimitsRecord.places[key=7].x = -129"),
+        ({"places": {3: {"colour": 9}}}, "LimitsRecord.places[key=3].colour = 9"),
+        ({"origin": {"x": 128}}, "LimitsRecord.origin.x = 128"),
+    ],
+)
+def test_a_complaint_names_the_full_path_not_the_inner_type(
+    values: dict[str, Any], path: str
+) -> None:
+    with pytest.raises(erc_codec.EncodeError) as caught:
+        LIMITS.encode(record(**values))
+    assert str(caught.value).startswith(path + " "), str(caught.value)
 
 
 def test_values_at_the_limits_are_sent() -> None:
@@ -319,31 +342,31 @@ def item_field(field: FieldDescriptor) -> FieldDescriptor:
     return field
 
 
-def plain_complaints(sizes: Sizes, message: Any, top: str = "", prefix: str = "") -> list[str]:
+def plain_complaints(sizes: Sizes, message: Any, path: str = "") -> list[str]:
     """Every way ``message`` breaks the fixed-size contract, in field order, named as the codec
-    names it: an enum field by its path from the payload type (``Top.sub.state``); any other
-    field by the type declaring it (``Sub.name``); an item by its index in the field
-    (``Top.counts[2]``, a map's values in iteration order); and an item that is a message on
-    its own, from its own type (``Item.state``)."""
+    names it: by the full path from the payload type (``Top.sub.state``), an item by its index
+    in the field (``Top.points[2].x``), a map's value by its key (``Top.palette[key=1]``, in
+    iteration order)."""
     descriptor = message.DESCRIPTOR
-    top = top or descriptor.full_name
+    path = path or descriptor.full_name
     found: list[str] = []
     for field in descriptor.fields:
         if sizes.ignored(field):
             continue
         value = getattr(message, field.name)
-        where = f"{descriptor.full_name}.{field.name}"
+        where = f"{path}.{field.name}"
         if field.is_repeated:
             count = sizes.max_count(field)
             if count is not None and len(value) > count:
                 found.append(f"{where} holds {len(value)} items, more than its max_count {count}")
-            items = list(value.values() if isinstance(value, Mapping) else value)
-            for index, item in enumerate(items):
-                found += plain_item(sizes, item_field(field), item, f"{where}[{index}]")
+            if isinstance(value, Mapping):
+                for key, item in value.items():
+                    found += plain_item(sizes, item_field(field), item, f"{where}[key={key}]")
+            else:
+                for index, item in enumerate(value):
+                    found += plain_item(sizes, item_field(field), item, f"{where}[{index}]")
         elif field.type == _T.TYPE_MESSAGE:
-            found += plain_complaints(sizes, value, top, f"{prefix}{field.name}.")
-        elif field.type == _T.TYPE_ENUM:
-            found += plain_item(sizes, field, value, f"{top}.{prefix}{field.name}")
+            found += plain_complaints(sizes, value, where)
         else:
             found += plain_item(sizes, field, value, where)
     return found
@@ -352,7 +375,7 @@ def plain_complaints(sizes: Sizes, message: Any, top: str = "", prefix: str = ""
 def plain_item(sizes: Sizes, field: FieldDescriptor, value: Any, path: str) -> list[str]:
     """What is wrong with one value of ``field`` (a single field's, or one item's)."""
     if field.type == _T.TYPE_MESSAGE:
-        return plain_complaints(sizes, value)
+        return plain_complaints(sizes, value, path)
     if field.type == _T.TYPE_ENUM:
         if value in {declared.number for declared in enum_of(field).values}:
             return []

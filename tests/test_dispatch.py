@@ -149,7 +149,9 @@ def outcome(data: bytes) -> tuple[str, bytes] | str:
 CONTROL = CODEC.message_class("BasestationControlMode")
 # The edges of the short cut: member 16 (a two-byte tag) padded, stripped to its tag, and with a
 # payload its class cannot parse, padded too; a 255-byte datagram with a two-byte length; a
-# datagram peek does not locate but decode reads (a field after the member).
+# datagram peek does not locate but decode reads (a field after the member); datagrams cut short,
+# which look stripped (a fix's last byte lost, a varint cut in the middle, the same after
+# another member).
 EDGES = [
     CODEC.encode(CONTROL(mode=2), "pad"),
     CODEC.encode(CONTROL(), "strip"),
@@ -157,6 +159,9 @@ EDGES = [
     h("0a 01 00"),
     CODEC.encode(widest_driving_diagnostics(CODEC), "exact"),
     h("22 00 28 00"),
+    h("62 0b 09 d8 81 73 46 94 1e 4a 40 48"),
+    h("62 03 40 a0"),
+    h("0a 00 62 0b 09 d8 81 73 46 94 1e 4a 40 48"),
 ]
 
 

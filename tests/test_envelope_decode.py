@@ -4,6 +4,7 @@ Stripped datagrams get back the zeros their last field needs, padded ones lose t
 explicitly present zeros survive both; anything else is a DecodeError saying what and where.
 """
 
+import array
 import contextlib
 import math
 from pathlib import Path
@@ -182,15 +183,17 @@ def test_a_datagram_whose_restored_form_exceeds_the_envelope_is_refused(codec: C
         codec.decode(ends_in_len_tag)  # restored to 256 bytes
 
 
-def test_truncations_that_restore_to_a_parseable_form_decode(codec: Codec) -> None:
-    """Restoring zeros is all a receiver can do: a cut that leaves a parseable form decodes."""
+def test_a_cut_that_restores_a_default_is_refused_and_a_tiny_value_is_not(codec: Codec) -> None:
+    """A float whose high bytes are zero is a tiny value, and its stripped form decodes; restored
+    to all zeros it would be 0.0, which no proto3 encoder sends for ph_value (implicit presence):
+    that datagram was cut, not stripped. (Once, decode took it for an explicit 0.0.)"""
     tiny = new(codec, "SensorBoardPHInfo", ph_value=1e-45)
     assert codec.encode(tiny, "exact") == h("0a 05 0d 01 00 00 00")
     assert codec.decode(h("0a 05 0d 01")) == ("ph_info", tiny)  # its stripped form
-    # Partly stripped, restoring an explicit 0.0 that protobuf accepts: the value is 0.0.
-    kind, message = codec.decode(h("0a 05 0d 00 00"))
-    assert kind == "ph_info"
-    assert cast(Any, message).ph_value == 0.0
+    for cut in (h("0a 05 0d 00 00"), h("0a 05 0d")):
+        with pytest.raises(DecodeError, match=r"SensorBoardPHInfo\.ph_value = 0\.0") as caught:
+            codec.decode(cut)
+        assert caught.value.reason == "truncated"
 
 
 def test_only_the_padded_forms_may_have_zeros_after_the_payload(codec: Codec) -> None:
@@ -315,3 +318,236 @@ def test_explicitly_present_zeros_survive_stripping(
                 assert decoded.message.HasField(field)
         if name == "Choice":
             assert decoded.message.WhichOneof("value") == next(iter(fields))
+
+
+# -- cut, not stripped: restored zeros no encoder would have sent -----------------------------
+
+LIMITS_TREE = Path(__file__).resolve().parent / "contract_tree"
+
+
+@pytest.fixture(scope="module")
+def limits() -> Codec:
+    return Codec.from_path(LIMITS_TREE, root="LimitsEnvelope")
+
+
+# (id, schema, datagram, what the error names). The packaged schema's, then tests/contract_tree's
+# (strings, bytes, packed lists, repeated messages, maps). Each restores, as the last field at the
+# deepest level, a field without presence at its default, or a varint ending in 80 00.
+TRUNCATED: list[tuple[str, str, str, str]] = [
+    ("gps fix_quality DGPS_FIX cut off", "rover", "62 0b 09 d8 81 73 46 94 1e 4a 40 48",
+     "SensorBoardGPSInfo.fix_quality = NO_FIX"),
+    ("the same behind another member", "rover", "0a 00 62 0b 09 d8 81 73 46 94 1e 4a 40 48",
+     "SensorBoardGPSInfo.fix_quality = NO_FIX"),
+    ("a float restored to 0.0", "rover", "0a 05 0d", "SensorBoardPHInfo.ph_value = 0.0"),
+    ("a double restored to 0.0", "rover", "62 09 09 00 00 00", "SensorBoardGPSInfo.latitude = 0.0"),
+    ("a nested enum", "rover", "5a 04 32 02 48",
+     "SensorBoardDiagnostics.gps_sensor_1.fix_quality = NO_FIX"),
+    ("a bool restored to false", "rover", "72 02 28",
+     "SensorBoardLoadCellInfo.is_calibrated = false"),
+    ("an int64, two-byte member tag", "rover", "aa 01 02 50",
+     "BasestationRoverLocalization.timestamp_ms = 0"),
+    ("a varint cut in the middle", "rover", "62 03 40 a0",
+     "its last byte in SensorBoardGPSInfo.satellites continues a varint"),
+    ("a nested varint cut in the middle", "rover", "5a 05 32 03 40 a0",
+     "in SensorBoardDiagnostics.gps_sensor_1.satellites continues a varint"),
+    ("an empty string", "limits", "0a 02 0a", 'LimitsRecord.name = ""'),
+    ("an empty bytes value", "limits", "0a 02 12", 'LimitsRecord.blob = ""'),
+    ("an empty packed list", "limits", "0a 02 1a", "LimitsRecord.counts = [] (an empty packed"),
+    ("an item of a repeated message", "limits", "0a 06 2a 00 2a 02 10",
+     "LimitsRecord.points[1].x = 0"),
+    ("a submessage's enum", "limits", "0a 04 4a 02 08",
+     "LimitsRecord.origin.colour = LIMITS_COLOUR_NONE"),
+    ("a map's message value", "limits", "0a 08 52 06 08 07 12 02 10",
+     "LimitsRecord.places[key=7].x = 0"),
+    ("a varint in a map entry", "limits", "0a 07 32 05 08 07 10 85",
+     "in LimitsRecord.palette[key=7] continues a varint"),
+    ("a tag cut in the middle", "limits", "0a 05 2a 00 b8",
+     "its last byte in LimitsRecord.small continues a varint"),
+    ("the same behind another member", "limits", "12 00 0a 05 2a 00 b8",
+     "its last byte in LimitsRecord.small continues a varint"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("schema", "data", "named"), [c[1:] for c in TRUNCATED], ids=[c[0] for c in TRUNCATED]
+)
+def test_a_cut_datagram_is_not_taken_for_a_stripped_one(
+    codec: Codec, limits: Codec, schema: str, data: str, named: str
+) -> None:
+    """The receiver restores only zeros some encoder could have written: none writes a field
+    without presence at its default, nor a varint ending in a zero after a continuation byte.
+    decode refuses, peek does not locate it, the dispatcher counts it, all as "truncated"."""
+    receiver = codec if schema == "rover" else limits
+    with pytest.raises(DecodeError) as caught:
+        receiver.decode(h(data))
+    assert caught.value.reason == "truncated"
+    assert named in str(caught.value)
+    assert str(caught.value).startswith(f"datagram of {len(h(data))} bytes was cut short: ")
+    assert receiver.peek(h(data)) is None
+    dispatcher = erc_codec.Dispatcher(receiver)
+    assert not dispatcher.feed(h(data))
+    assert dispatcher.stats().undecodable == {"truncated": 1}
+
+
+def test_the_first_datagram_cut_is_a_fix_that_was_sent(codec: Codec) -> None:
+    """620b...4048 is 620b...404802, fix_quality DGPS_FIX, with its last byte lost."""
+    GPSInfo = codec.message_class("SensorBoardGPSInfo")
+    sent = h("62 0b 09 d8 81 73 46 94 1e 4a 40 48 02")
+    assert codec.decode(sent).message == GPSInfo(latitude=52.2389, fix_quality=2)
+    assert codec.encode(GPSInfo(latitude=52.2389, fix_quality=2)) == sent
+
+
+# What stays ambiguous, and so decodes (README, "Three transmission forms"): each restores a value
+# some encoder does send. (id, schema, datagram, kind, the payload's fields).
+AMBIGUOUS: list[tuple[str, str, str, str, dict[str, Any]]] = [
+    ("the member present and empty", "rover", "4a", "drive_motor", {}),
+    ("an envelope cut to its tag", "rover", "32", "arm_target", {}),
+    ("a present empty submessage", "rover", "5a 02 32", "sensor_diag", {"gps_sensor_1": {}}),
+    ("a tiny float", "rover", "0a 05 0d 01", "ph_info", {"ph_value": 1e-45}),
+    ("a bytes value ending in zeros", "limits", "0a 04 12 02 01", "record", {"blob": b"\1\0"}),
+    ("a string ending in a NUL", "limits", "0a 04 0a 02 61", "record", {"name": "a\0"}),
+    ("a packed list ending in 0", "limits", "0a 04 1a 02 05", "record", {"counts": [5, 0]}),
+    ("an unpacked item 0", "limits", "0a 02 18", "record", {"counts": [0]}),
+    ("an empty item of a repeated message", "limits", "0a 02 2a", "record", {"points": [{}]}),
+    ("a map entry's value 0", "limits", "0a 06 32 04 08 01 10", "record", {"palette": {1: 0}}),
+    ("a map entry's key 0", "limits", "0a 04 32 02 08", "record", {"palette": {0: 0}}),
+    ("an empty map value", "limits", "0a 06 52 04 08 07 12", "record", {"places": {7: {}}}),
+    ("a field this schema lacks", "limits", "0a 02 78", "record", {}),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("schema", "data", "kind", "fields"),
+    [c[1:] for c in AMBIGUOUS],
+    ids=[c[0] for c in AMBIGUOUS],
+)
+def test_what_some_encoder_sends_is_restored(
+    codec: Codec, limits: Codec, schema: str, data: str, kind: str, fields: dict[str, Any]
+) -> None:
+    receiver = codec if schema == "rover" else limits
+    decoded = receiver.decode(h(data))
+    expected = receiver.payload_class(kind)(**fields)
+    assert decoded.kind == kind
+    assert decoded.message.ListFields() == expected.ListFields()  # unknown fields aside
+    assert receiver.peek(h(data)) is not None
+
+
+def test_explicit_presence_keeps_its_zero_when_stripped(presence: Codec) -> None:
+    """An optional or oneof field is sent at zero, so its restored zero is the one sent (the
+    presence cases above hold every form); a field without presence beside them is not."""
+    assert presence.decode(h("0a 02 10")).message == new(presence, "Counter", count=0)
+    assert presence.decode(h("12 02 10")).message == new(presence, "Choice", flag=False)
+    with pytest.raises(DecodeError, match=r"Counter\.id = 0") as caught:
+        presence.decode(h("0a 02 08"))
+    assert caught.value.reason == "truncated"
+
+
+def _cut_outcome(codec: Codec, data: bytes) -> tuple[str, bytes] | str:
+    try:
+        decoded = codec.decode(data)
+    except DecodeError as error:
+        return error.reason
+    return decoded.kind, decoded.message.SerializeToString()
+
+
+def assert_a_cut_is_refused_or_a_stripped_form(codec: Codec, message: Any, at: int) -> None:
+    """Cut a sender's stripped datagram short by at least one byte that was sent: decode refuses
+    it, or it is exactly the stripped form of what it decodes to, a datagram some sender sends.
+    The general path (after an empty member of another kind) judges it alike."""
+    stripped = codec.encode(message, "strip")
+    cut = stripped[:at]
+    outcome = _cut_outcome(codec, cut)
+    if not isinstance(outcome, str):
+        decoded = codec.decode(cut)
+        try:
+            again = codec.encode(decoded.message, "strip")
+        except erc_codec.EncodeError:
+            again = None  # zeros made more items than max_count: not ours, but Google's sends it
+        if again is not None and again != cut.rstrip(b"\0"):
+            # map entries serialize in no fixed order: the same entries, the same bytes
+            assert sorted(again) == sorted(cut.rstrip(b"\0")), (cut.hex(), again.hex())
+    first = min(codec.kinds())  # member 1: a one-byte tag
+    other = h(f"{first << 3 | 2:02x} 00")
+    if len(codec.encode(message, "exact")) + len(other) <= codec.max_size(codec.root):
+        assert _cut_outcome(codec, other + cut) == outcome, cut.hex()
+
+
+@pytest.mark.parametrize("kind", KINDS)
+@given(data=st.data())
+@settings(max_examples=40)
+def test_a_cut_datagram_is_refused_or_what_a_sender_strips(kind: str, data: st.DataObject) -> None:
+    """Every payload type, cut anywhere: before this held, a cut gps fix read as NO_FIX."""
+    message = data.draw(payloads(CODEC, kind))
+    stripped = CODEC.encode(message, "strip")
+    if len(stripped) > 1:
+        assert_a_cut_is_refused_or_a_stripped_form(
+            CODEC, message, data.draw(st.integers(1, len(stripped) - 1))
+        )
+
+
+@pytest.mark.parametrize("tree", ["limits", "presence"])
+@given(data=st.data())
+@settings(max_examples=150, suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_a_cut_of_strings_maps_and_optional_fields_is_refused_or_stripped(
+    limits: Codec, presence: Codec, tree: str, data: st.DataObject
+) -> None:
+    codec = limits if tree == "limits" else presence
+    kind = data.draw(st.sampled_from(sorted(codec.kinds().values())))
+    message = data.draw(payloads(codec, kind))
+    stripped = codec.encode(message, "strip")
+    if len(stripped) > 1:
+        at = data.draw(st.integers(1, len(stripped) - 1))
+        assert_a_cut_is_refused_or_a_stripped_form(codec, message, at)
+
+
+@pytest.mark.parametrize("tree", ["limits", "presence"])
+@given(data=st.data())
+@settings(max_examples=100, suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_every_form_of_strings_maps_and_optional_fields_decodes(
+    limits: Codec, presence: Codec, tree: str, data: st.DataObject
+) -> None:
+    """What a sender sends is never taken for a cut: every form, every length between."""
+    codec = limits if tree == "limits" else presence
+    kind = data.draw(st.sampled_from(sorted(codec.kinds().values())))
+    message = data.draw(payloads(codec, kind))
+    exact = codec.encode(message, "exact")
+    stripped, longest = exact.rstrip(b"\0"), codec.max_size(codec.root)
+    datagram = (stripped + bytes(longest))[: data.draw(st.integers(len(stripped), longest))]
+    decoded = codec.decode(datagram)
+    assert decoded.kind == kind
+    assert decoded.message == message
+
+
+# -- any bytes-like object ---------------------------------------------------------------------
+
+
+def _views(data: bytes) -> list[object]:
+    return [
+        bytearray(data),
+        memoryview(data),
+        memoryview(bytearray(b"xy" + data))[2:],
+        array.array("B", data),
+    ]
+
+
+def test_decode_and_peek_take_any_bytes_like_object(codec: Codec) -> None:
+    """bytes, bytearray, memoryview (once an AttributeError on the padded path), array: the
+    same outcome as the bytes."""
+    samples = [*valid_datagrams(codec), *(h(c[2]) for c in TRUNCATED if c[1] == "rover")]
+    samples += [h("b2 01 00"), h("22 00 00 01"), b""]
+    for data in samples:
+        expected = _cut_outcome(codec, data)
+        for view in _views(data):
+            assert _cut_outcome(codec, cast(bytes, view)) == expected, (type(view), data.hex())
+            assert codec.peek(cast(bytes, view)) == codec.peek(data)
+    wide = array.array("H", [0x0022])  # a buffer of 2-byte items: its bytes, 22 00
+    assert codec.decode(cast(bytes, wide)).kind == "arm_feedback"
+
+
+@pytest.mark.parametrize("value", ["22", 34, None, [0x22, 0x00]])
+def test_decode_refuses_what_is_not_bytes(codec: Codec, value: object) -> None:
+    name = type(value).__name__
+    with pytest.raises(TypeError, match=rf"a datagram is bytes .*not {name}"):
+        codec.decode(cast(bytes, value))
+    with pytest.raises(TypeError, match=rf"not {name}"):
+        codec.peek(cast(bytes, value))

@@ -73,7 +73,7 @@ def test_stripped_and_padded_forms_of_an_envelope_decode_alike(
 # -- the fuzzer: whatever arrives is read as protobuf reads its exact form, or refused ---------
 
 
-REASONS = {"empty", "too_long", "no_payload", "unknown_member", "corrupt"}
+REASONS = {"empty", "too_long", "no_payload", "unknown_member", "corrupt", "truncated"}
 
 
 def protobuf_reading(data: bytes) -> tuple[str, bytes] | None:
@@ -114,20 +114,35 @@ def reading(decoded: Decoded) -> tuple[str, bytes]:
     return decoded.kind, decoded.message.SerializeToString()
 
 
+def canonical(form: bytes) -> bool:
+    """Whether ``form`` is what protobuf (and so nanopb) writes for what it reads in it."""
+    return ENVELOPE.FromString(form).SerializeToString() == form
+
+
 def assert_decodes_soundly(data: bytes) -> None:
     """What ``decode`` makes of any datagram is what protobuf makes of its exact form, or a
-    DecodeError; other forms of the same datagram decode alike; and whatever decodes is a message
-    that encodes again to datagrams that decode to it."""
+    DecodeError; a cut datagram ("truncated") is one whose restored form no encoder writes;
+    other forms of the same datagram decode alike, but for cut forms of a datagram no encoder
+    writes; and whatever decodes is a message that encodes again to datagrams that decode to
+    it."""
     exact = protobuf_reading(data) if len(data) <= MAX else None
     outcome = decode_outcome(data)
+    forms = zero_tail_forms(data)
     if isinstance(outcome, erc_codec.DecodeError):
         assert outcome.reason in REASONS
         assert (outcome.reason == "empty") == (not data)
         assert (outcome.reason == "too_long") == (len(data) > MAX)
         assert exact is None, f"{data.hex()}: protobuf reads it as it came, decode says {outcome}"
+        if outcome.reason == "truncated":
+            # Restored, it is a form protobuf reads but never writes so (a default it leaves
+            # out, a varint it writes shorter).
+            longer = [form for form in forms if len(form) > len(data)]
+            assert any(protobuf_reading(f) and not canonical(f) for f in longer), data.hex()
         return
     read = reading(outcome)
-    forms = zero_tail_forms(data)
+    kind = outcome.kind
+    sent = ENVELOPE(**{kind: outcome.message}).SerializeToString()
+    from_a_sender = sent.rstrip(b"\0") == data.rstrip(b"\0")
     if exact is not None:  # already exact: what protobuf's own parser makes of it, no less
         assert read == exact, data.hex()
     else:  # else what protobuf makes of the exact form it was stripped or padded from
@@ -138,6 +153,9 @@ def assert_decodes_soundly(data: bytes) -> None:
         if len(form) < len(data) and form[-1] & 0x80:
             continue  # the cut zero ended a varint no sender writes (0x80 0x00 for 0): not a form
         other = decode_outcome(form)
+        if isinstance(other, erc_codec.DecodeError) and not from_a_sender and len(form) < len(data):
+            assert other.reason == "truncated", (data.hex(), form.hex(), str(other))
+            continue  # cut from what no encoder writes: its zeros were sent, not stripped
         assert not isinstance(other, erc_codec.DecodeError), (data.hex(), form.hex(), str(other))
         assert reading(other) == read, (data.hex(), form.hex())
     try:

@@ -39,20 +39,23 @@ def encode(kind: str, payload: str, mode: str, framed: bool, tree: Path | None, 
 
     KIND is the envelope member that carries it (erc-codec sizes lists them,
     e.g. gps_info). JSON is the payload in protobuf's JSON mapping: field names
-    as in the .proto or in lowerCamelCase, enums by name or number, 64-bit
-    integers as numbers or strings; fields left out are zero. '-' reads the
-    JSON from standard input.
+    as in the .proto or in lowerCamelCase, enums by name or by a declared
+    number, 64-bit integers as numbers or strings; fields left out are zero.
+    A line erc-codec decode printed is JSON too (its "message", when its
+    "kind" is KIND). '-' reads the JSON from standard input.
 
     \b
       erc-codec encode gps_info '{"latitude": 52.2389, "fix_quality": "DGPS_FIX"}'
       erc-codec encode gps_info '{"satellites": 9}' --frame | erc-codec decode --framed
+      erc-codec decode 620b09d8817346941e4a404802 | erc-codec encode gps_info -
 
     \b
     Exit status: 0 printed; 1 bad input: not JSON, not a payload of this kind
-    (unknown field, wrong type) or a message a nanopb receiver would drop or
-    misread (an undeclared enum value, a value over a nanopb limit); 2 usage
-    error: unknown KIND or option, or a schema that does not load. An error
-    about KIND, the JSON or the message is one line on stderr.
+    (unknown field, wrong type, a number out of its field's range, a fraction
+    for an integer) or a message a nanopb receiver would drop or misread (an
+    undeclared enum value, a value over a nanopb limit); 2 usage error:
+    unknown KIND or option, or a schema that does not load. An error about
+    KIND, the JSON or the message is one line on stderr, naming the field.
     """
     codec = load(tree, root)
     if payload == "-" and sys.stdin is None:

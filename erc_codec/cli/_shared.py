@@ -7,13 +7,12 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 import click
-from google.protobuf import json_format
-from google.protobuf.descriptor import Descriptor
 from google.protobuf.message import Message
 
 from .._codec import Codec, default_tree
-from .._errors import CodecError
-from ..schema import descriptor_of
+from .._errors import CodecError, EncodeError
+from .._json import load_json
+from .._json import to_dict as _to_dict
 
 __all__ = [
     "Fatal",
@@ -90,70 +89,50 @@ def emit(record: dict[str, object]) -> None:
 
 
 def to_dict(message: Message) -> dict[str, Any]:
-    """A message as the commands print it: protobuf's JSON mapping, field names as in the
-    .proto, every field shown (defaults too), keys in the order of the .proto."""
-    document = json_format.MessageToDict(
-        message, always_print_fields_with_no_presence=True, preserving_proto_field_name=True
-    )
-    return _in_field_order(document, descriptor_of(type(message)))
-
-
-def _in_field_order(document: dict[str, Any], descriptor: Descriptor) -> dict[str, Any]:
-    """``document`` with its keys in the order of the .proto, at every level.
-
-    ``MessageToDict`` lists the fields that are set before the defaults it adds, so the same
-    message would show its fields in a different order from one datagram to the next.
-    """
-    ordered: dict[str, Any] = {}
-    for field in descriptor.fields:
-        if field.name not in document:
-            continue
-        value = document[field.name]
-        payload = field.message_type
-        if payload is not None and not payload.GetOptions().map_entry:
-            if isinstance(value, dict):
-                value = _in_field_order(value, payload)
-            elif isinstance(value, list):
-                value = [_in_field_order(v, payload) if isinstance(v, dict) else v for v in value]
-        ordered[field.name] = value
-    return ordered
-
-
-def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-    """A JSON object, refusing a key given twice (json.loads would keep the last silently)."""
-    document: dict[str, Any] = {}
-    for key, value in pairs:
-        if key in document:
-            raise ValueError(f"key {key!r} appears twice")
-        document[key] = value
-    return document
+    """A message as the commands print it: ``Codec.to_dict``, protobuf's JSON mapping with field
+    names as in the .proto, every field shown (defaults too), keys in the order of the .proto."""
+    return _to_dict(message)
 
 
 def envelope_from_json(codec: Codec, kind: str, text: str) -> Message:
-    """An envelope carrying, as member ``kind``, the payload that protobuf JSON ``text`` spells.
+    """An envelope carrying, as member ``kind``, the payload that protobuf JSON ``text`` spells:
+    the payload's fields, or a line ``erc-codec decode`` printed (its ``message``, when its
+    ``kind`` is ``kind``).
 
-    Unknown kinds are a usage error (exit 2), bad JSON a bad-input error (exit 1), one line each.
+    Unknown kinds are a usage error (exit 2), bad JSON or values a bad-input error (exit 1), one
+    line each.
     """
     members = list(codec.kinds().values())
-    if not members and kind == codec.root:  # a plain-message root: the message itself
-        envelope = message = codec.message_class(codec.root)()
-    elif kind not in members:
+    plain = not members and kind == codec.root  # a plain-message root: the message itself
+    if not plain and kind not in members:
         known = ", ".join(members) or f"no members: it is a plain message, KIND {codec.root}"
         raise Fatal(f"unknown kind {kind!r}: {codec.root} has {known}")
-    else:
-        envelope = codec.message_class(codec.root)()
-        message = getattr(envelope, kind)
     try:
-        document = json.loads(text, object_pairs_hook=_unique_keys)
-    except (ValueError, RecursionError) as error:
-        raise click.ClickException(f"JSON is not valid: {one_line(str(error))}") from None
-    if not isinstance(document, dict):
-        raise click.ClickException(
-            f"JSON must be an object: the fields of {message.DESCRIPTOR.full_name}"
-        )
-    try:
-        json_format.ParseDict(document, message)
-    except (json_format.ParseError, RecursionError) as error:
+        document = _payload_of(codec, kind, load_json(text))
+        payload = codec.from_dict(kind, document)
+    except EncodeError as error:
         raise click.ClickException(one_line(str(error))) from None
-    message.SetInParent()  # an all-default payload is still the one sent
+    if plain:
+        return payload
+    envelope = codec.message_class(codec.root)()
+    getattr(envelope, kind).CopyFrom(payload)
+    getattr(envelope, kind).SetInParent()  # an all-default payload is still the one sent
     return envelope
+
+
+def _payload_of(codec: Codec, kind: str, document: Any) -> Any:
+    """The payload's fields in ``document``: itself, or the ``message`` of a decoded line."""
+    if not isinstance(document, dict):
+        name = codec.payload_class(kind).DESCRIPTOR.full_name
+        raise EncodeError(f"JSON must be an object: the fields of {name}, or a decoded line")
+    if not isinstance(document.get("message"), dict) or not isinstance(document.get("kind"), str):
+        return document
+    fields = codec.payload_class(kind).DESCRIPTOR.fields_by_name
+    if "kind" in fields and "message" in fields:
+        return document  # the payload's own fields, named so
+    if document["kind"] != kind:
+        raise EncodeError(
+            f"the JSON is a decoded {document['kind']} datagram, not {kind}: give KIND "
+            f"{document['kind']}, or its message alone"
+        )
+    return document["message"]
