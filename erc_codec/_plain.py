@@ -101,16 +101,16 @@ class Plain:
         try:
             message = self._class.FromString(exact)
         except ProtobufDecodeError as error:
-            form = "" if len(exact) == len(data) else " (after restoring its trailing zeros)"
+            form = "" if len(exact) == len(received) else " (after restoring its trailing zeros)"
             raise DecodeError(
-                f"datagram of {len(data)} bytes is not a valid {self._name}{form}: {error}"
+                f"datagram of {len(received)} bytes is not a valid {self._name}{form}: {error}"
             ) from None
         if len(exact) > len(received):  # zeros were restored: stripped, or cut short?
             canonical = message.SerializePartialToString() == exact
             cut = cut_reason(self._table, exact, message, len(received), canonical)
             if cut:
                 raise DecodeError(
-                    f"datagram of {len(data)} bytes was cut short: {cut}", "truncated"
+                    f"datagram of {len(received)} bytes was cut short: {cut}", "truncated"
                 )
         if strict and self._refusal is not None:
             refused = self._refusal(message)
