@@ -3,7 +3,9 @@
 The public face is this module and ``erc_codec.schema`` (the schema layer: protoc, descriptors,
 nanopb options and sizes, wire primitives), with ``erc_codec.strategies`` for hypothesis users,
 ``erc_codec.proton`` for Clearpath's Proton protocol and ``erc_codec.cli`` for what both command
-lines share. Everything else is private and free to change.
+lines share. Recording (``McapWriter``, ``read_mcap``), the live view (``FoxgloveView``) and the
+Wireshark dissector (``wireshark_dissector``) import their optional libraries only when used.
+Everything else is private and free to change.
 """
 
 import warnings
@@ -16,9 +18,12 @@ from ._detections import AssemblerStats, DetectionAssembler, DetectionFrame, Fra
 from ._dispatch import Dispatcher, DispatchStats, Drop
 from ._envelope import Decoded, Mode
 from ._errors import CodecError, DecodeError, EncodeError, SchemaError
+from ._foxglove import FoxgloveView
 from ._framing import Deframer, DeframerStats, frame
+from ._mcap import McapWriter, Recorded, RecordingStats, read_mcap
 from ._transport import UdpEndpoint, UdpStats, open_udp, read_serial
 from ._watchdog import Liveness, Watchdog
+from ._wireshark import wireshark_dissector
 
 __all__ = [
     "AssemblerStats",
@@ -35,11 +40,15 @@ __all__ = [
     "Dispatcher",
     "Drop",
     "EncodeError",
+    "FoxgloveView",
     "FrameLoss",
     "Liveness",
+    "McapWriter",
     "Member",
     "MessageCodec",
     "Mode",
+    "Recorded",
+    "RecordingStats",
     "Rejected",
     "SchemaError",
     "UdpEndpoint",
@@ -49,7 +58,9 @@ __all__ = [
     "encode",
     "frame",
     "open_udp",
+    "read_mcap",
     "read_serial",
+    "wireshark_dissector",
 ]
 
 # Names renamed in 0.2, kept for one release: the detection side had the serial framing's words.

@@ -1,16 +1,33 @@
 """What the erc-lint tests share: trees written from text, the command run as a user runs it,
 and git repositories whose histories a test scripts."""
 
+import functools
+import re
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
+import pytest
 from git_support import HEADER, Repo
 
-from erc_codec.schema import GitSpec, Repository
+from erc_codec.schema import GitSpec, ProtocError, Repository, compile_files
 from erc_lint import Finding
 from erc_lint._history import History
 from erc_lint._ledger import Entry, Ledger
+
+
+@functools.cache
+def protoc_edition() -> int:
+    """The latest edition the bundled protoc compiles, as protoc itself answers: 2023 up to
+    grpcio-tools 1.80 (the protobuf floor's), 2024 from 1.81 on."""
+    with tempfile.TemporaryDirectory() as folder:
+        Path(folder, "probe.proto").write_text('edition = "UNSTABLE";\n')
+        with pytest.raises(ProtocError, match=r"maximum supported edition (\d+)") as refused:
+            compile_files(Path(folder), ["probe.proto"], locations=False)
+    found = re.search(r"maximum supported edition (\d+)", str(refused.value))
+    assert found is not None
+    return int(found[1])
 
 
 def tree(root: Path, files: dict[str, str]) -> Path:

@@ -2,6 +2,7 @@
 
 import array
 import fcntl
+import ipaddress
 import json
 import struct
 import subprocess
@@ -14,6 +15,7 @@ from typing import Any, NamedTuple
 import pytest
 from conftest import REPO
 from google.protobuf import json_format
+from recording_support import need
 
 import erc_codec
 
@@ -353,12 +355,23 @@ def test_usage_errors_exit_2_in_one_line(args: list[str]) -> None:
 ETHERNET, LINUX_SLL = 1, 113
 
 
-def udp4(payload: bytes, sport: int = 5005, dport: int = 6006) -> bytes:
+def udp4(
+    payload: bytes,
+    sport: int = 5005,
+    dport: int = 6006,
+    source: bytes = bytes([192, 168, 1, 20]),
+    destination: bytes = bytes([192, 168, 1, 2]),
+) -> bytes:
     udp = struct.pack("!HHHH", sport, dport, 8 + len(payload), 0) + payload
-    return ipv4(17, udp)
+    return ipv4(17, udp, source, destination)
 
 
-def ipv4(protocol: int, body: bytes) -> bytes:
+def ipv4(
+    protocol: int,
+    body: bytes,
+    source: bytes = bytes([192, 168, 1, 20]),
+    destination: bytes = bytes([192, 168, 1, 2]),
+) -> bytes:
     header = struct.pack(
         "!BBHHHBBH4s4s",
         0x45,
@@ -369,8 +382,8 @@ def ipv4(protocol: int, body: bytes) -> bytes:
         64,
         protocol,
         0,
-        bytes([192, 168, 1, 20]),
-        bytes([192, 168, 1, 2]),
+        source,
+        destination,
     )
     words = struct.unpack("!10H", header)
     total = sum(words)
@@ -379,10 +392,12 @@ def ipv4(protocol: int, body: bytes) -> bytes:
     return header[:10] + struct.pack("!H", ~total & 0xFFFF) + header[12:] + body
 
 
-def udp6(payload: bytes) -> bytes:
+def udp6(
+    payload: bytes,
+    source: bytes = bytes.fromhex("fd000000000000000000000000000001"),
+    target: bytes = bytes.fromhex("fd000000000000000000000000000002"),
+) -> bytes:
     udp = struct.pack("!HHHH", 7007, 8008, 8 + len(payload), 0) + payload
-    source = bytes.fromhex("fd000000000000000000000000000001")
-    target = bytes.fromhex("fd000000000000000000000000000002")
     return struct.pack("!IHBB16s16s", 6 << 28, len(udp), 17, 64, source, target) + udp
 
 
@@ -400,7 +415,7 @@ def link(linktype: int, packet: bytes) -> bytes:
 
 
 def write_capture(path: Path, form: str, linktype: int, packets: list[bytes]) -> None:
-    dpkt = pytest.importorskip("dpkt")
+    dpkt = need("dpkt")
     with path.open("wb") as file:
         module = dpkt.pcap if form == "pcap" else dpkt.pcapng
         writer = module.Writer(file, linktype=linktype)
@@ -444,8 +459,32 @@ def test_pcap_decodes_every_udp_payload(
     )
 
 
+def test_pcap_senders_are_shown_however_many_there_are(
+    codec: erc_codec.Codec, tmp_path: Path
+) -> None:
+    # More senders than the reader keeps shown, IPv4 and IPv6: a thousand, again and again,
+    # then a flood of new ones. Every address as ipaddress shows it.
+    fix = codec.encode(codec.message_class("SensorBoardGPSInfo")(satellites=5))
+    packets, expected = [], []
+    for number in range(10_000):  # 8,000 senders in all
+        repeat = number % 1000 if number < 3000 else number  # known ones, then a flood
+        if number % 2:
+            source = bytes.fromhex("fd00") + repeat.to_bytes(14, "big")
+            packets.append(udp6(fix, source=source))
+            expected.append((f"[{ipaddress.ip_address(source)}]:7007", "[fd00::2]:8008"))
+        else:
+            source = bytes([10, repeat >> 16 & 0xFF, repeat >> 8 & 0xFF, repeat & 0xFF])
+            packets.append(udp4(fix, sport=1 + repeat, source=source))
+            expected.append((f"{ipaddress.ip_address(source)}:{1 + repeat}", "192.168.1.2:6006"))
+    capture = tmp_path / "many.pcap"
+    write_capture(capture, "pcap", ETHERNET, packets)
+    done = run("decode", "--pcap", str(capture))
+    assert done.code == 0, done.err
+    assert [(line["src"], line["dst"]) for line in records(done.out)] == expected
+
+
 def test_pcap_problems_exit_2_in_one_line(codec: erc_codec.Codec, tmp_path: Path) -> None:
-    pytest.importorskip("dpkt")
+    need("dpkt")
     missing = tmp_path / "missing.pcap"
     assert "cannot read" in one_line_error(run("decode", "--pcap", str(missing)), 2)
     text = tmp_path / "notes.pcap"

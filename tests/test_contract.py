@@ -5,6 +5,7 @@ rules (``plain_complaints``), on the rover's payload types and on tests/contract
 """
 
 import functools
+import itertools
 import random
 import struct
 from collections.abc import Callable, Iterator, Mapping, MutableMapping
@@ -475,7 +476,9 @@ def break_repeated(draw: Draw, sizes: Sizes, message: Any, field: FieldDescripto
 def add_item(values: Any, item: FieldDescriptor) -> None:
     """One more item the contract accepts: a default value, or an empty message."""
     if isinstance(values, MutableMapping):
-        key = max(values, default=0) + 1  # the contract tree's maps have integer keys
+        # The contract tree's maps have integer keys: the first one free, counting up from 0,
+        # so a key drawn at the type's maximum does not overflow it.
+        key = next(k for k in itertools.count() if k not in values)
         if item.type == _T.TYPE_MESSAGE:
             values[key].SetInParent()
         else:

@@ -8,7 +8,7 @@ from google.protobuf import descriptor_pool, message_factory
 from google.protobuf.descriptor import FieldDescriptor
 from google.protobuf.descriptor_pb2 import FeatureSet, FieldOptions
 from google.protobuf.message import DecodeError
-from lint_support import READING, tree
+from lint_support import READING, protoc_edition, tree
 
 import erc_lint
 from erc_codec.schema import options_class
@@ -118,13 +118,21 @@ FEATURES = {
 }
 
 
+def compiled_features() -> dict[str, str]:
+    """FEATURES without its edition 2024 file where the bundled protoc stops at 2023 (the
+    protobuf floor's grpcio-tools 1.74)."""
+    if protoc_edition() >= 2024:
+        return FEATURES
+    return {name: text for name, text in FEATURES.items() if name != "ed2024.proto"}
+
+
 def test_features_resolve_as_a_descriptor_pool_resolves_them(tmp_path: Path) -> None:
     """The model's reading of every field, extension and enum (required, delimited, closed,
     UTF-8 checked) is the protobuf runtime's: its descriptor pool (``is_required``, a delimited
     field's ``TYPE_GROUP``, ``is_closed``) and its parser (a string it validates refuses bytes
     that are not UTF-8)."""
     root = tmp_path / "t"
-    for name, text in FEATURES.items():
+    for name, text in compiled_features().items():
         (root / name).parent.mkdir(parents=True, exist_ok=True)
         (root / name).write_text(text)
     loaded = load_tree(root)
@@ -169,7 +177,7 @@ def test_a_tree_mixing_syntaxes_is_compared_completely(tmp_path: Path) -> None:
     """proto2, proto3 and editions 2023 and 2024 files importing one another load together, and
     a change in each is found."""
     old = tmp_path / "old"
-    for name, text in FEATURES.items():
+    for name, text in compiled_features().items():
         (old / name).parent.mkdir(parents=True, exist_ok=True)
         (old / name).write_text(text)
     edits = {
@@ -186,18 +194,19 @@ def test_a_tree_mixing_syntaxes_is_compared_completely(tmp_path: Path) -> None:
     }
     new = tmp_path / "new"
     new.mkdir()
-    for name, text in FEATURES.items():
+    for name, text in compiled_features().items():
         before, after = edits[name]
         assert before in text
         (new / name).write_text(text.replace(before, after))
     assert erc_lint.lint(old, old) == []
     found = [(Path(f.path).name, f.rule) for f in erc_lint.lint(old, new)]
-    assert found == [
+    expected = [
         ("ed2023.proto", "FIELD_ENCODING_CHANGED"),
         ("ed2024.proto", "REQUIRED_FIELD_REMOVED"),
         ("legacy2.proto", "FIELD_DEFAULT_CHANGED"),
         ("legacy3.proto", "FIELD_DELETED"),
-    ], found
+    ]
+    assert found == [f for f in expected if f[0] in compiled_features()], found
 
 
 def test_the_wire_features_are_set_on_files_fields_and_enums_only() -> None:

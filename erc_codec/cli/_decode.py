@@ -11,6 +11,7 @@ from .._errors import DecodeError
 from .._framing import Deframer
 from ._input import hex_lines, read_stdin
 from ._pcap import Capture
+from ._record import capture_to_mcap
 from ._shared import Fatal, emit, load, one_line, plural, schema_options, to_dict, unhex
 
 __all__ = ["decode"]
@@ -88,13 +89,25 @@ def _deframe(decoder: _Decoder, chunks: Iterable[bytes], deframer: Deframer) -> 
     help="Decode every UDP payload of a pcap or pcapng capture (needs the pcap extra: dpkt).",
 )
 @click.option(
+    "--mcap",
+    type=click.Path(dir_okay=False, path_type=Path),
+    metavar="OUT.mcap",
+    help="With --pcap: write the datagrams to an MCAP file (a channel per kind, drops too) "
+    "instead of JSON lines (needs the mcap extra).",
+)
+@click.option(
     "--framed",
     is_flag=True,
     help="The input is a serial byte stream of Proton frames: decode each frame's payload.",
 )
 @schema_options
 def decode(
-    data: tuple[str, ...], capture: Path | None, framed: bool, tree: Path | None, root: str
+    data: tuple[str, ...],
+    capture: Path | None,
+    mcap: Path | None,
+    framed: bool,
+    tree: Path | None,
+    root: str,
 ) -> None:
     """Decode datagrams to JSON: one object per datagram, one per line, on stdout.
 
@@ -135,6 +148,8 @@ def decode(
     """
     if capture is not None and (data or framed):
         raise click.UsageError("--pcap reads the capture only: give no HEX, '-' or --framed")
+    if mcap is not None and capture is None:
+        raise click.UsageError("--mcap writes a capture's datagrams: give --pcap CAPTURE")
     if "-" in data and len(data) > 1:
         raise click.UsageError("'-' (standard input) cannot be combined with HEX")
     given = None
@@ -145,9 +160,7 @@ def decode(
             raise click.BadParameter(str(error), param_hint="HEX") from None
     summary: str | None = None
     if capture is not None:
-        with Capture(capture) as packets:
-            decoder = _Decoder(load(tree, root))
-            summary = _from_capture(decoder, packets)
+        decoder, summary = _capture(capture, mcap, load(tree, root))
     else:
         codec = load(tree, root)
         decoder = _Decoder(codec)
@@ -167,6 +180,17 @@ def decode(
     if summary is not None:
         click.echo(summary, err=True)
     sys.exit(1 if decoder.failed or decoder.bad_lines else 0)
+
+
+def _capture(path: Path, mcap: Path | None, codec: Codec) -> tuple[_Decoder, str]:
+    """Decode a capture to JSON lines, or with ``mcap`` write it to that MCAP file."""
+    with Capture(path) as packets:
+        decoder = _Decoder(codec)
+        if mcap is not None:
+            decoder.failed, summary = capture_to_mcap(packets, codec, mcap)
+        else:
+            summary = _from_capture(decoder, packets)
+    return decoder, summary
 
 
 def _from_capture(decoder: _Decoder, capture: Capture) -> str:

@@ -7,7 +7,9 @@ from ._encode import encode
 from ._group import OneLineGroup
 from ._net import listen, send
 from ._proton import proton
+from ._record import record, replay
 from ._sizes import sizes
+from ._wireshark import wireshark
 
 __all__ = ["main"]
 
@@ -18,5 +20,5 @@ def main() -> None:
     """Encode, decode and size the ERC rover's PBEnvelope datagrams."""
 
 
-for _command in (sizes, decode, encode, send, listen, proton):
+for _command in (sizes, decode, encode, send, listen, record, replay, proton, wireshark):
     main.add_command(_command)

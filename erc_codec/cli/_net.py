@@ -25,9 +25,11 @@ from .._codec import Codec
 from .._dispatch import Dispatcher, DispatchStats, Drop
 from .._envelope import Mode
 from .._errors import EncodeError
+from .._foxglove import FoxgloveView
 from .._transport import UdpEndpoint, UdpStats, open_udp
 from .._watchdog import Watchdog
 from ._encode import MODE
+from ._live import foxglove_view
 from ._shared import Fatal, envelope_from_json, load, one_line, schema_options, to_dict
 
 if TYPE_CHECKING:
@@ -148,12 +150,22 @@ def send(
     show_default=True,
     help="auto: a live table on a terminal, JSON lines otherwise.",
 )
+@click.option("--foxglove", is_flag=True, help="Also serve what arrives to Foxglove, live.")
+@click.option(
+    "--foxglove-address",
+    metavar="[HOST:]PORT",
+    default="127.0.0.1:8765",
+    show_default=True,
+    help="Where the Foxglove WebSocket server listens (needs the foxglove extra).",
+)
 @schema_options
 def listen(
     address: str,
     count: int | None,
     seconds: float | None,
     output: str,
+    foxglove: bool,
+    foxglove_address: str,
     tree: Path | None,
     root: str,
 ) -> None:
@@ -165,6 +177,9 @@ def listen(
     never reached it: dropped by the kernel (its receive buffer full: null where the system does
     not say), unread (still queued when it stopped), with the receive buffer granted, in bytes
     (4 MiB is asked for; Linux grants up to twice net.core.rmem_max).
+    With --foxglove, a Foxglove client (ws://127.0.0.1:8765 unless --foxglove-address says
+    otherwise) sees every kind on /erc/<kind>, drops on /erc-codec/drops, the GPS fix on
+    /erc-codec/fix and rates on /erc-codec/stats.
     """
     import asyncio
 
@@ -172,9 +187,14 @@ def listen(
     codec = load(tree, root)
     _, local = resolve(host, port)
     table = output == "table" or (output == "auto" and sys.stdout.isatty())
-    session = _Listening(codec, _Table() if table else None, count)
+    live = foxglove_view(codec, *parse_address(foxglove_address, "127.0.0.1")) if foxglove else None
+    session = _Listening(codec, _Table() if table else None, count, live)
     with contextlib.suppress(KeyboardInterrupt):  # Ctrl-C ends it as --count would
-        asyncio.run(session.run(local, seconds))
+        try:
+            asyncio.run(session.run(local, seconds))
+        finally:
+            if live is not None:
+                live.close()
     session.flush()
     stats = session.dispatcher.stats()
     udp = session.udp or UdpStats(0, 0, 0, 0, 0)  # Ctrl-C before the socket was open
@@ -194,7 +214,9 @@ class _Listening:
     """One ``listen``: an endpoint whose every datagram is shown as a JSON line, or counted in a
     table with the rates a watchdog measures."""
 
-    def __init__(self, codec: Codec, view: "_Table | None", count: int | None) -> None:
+    def __init__(
+        self, codec: Codec, view: "_Table | None", count: int | None, live: FoxgloveView | None
+    ) -> None:
         self.dispatcher = Dispatcher(codec, on_drop=self._dropped)
         for kind in codec.kinds().values():
             self.dispatcher.register(kind, self._shower(kind))
@@ -202,6 +224,7 @@ class _Listening:
         self.udp: UdpStats | None = None  # the endpoint's counters, once it is closed
         self._to_dict = to_dict  # the fastest conversion there is: what listen can keep up with
         self._view = view
+        self._live = live
         self._count = count
         self._heard = 0
         self._sender: Any = None  # the sender of the datagram being dispatched, as shown, and
@@ -283,6 +306,8 @@ class _Listening:
 
     def _shower(self, kind: str) -> Callable[[Message], None]:
         def show(message: Message) -> None:
+            if self._live is not None:
+                self._live.message(kind, message)
             if self._view is None:
                 self._show(
                     {
@@ -296,6 +321,8 @@ class _Listening:
         return show
 
     def _dropped(self, drop: Drop) -> None:
+        if self._live is not None:
+            self._live.drop(drop, self._source)
         if self._view is None:
             error = one_line(str(drop.error)) if drop.error else f"no handler for {drop.kind}"
             record = {"from": self._source, "error": error, "reason": drop.reason}

@@ -22,6 +22,11 @@ _RAW_IP = {101, 228, 229}  # LINKTYPE_RAW, LINKTYPE_IPV4, LINKTYPE_IPV6
 _LOOPBACK = {0, 108}  # LINKTYPE_NULL, LINKTYPE_LOOP: a 4-byte address family, then IP
 _LINK_TYPES = {_ETHERNET, _LINUX_SLL, _LINUX_SLL2, *_RAW_IP, *_LOOPBACK}
 _IPV6_FRAGMENT = 44
+# Addresses shown, kept for the next datagram between the same two: formatting one with ipaddress
+# costs about a quarter of reading a datagram, and a capture has a handful of senders
+# (benchmarks/bench_record.py: a capture to MCAP >= 0.7x the bare libraries). Bounded: a capture
+# of a flood of senders starts over when it is full.
+_KNOWN_ENDPOINTS = 4096
 
 
 class CapturedDatagram(NamedTuple):
@@ -91,6 +96,7 @@ class Capture:
             )
         self.packets = 0
         self.skipped: dict[str, int] = {}
+        self._endpoints: dict[tuple[bytes, int], str] = {}
         self.damage = ""
 
     def __enter__(self) -> "Capture":
@@ -102,6 +108,7 @@ class Capture:
     def datagrams(self) -> Iterator[CapturedDatagram]:
         """Every whole UDP datagram, in capture order, up to the end or to the damage."""
         packets = iter(self._reader)
+        endpoints = self._endpoints
         while True:
             try:
                 timestamp, packet = next(packets)
@@ -123,10 +130,16 @@ class Capture:
             if why:
                 self.skipped[why] = self.skipped.get(why, 0) + 1
                 continue
+            source, destination = (ip.src, udp.sport), (ip.dst, udp.dport)
+            if source not in endpoints or destination not in endpoints:
+                if len(endpoints) >= _KNOWN_ENDPOINTS:
+                    endpoints.clear()
+                endpoints[source] = _endpoint(*source)
+                endpoints[destination] = _endpoint(*destination)
             yield CapturedDatagram(
                 float(timestamp),
-                _endpoint(ip.src, udp.sport),
-                _endpoint(ip.dst, udp.dport),
+                endpoints[source],
+                endpoints[destination],
                 bytes(udp.data[: udp.ulen - 8]),
             )
 

@@ -1,0 +1,283 @@
+"""Datagrams to an MCAP file and back, with the ``mcap`` and ``mcap-protobuf-support`` libraries
+(the ``mcap`` extra).
+
+What it guarantees:
+- every datagram written is in the file: a datagram that decodes as a message on its member's
+  channel (``/erc/<kind>``, the payload re-encoded in the exact protobuf form, which every
+  protobuf reader accepts, schema as ``_recording`` builds it), one that does not as a
+  ``DroppedDatagram`` on ``/erc-codec/drops`` with its bytes as received;
+- log time is the arrival (or capture) time, publish time the same: a ``PBEnvelope`` is one
+  oneof and carries no time of its own (a payload's own times stay in the payload); a message's
+  ``sequence`` is the datagram's number in the recording, so gaps and order show across channels;
+- the file says where its schema came from (the tree, its git revision, a digest of the
+  envelope's descriptors, ``<root>_size``) in a metadata record ``erc-codec`` written first, and
+  what it holds (counts by kind and by reason, senders) in ``erc-codec.summary`` written last;
+- memory stays flat: the writer streams chunks (zstd, CRCs on chunks and on the data section);
+  what it keeps per datagram is counters.
+The file must be seekable (the library goes back to write its indexes).
+"""
+
+import os
+import struct
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, BinaryIO, Literal, NamedTuple
+
+from google.protobuf.message import DecodeError as ProtobufDecodeError
+from google.protobuf.message import Message
+
+from ._codec import Codec
+from ._errors import CodecError, DecodeError
+from ._origin import erc_codec_version, schema_origin
+from ._recording import (
+    DROPS_TOPIC,
+    drop_schema,
+    dropped_datagram,
+    file_descriptor_set,
+    kind_of,
+    member_topic,
+    require,
+)
+from .schema import descriptor_of
+
+if TYPE_CHECKING:
+    from mcap.writer import Writer
+
+__all__ = ["McapWriter", "Recorded", "RecordingStats", "read_mcap", "recorded_payloads"]
+
+Compression = Literal["zstd", "lz4", "none"]
+_MAX_SENDERS = 256  # distinct (kind, sender) pairs named in the summary; the rest are counted
+
+
+class RecordingStats(NamedTuple):
+    """What a writer has written (copies: changing them changes nothing)."""
+
+    messages: dict[str, int]  # kind → messages
+    drops: dict[str, int]  # reason → dropped datagrams
+
+
+class Recorded(NamedTuple):
+    """One message of a recording, as ``read_mcap`` yields it."""
+
+    log_time: int  # nanoseconds since the Unix epoch: when the datagram arrived (was captured)
+    kind: str | None  # the envelope member; None for a drop
+    message: Message  # the payload, or for a drop its DroppedDatagram
+
+
+def _mcap(module: str, what: str) -> Any:
+    return require(module, "mcap", "mcap", what)
+
+
+class McapWriter:
+    """Writes datagrams (or decoded payloads, and drops) to an MCAP file.
+
+    ``output`` is a path or a seekable binary file; ``source`` says where the datagrams came
+    from (``"udp 127.0.0.1:5000"``, ``"capture rover.pcapng"``) in the file's metadata. Use it
+    as a context manager, or call ``close()``: the file is complete (indexed, summarised) only
+    then.
+    """
+
+    def __init__(
+        self,
+        output: str | os.PathLike[str] | BinaryIO,
+        codec: Codec | None = None,
+        *,
+        source: str = "",
+        chunk_size: int = 1 << 20,
+        compression: Compression = "zstd",
+    ) -> None:
+        writer_module = _mcap("mcap.writer", "writing MCAP")
+        well_known = _mcap("mcap.well_known", "writing MCAP")
+        self._codec = codec or Codec.default()
+        self._decode = self._codec.decode
+        self._encoding = well_known.MessageEncoding.Protobuf
+        self._schema_encoding = well_known.SchemaEncoding.Protobuf
+        if isinstance(output, str | os.PathLike):
+            self._file: BinaryIO = Path(output).open("wb")  # noqa: SIM115 (close() closes it)
+            self._owned = True
+        else:
+            if not output.seekable():
+                raise CodecError("an MCAP file must be written to a seekable file, not a pipe")
+            self._file, self._owned = output, False
+        self._writer: Writer = writer_module.Writer(
+            self._file,
+            chunk_size=chunk_size,
+            compression=writer_module.CompressionType[compression.upper()],
+            enable_crcs=True,
+            enable_data_crcs=True,
+        )
+        self._writer.start(profile="", library=f"erc-codec {erc_codec_version()}")
+        self._writer.add_metadata("erc-codec", {**schema_origin(self._codec), "source": source})
+        self._add = self._writer.add_message
+        self._channels: dict[str, int] = {}  # kind → channel id
+        self._schemas: dict[str, int] = {}  # payload full name → schema id
+        self._drops_channel = 0
+        self._messages: dict[str, int] = {}
+        self._drops: dict[str, int] = {}
+        self._senders: dict[tuple[str, str], int] = {}
+        self._unlisted_senders = 0
+        self._sequence = 0
+        self._closed = False
+
+    def __enter__(self) -> "McapWriter":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def write(
+        self, data: bytes, log_time: int, source: str = "", destination: str = ""
+    ) -> str | None:
+        """Decode one datagram and write it as a message, or as a drop; its kind, or None."""
+        try:
+            kind, message = self._decode(data)
+        except DecodeError as error:
+            self.drop(data, log_time, error.reason, str(error), source, destination)
+            return None
+        self.message(kind, message, log_time, source)
+        return kind
+
+    def message(self, kind: str, payload: Message | bytes, log_time: int, source: str = "") -> None:
+        """Write the payload of a decoded datagram of member ``kind`` (the message, or its exact
+        encoding) that arrived at ``log_time`` (nanoseconds since the epoch) from ``source``."""
+        channel = self._channels.get(kind)
+        if channel is None:
+            channel = self._channel(kind)
+        data = payload if isinstance(payload, bytes) else payload.SerializeToString()
+        self._sequence = sequence = (self._sequence + 1) & 0xFFFFFFFF  # MCAP's is a uint32
+        self._add(channel, log_time, data, log_time, sequence)
+        messages = self._messages
+        messages[kind] = messages.get(kind, 0) + 1
+        senders, key = self._senders, (kind, source)
+        if key in senders:
+            senders[key] += 1
+        elif len(senders) < _MAX_SENDERS:
+            senders[key] = 1
+        else:
+            self._unlisted_senders += 1
+
+    def drop(
+        self,
+        data: bytes,
+        log_time: int,
+        reason: str,
+        error: str = "",
+        source: str = "",
+        destination: str = "",
+    ) -> None:
+        """Write a datagram that did not decode, exactly as it arrived, with why."""
+        if not self._drops_channel:
+            name, files = drop_schema()
+            schema = self._writer.register_schema(name, self._schema_encoding, files)
+            self._drops_channel = self._writer.register_channel(DROPS_TOPIC, self._encoding, schema)
+        record = dropped_datagram()(
+            reason=reason,
+            error=" ".join(error.split()),
+            length=len(data),
+            data=data,
+            source=source,
+            destination=destination,
+        )
+        self._sequence = sequence = (self._sequence + 1) & 0xFFFFFFFF
+        self._add(self._drops_channel, log_time, record.SerializeToString(), log_time, sequence)
+        self._drops[reason] = self._drops.get(reason, 0) + 1
+
+    def stats(self) -> RecordingStats:
+        """Messages by kind and drops by reason, so far."""
+        return RecordingStats(dict(self._messages), dict(self._drops))
+
+    def close(self, summary: Mapping[str, str] | None = None) -> None:
+        """Write the summary (what was written, who sent it, and ``summary``'s own entries, such
+        as datagrams lost before they reached the writer), finish the file and close it."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._writer.add_metadata("erc-codec.summary", {**self._summary(), **(summary or {})})
+            self._writer.finish()  # type: ignore[no-untyped-call]  # mcap leaves it unannotated
+        finally:
+            if self._owned:
+                self._file.close()
+
+    def _channel(self, kind: str) -> int:
+        descriptor = descriptor_of(self._codec.payload_class(kind))
+        name = descriptor.full_name
+        schema = self._schemas.get(name)
+        if schema is None:
+            schema = self._schemas[name] = self._writer.register_schema(
+                name, self._schema_encoding, file_descriptor_set(descriptor)
+            )
+        channel: int = self._writer.register_channel(member_topic(kind), self._encoding, schema)
+        self._channels[kind] = channel
+        return channel
+
+    def _summary(self) -> dict[str, str]:
+        messages, drops = sum(self._messages.values()), sum(self._drops.values())
+        summary = {
+            "datagrams": str(messages + drops),
+            "messages": str(messages),
+            "drops": str(drops),
+        }
+        summary.update({f"messages.{k}": str(n) for k, n in sorted(self._messages.items())})
+        summary.update({f"drops.{r}": str(n) for r, n in sorted(self._drops.items())})
+        senders: dict[str, list[tuple[int, str]]] = {}
+        for (kind, source), count in self._senders.items():
+            senders.setdefault(kind, []).append((count, source or "unknown"))
+        for kind, counts in sorted(senders.items()):
+            listed = sorted(counts, key=lambda entry: (-entry[0], entry[1]))
+            summary[f"senders.{kind}"] = ", ".join(f"{source} {n}" for n, source in listed)
+        if self._unlisted_senders:
+            summary["senders.unlisted_messages"] = str(self._unlisted_senders)
+        return summary
+
+
+def read_mcap(path: str | os.PathLike[str]) -> Iterator[Recorded]:
+    """Every message of an MCAP file that erc-codec wrote, in log-time order, decoded with the
+    schemas the file carries (as Foxglove decodes it, so an old recording reads right whatever
+    the tree is now): ``Recorded(log_time, kind, message)``; a drop comes as kind ``None`` with a
+    ``DroppedDatagram`` (``reason``, ``error``, ``length``, ``data``, ``source``,
+    ``destination``). Chunk CRCs are checked; a damaged file is a ``CodecError``."""
+    reader_module = _mcap("mcap.reader", "reading MCAP")
+    decoder_module = _mcap("mcap_protobuf.decoder", "reading MCAP")
+    errors = _damage()
+    try:
+        with Path(path).open("rb") as file:
+            reader = reader_module.make_reader(
+                file, validate_crcs=True, decoder_factories=[decoder_module.DecoderFactory()]
+            )
+            for _, channel, message, decoded in reader.iter_decoded_messages():
+                kind = kind_of(channel.topic)
+                if kind is not None or channel.topic == DROPS_TOPIC:
+                    yield Recorded(message.log_time, kind, decoded)
+    except errors as error:
+        raise CodecError(f"{path} is not a readable MCAP recording: {error}") from None
+
+
+def recorded_payloads(path: str | os.PathLike[str]) -> Iterator[tuple[int, str | None, bytes]]:
+    """``(log_time, kind, payload bytes)`` of every member message of an MCAP file, and
+    ``(log_time, None, datagram as received)`` of every drop, in log-time order, undecoded."""
+    reader_module = _mcap("mcap.reader", "reading MCAP")
+    errors = _damage()
+    parse_drop = dropped_datagram().FromString
+    try:
+        with Path(path).open("rb") as file:
+            for _, channel, message in reader_module.make_reader(
+                file, validate_crcs=True
+            ).iter_messages():
+                kind = kind_of(channel.topic)
+                if kind is not None:
+                    yield message.log_time, kind, message.data
+                elif channel.topic == DROPS_TOPIC:
+                    drop: Any = parse_drop(message.data)
+                    yield message.log_time, None, drop.data
+    except errors as error:
+        raise CodecError(f"{path} is not a readable MCAP recording: {error}") from None
+
+
+def _damage() -> tuple[type[Exception], ...]:
+    """What the readers raise on a damaged file: their own errors, a CRC that does not match
+    (a ValueError), records cut short, chunks that do not decompress, payloads that do not
+    parse."""
+    zstd: Any = _mcap("zstandard", "reading MCAP")
+    mcap_error = _mcap("mcap.exceptions", "reading MCAP").McapError
+    return (mcap_error, ValueError, struct.error, EOFError, zstd.ZstdError, ProtobufDecodeError)

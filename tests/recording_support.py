@@ -1,0 +1,91 @@
+"""What the recording tests share: captures they write, and the tools they need.
+
+Imported as conftest is (``from recording_support import write_pcap``); it holds no tests.
+Captures are classic pcap (Ethernet, IPv4, UDP), written with struct byte by byte, so a test of
+the pcap readers does not lean on one of them to make its input. ``need`` imports a library of
+the test extra (or finds a program CI installs): without it a test skips and says why, except
+under ERC_REQUIRE_INTEROP=1 (CI), where it fails.
+"""
+
+import importlib
+import os
+import shutil
+import struct
+from collections.abc import Iterable
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+_ETHERNET = bytes.fromhex("0200000000020200000000010800")
+_PCAP_HEADER = struct.pack("<IHHiIII", 0xA1B2C3D4, 2, 4, 0, 0, 65535, 1)  # µs, LINKTYPE_ETHERNET
+SOURCE = (192, 168, 0, 20)
+DESTINATION = (192, 168, 0, 2)
+
+
+def _checksum(data: bytes) -> int:
+    if len(data) % 2:
+        data += b"\0"
+    total = int(sum(struct.unpack(f"!{len(data) // 2}H", data)))
+    while total >> 16:
+        total = (total & 0xFFFF) + (total >> 16)
+    return ~total & 0xFFFF
+
+
+def frame(payload: bytes, sport: int = 40000, dport: int = 5000) -> bytes:
+    """An Ethernet frame carrying ``payload`` in one UDP datagram, checksums right."""
+    source, destination = bytes(SOURCE), bytes(DESTINATION)
+    length = 8 + len(payload)
+    pseudo = source + destination + struct.pack("!BBH", 0, 17, length)
+    udp = struct.pack("!HHHH", sport, dport, length, 0) + payload
+    udp = udp[:6] + struct.pack("!H", _checksum(pseudo + udp) or 0xFFFF) + udp[8:]
+    ip = struct.pack(
+        "!BBHHHBBH4s4s", 0x45, 0, 20 + length, 1, 0x4000, 64, 17, 0, source, destination
+    )
+    ip = ip[:10] + struct.pack("!H", _checksum(ip)) + ip[12:]
+    return _ETHERNET + ip + udp
+
+
+def write_pcap(
+    path: Path,
+    datagrams: Iterable[bytes],
+    start: float = 1_700_000_000.0,
+    step: float = 0.01,
+    dport: int = 5000,
+) -> list[float]:
+    """A pcap of one UDP datagram per payload, ``step`` seconds apart (microsecond times, as
+    pcap keeps them); the capture time of each."""
+    times = []
+    with path.open("wb") as file:
+        file.write(_PCAP_HEADER)
+        for number, payload in enumerate(datagrams):
+            micros = round(start * 1e6) + round(number * step * 1e6)
+            data = frame(payload, dport=dport)
+            file.write(struct.pack("<IIII", micros // 10**6, micros % 10**6, len(data), len(data)))
+            file.write(data)
+            times.append(micros / 1e6)
+    return times
+
+
+def _missing(reason: str) -> None:
+    if os.environ.get("ERC_REQUIRE_INTEROP") == "1":
+        pytest.fail(f"ERC_REQUIRE_INTEROP=1 but {reason}")
+    pytest.skip(reason)
+
+
+def need(module: str) -> ModuleType:
+    """Import ``module`` (of the test extra), or skip (fail under ERC_REQUIRE_INTEROP=1)."""
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        _missing(f"{module} is not installed (pip install -e '.[test]')")
+        raise  # not reached: skip and fail raise
+
+
+def need_program(name: str, install: str) -> str:
+    """The path of program ``name``, or skip (fail under ERC_REQUIRE_INTEROP=1)."""
+    found = shutil.which(name)
+    if found is None:
+        _missing(f"{name} is not installed ({install})")
+        raise AssertionError("not reached")
+    return found

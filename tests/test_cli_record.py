@@ -1,0 +1,400 @@
+"""erc-codec record and replay, end to end over 127.0.0.1: a recorder process fed by a real socket,
+read back with the mcap library; replays caught by a real socket, bytes and timing measured."""
+
+import json
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+from datagrams import MODES
+from recording_support import frame, need, write_pcap
+from test_mcap import read_back
+
+import erc_codec
+
+SO_TIMESTAMPNS = getattr(socket, "SO_TIMESTAMPNS", 35)  # Linux's number, where Python lacks it
+
+
+def start_recorder(out: Path, *args: str) -> tuple[subprocess.Popen[str], int]:
+    recorder = subprocess.Popen(
+        [sys.executable, "-m", "erc_codec", "record", "127.0.0.1:0", str(out), *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert recorder.stderr is not None
+    first = recorder.stderr.readline()  # "recording on 127.0.0.1:PORT to OUT"
+    assert first.startswith("recording on 127.0.0.1:"), first + recorder.stderr.read()
+    return recorder, int(first.split()[2].rsplit(":", 1)[1])
+
+
+def summary(err: str, prefix: str) -> dict[str, Any]:
+    line = err.strip().splitlines()[-1]
+    assert line.startswith(prefix), err
+    result: dict[str, Any] = json.loads(line.removeprefix(prefix))
+    return result
+
+
+def fleet(codec: erc_codec.Codec) -> list[bytes]:
+    """Datagrams as the fleet sends them: every form, all-default payloads, garbage."""
+    gps = codec.message_class("SensorBoardGPSInfo")(latitude=52.2389, longitude=6.8566)
+    feedback = codec.message_class("ArmBoardMovementFeedback")()
+    motor = codec.message_class("DrivingBoardMotorMessage")(distance_to_go=1.5)
+    return [codec.encode(p, m) for p in (gps, feedback, motor) for m in MODES] + [
+        bytes.fromhex("b20100"),
+        bytes.fromhex("6205ff"),
+    ]
+
+
+@pytest.mark.parametrize("stop", ["count", "sigterm", "sigint"])
+def test_record_writes_what_arrives(codec: erc_codec.Codec, tmp_path: Path, stop: str) -> None:
+    need("mcap")
+    out = tmp_path / "run.mcap"
+    sent = fleet(codec)
+    args = ["--count", str(len(sent))] if stop == "count" else ["--seconds", "60"]
+    recorder, port = start_recorder(out, *args)
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
+        sender.bind(("127.0.0.1", 0))
+        source = f"127.0.0.1:{sender.getsockname()[1]}"
+        before = time.time_ns()
+        for data in sent:
+            sender.sendto(data, ("127.0.0.1", port))
+            time.sleep(0.002)
+        if stop != "count":
+            time.sleep(0.3)  # let them be read before the signal
+            recorder.send_signal(signal.SIGTERM if stop == "sigterm" else signal.SIGINT)
+        _, err = recorder.communicate(timeout=60)
+    after = time.time_ns()
+    assert recorder.returncode == 0, err
+    result = summary(err, "recorded: ")
+    assert result["received"] == len(sent)
+    assert result["messages"] == {
+        "gps_info": 3,
+        "arm_movement_feedback": 3,
+        "driving_motor_message": 3,
+    }
+    assert result["drops"] == {"unknown_member": 1, "corrupt": 1}
+    assert result["dropped_by_kernel"] == 0
+    assert result["bytes"] == out.stat().st_size
+    messages = read_back(out)
+    assert len(messages) == len(sent)
+    times = [m.message.log_time for m in messages]
+    assert before <= times[0]
+    assert times == sorted(times)
+    assert times[-1] <= after
+    assert [m.message.sequence for m in messages] == list(range(1, len(sent) + 1))
+    for data, read in zip(sent, messages, strict=True):
+        if read.channel.topic == "/erc-codec/drops":
+            assert (read.decoded_message.data, read.decoded_message.source) == (data, source)
+        else:
+            kind, message = codec.decode(data)
+            assert read.channel.topic == f"/erc/{kind}"
+            assert read.message.data == message.SerializeToString()
+
+
+def test_record_refuses_to_overwrite_and_to_bind_twice(tmp_path: Path) -> None:
+    need("mcap")
+    out = tmp_path / "old.mcap"
+    out.write_bytes(b"last week's run")
+    done = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "record", "127.0.0.1:0", str(out), "--seconds", "1"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert (done.returncode, done.stderr) == (
+        2,
+        f"Error: {out} exists: remove it or choose another name\n",
+    )
+    assert out.read_bytes() == b"last week's run"
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as taken:
+        taken.bind(("127.0.0.1", 0))
+        port = taken.getsockname()[1]
+        done = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "erc_codec",
+                "record",
+                f"127.0.0.1:{port}",
+                str(tmp_path / "new.mcap"),
+            ],
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+    assert done.returncode == 2
+    assert done.stderr.startswith(f"Error: cannot listen on 127.0.0.1:{port}:")
+    assert not (tmp_path / "new.mcap").exists()
+
+
+# -- replay ------------------------------------------------------------------------------------
+
+
+class Catcher:
+    """A socket on 127.0.0.1 that keeps what arrives, with the kernel's arrival times (Linux's
+    SO_TIMESTAMPNS: when the datagram was received, however late this process reads it)."""
+
+    def __init__(self) -> None:
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.settimeout(10)
+        self.address = f"127.0.0.1:{self.sock.getsockname()[1]}"
+
+    def take(self, count: int) -> list[tuple[float, bytes]]:
+        got = []
+        for _ in range(count):
+            data, ancillary, _, _ = self.sock.recvmsg(65535, 64)
+            (seconds, nanos) = next(
+                struct.unpack("@qq", cmsg_data[:16])
+                for level, kind, cmsg_data in ancillary
+                if level == socket.SOL_SOCKET and kind == SO_TIMESTAMPNS
+            )
+            got.append((seconds + nanos / 1e9, data))
+        self.sock.settimeout(0.2)
+        with pytest.raises(TimeoutError):
+            self.sock.recv(65535)  # nothing more
+        return got
+
+    def close(self) -> None:
+        self.sock.close()
+
+
+@pytest.fixture
+def catcher() -> Any:
+    caught = Catcher()
+    yield caught
+    caught.close()
+
+
+def replay(source: Path, catcher: Catcher, *args: str) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, "-m", "erc_codec", "replay", str(source), catcher.address, *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def finished(process: subprocess.Popen[str]) -> dict[str, Any]:
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 0, err
+    return summary(err, "replayed: ")
+
+
+def test_replay_a_capture_at_its_timing(
+    codec: erc_codec.Codec, tmp_path: Path, catcher: Catcher
+) -> None:
+    need("dpkt")
+    sent = fleet(codec)
+    capture = tmp_path / "field.pcap"
+    write_pcap(capture, sent, step=0.1)
+    process = replay(capture, catcher, "--speed", "2")
+    got = catcher.take(len(sent) - 2)  # as they arrive
+    result = finished(process)
+    # Never early: each leaves at its recorded time from the first, halved.
+    for (first, _), (later, _), number in zip(
+        [got[0]] * len(got), got, range(len(got)), strict=True
+    ):
+        assert later - first >= number * 0.05 - 0.002
+    assert got[-1][0] - got[0][0] < (len(got) - 1) * 0.05 + 0.5
+    assert [data for _, data in got] == [
+        codec.encode(codec.decode(data).message) for data in sent[:-2]
+    ]  # re-encoded stripped, the default
+    assert result["sent"] == len(sent) - 2
+    assert result["by_kind"] == {
+        "arm_movement_feedback": 3,
+        "driving_motor_message": 3,
+        "gps_info": 3,
+    }
+    assert result["skipped"] == {"drops": 2}
+    assert result["recorded_seconds"] == pytest.approx((len(sent) - 3) * 0.1)
+    assert result["latest_ms"] >= 0
+
+
+def test_replay_a_pcapng_capture_at_its_timing(
+    codec: erc_codec.Codec, tmp_path: Path, catcher: Catcher
+) -> None:
+    dpkt = need("dpkt")
+    sent = fleet(codec)[:-2]
+    capture = tmp_path / "field.pcapng"
+    with capture.open("wb") as file:  # dpkt's pcapng writer: section, interface, packet blocks
+        writer = dpkt.pcapng.Writer(file)
+        for number, data in enumerate(sent):
+            writer.writepkt(frame(data), ts=1_700_000_000 + number * 0.08)
+    process = replay(capture, catcher, "--speed", "4", "--mode", "pad")
+    got = catcher.take(len(sent))
+    result = finished(process)
+    for number, (at, _) in enumerate(got):
+        assert at - got[0][0] >= number * 0.02 - 0.002  # never early
+    assert got[-1][0] - got[0][0] < (len(sent) - 1) * 0.02 + 0.5
+    assert [data for _, data in got] == [
+        codec.encode(codec.decode(data).message, "pad") for data in sent
+    ]
+    assert result["sent"] == len(sent)
+    assert result["recorded_seconds"] == pytest.approx((len(sent) - 1) * 0.08)
+
+
+def test_replay_of_a_damaged_capture_sends_what_came_before(
+    codec: erc_codec.Codec, tmp_path: Path, catcher: Catcher
+) -> None:
+    need("dpkt")
+    sent = fleet(codec)[:3]
+    capture = tmp_path / "cut.pcap"
+    write_pcap(capture, sent)
+    capture.write_bytes(capture.read_bytes()[:-3])  # cut inside the last packet
+    process = replay(capture, catcher, "--as-fast-as-possible")
+    got = catcher.take(2)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 1, err
+    assert [data for _, data in got] == [codec.encode(codec.decode(d).message) for d in sent[:2]]
+    *_, line, error = err.splitlines()
+    assert json.loads(line.removeprefix("replayed: "))["sent"] == 2
+    assert error == f"Error: {capture} is cut off inside packet 3"
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_replay_a_recording_in_the_form_asked(
+    codec: erc_codec.Codec, tmp_path: Path, catcher: Catcher, mode: str
+) -> None:
+    need("mcap")
+    sent = fleet(codec)
+    recording = tmp_path / "run.mcap"
+    with erc_codec.McapWriter(recording, codec) as writer:
+        for number, data in enumerate(sent):
+            writer.write(data, 1_700_000_000_000_000_000 + number * 1_000_000)
+    result = finished(
+        replay(recording, catcher, "--mode", mode, "--drops", "--as-fast-as-possible")
+    )
+    got = [data for _, data in catcher.take(len(sent))]
+    expected = [codec.encode(codec.decode(d).message, mode) for d in sent[:-2]] + sent[-2:]  # type: ignore[arg-type]
+    assert got == expected
+    assert result["by_kind"]["drops"] == 2
+    assert result["skipped"] == {}
+
+
+def test_replay_only_the_kinds_asked(
+    codec: erc_codec.Codec, tmp_path: Path, catcher: Catcher
+) -> None:
+    need("mcap")
+    recording = tmp_path / "run.mcap"
+    with erc_codec.McapWriter(recording, codec) as writer:
+        for number, data in enumerate(fleet(codec)):
+            writer.write(data, 1_700_000_000_000_000_000 + number)
+    result = finished(
+        replay(recording, catcher, "--kind", "gps_info", "--kind", "driving_motor_message")
+    )
+    got = [codec.decode(data).kind for _, data in catcher.take(6)]
+    assert got == ["gps_info"] * 3 + ["driving_motor_message"] * 3
+    assert result["skipped"] == {"drops": 2, "other_kinds": 3}
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "erc_codec",
+            "replay",
+            str(recording),
+            catcher.address,
+            "--kind",
+            "nope",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 2
+    assert "'nope' is not a kind of PBEnvelope" in done.stderr
+
+
+def test_replay_decodes_json_lines(
+    codec: erc_codec.Codec, tmp_path: Path, catcher: Catcher
+) -> None:
+    need("dpkt")
+    sent = fleet(codec)
+    capture = tmp_path / "field.pcap"
+    write_pcap(capture, sent, step=0.05)
+    lines = tmp_path / "field.jsonl"
+    decoded = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "decode", "--pcap", str(capture)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    lines.write_text(decoded.stdout + '{"kind": "gps_info", "message": {"nonsense": 1}}\n')
+    process = replay(lines, catcher, "--drops")  # decode printed no bytes of the drops
+    got = catcher.take(len(sent) - 2)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 1  # one line is not a valid message
+    result = summary(err, "replayed: ")
+    assert [data for _, data in got] == [codec.encode(codec.decode(d).message) for d in sent[:-2]]
+    assert got[-1][0] - got[0][0] >= (len(sent) - 3) * 0.05 - 0.002  # "time" of decode --pcap
+    assert result["skipped"] == {"drops_without_bytes": 2, "not_valid": 1}
+
+
+def test_a_recording_replayed_into_record_records_the_same(
+    codec: erc_codec.Codec, tmp_path: Path
+) -> None:
+    need("mcap")
+    sent = fleet(codec)
+    first = tmp_path / "field.mcap"
+    with erc_codec.McapWriter(first, codec) as writer:
+        for number, data in enumerate(sent):
+            writer.write(data, 1_700_000_000_000_000_000 + number * 40_000_000)  # 40 ms apart
+    second = tmp_path / "bench.mcap"
+    recorder, port = start_recorder(second, "--count", str(len(sent)))
+    played = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "replay", str(first), f"127.0.0.1:{port}", "--drops"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert played.returncode == 0, played.stderr
+    _, err = recorder.communicate(timeout=60)
+    assert recorder.returncode == 0, err
+    assert summary(err, "recorded: ")["dropped_by_kernel"] == 0
+    before, after = list(erc_codec.read_mcap(first)), list(erc_codec.read_mcap(second))
+
+    def content(recorded: erc_codec.Recorded) -> tuple[Any, ...]:
+        if recorded.kind is None:  # a drop: the same bytes and reason, from another sender
+            drop: Any = recorded.message
+            return None, drop.reason, drop.data
+        return recorded.kind, recorded.message.SerializeToString()
+
+    assert [content(r) for r in after] == [content(r) for r in before]
+    assert len(after) == len(sent)
+    # At the recording's timing: record's times are when it read each datagram, late by however
+    # busy the machine is (the replay tests measure the kernel's arrival times, to the ms).
+    span = after[-1].log_time - after[0].log_time
+    assert (len(sent) - 1) * 40_000_000 - 100_000_000 <= span, span
+    assert span < (len(sent) - 1) * 40_000_000 + 500_000_000, span
+
+
+def test_replay_of_something_else_is_one_line(tmp_path: Path) -> None:
+    notes = tmp_path / "notes.txt"
+    notes.write_text("not a recording\n")
+    done = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "replay", str(notes), "127.0.0.1:9"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 1
+    assert done.stderr.splitlines()[-1] == (
+        f"Error: {notes}:1: not a JSON line "
+        "(replay reads MCAP, pcap, pcapng or decode's JSON lines)"
+    )
+    missing = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "replay", str(tmp_path / "none.mcap"), "127.0.0.1:9"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert missing.returncode == 2
+    assert missing.stderr.startswith("Error: cannot read")

@@ -1,0 +1,304 @@
+"""MCAP recordings, read back as any MCAP tool reads them: the ``mcap`` library's readers with CRC
+checks on, payloads decoded by mcap-protobuf-support's decoder factory from the schema name and
+FileDescriptorSet each channel carries (as Foxglove decodes them), never by erc_codec."""
+
+import io
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any, BinaryIO, cast
+
+import pytest
+from datagrams import MODES, random_payloads
+from google.protobuf import descriptor_pb2
+from recording_support import need, write_pcap
+
+import erc_codec
+from erc_codec.schema import descriptor_of
+
+T0 = 1_700_000_000_000_000_000
+GARBAGE = [
+    (bytes.fromhex("b20100"), "unknown_member"),  # member 22: a newer schema's
+    (bytes.fromhex("6205ff"), "corrupt"),
+    (bytes(256), "too_long"),
+    (b"\0\0", "no_payload"),
+    (b"", "empty"),
+]
+
+
+def read_back(path: Path) -> list[Any]:
+    """Every message, decoded from the file's own schemas, CRCs checked by both readers."""
+    reader = need("mcap.reader")
+    factory = need("mcap_protobuf.decoder").DecoderFactory
+    with path.open("rb") as file:
+        seeking = reader.make_reader(file, validate_crcs=True, decoder_factories=[factory()])
+        assert type(seeking).__name__ == "SeekingReader"
+        messages = list(seeking.iter_decoded_messages(log_time_order=False))
+    with path.open("rb") as file:  # the data section's CRC, in DataEnd, only this one reads
+        streaming = reader.NonSeekingReader(file, validate_crcs=True, decoder_factories=[factory()])
+        again = list(streaming.iter_decoded_messages())
+    assert [(m.channel.topic, m.message.data) for m in again] == [
+        (m.channel.topic, m.message.data) for m in messages
+    ]
+    return messages
+
+
+def metadata(path: Path) -> dict[str, dict[str, str]]:
+    reader = need("mcap.reader")
+    with path.open("rb") as file:
+        return {m.name: dict(m.metadata) for m in reader.make_reader(file).iter_metadata()}
+
+
+def test_every_kind_in_every_form_reads_back_exactly(
+    codec: erc_codec.Codec, tmp_path: Path
+) -> None:
+    need("mcap")
+    sent = [
+        (kind, payload, mode) for kind, payload in random_payloads(codec, 7, 3) for mode in MODES
+    ]
+    path = tmp_path / "run.mcap"
+    with erc_codec.McapWriter(path, codec, source="test") as writer:
+        for number, (kind, payload, mode) in enumerate(sent):
+            data = codec.encode(payload, mode)
+            assert writer.write(data, T0 + number, f"10.0.0.{number % 3}:7") == kind
+        for number, (data, _) in enumerate(GARBAGE, start=len(sent)):
+            assert writer.write(data, T0 + number, "10.0.0.9:7", "10.0.0.1:5000") is None
+    assert writer.stats().drops == {reason: 1 for _, reason in GARBAGE}
+    messages = read_back(path)
+    assert len(messages) == len(sent) + len(GARBAGE)
+    for number, ((kind, payload, _), read) in enumerate(zip(sent, messages, strict=False)):
+        assert read.channel.topic == f"/erc/{kind}"
+        assert read.channel.message_encoding == "protobuf"
+        assert read.schema.encoding == "protobuf"
+        assert read.schema.name == descriptor_of(type(payload)).full_name
+        # The reader's class comes from its own pool: compare what it would send.
+        assert read.decoded_message.SerializeToString() == payload.SerializeToString()
+        assert read.message.data == payload.SerializeToString()  # the exact form
+        assert read.message.log_time == read.message.publish_time == T0 + number
+        assert read.message.sequence == number + 1
+    for (data, reason), read in zip(GARBAGE, messages[len(sent) :], strict=True):
+        drop = read.decoded_message
+        assert read.channel.topic == "/erc-codec/drops"
+        assert read.schema.name == "erc_codec.DroppedDatagram"
+        assert (drop.reason, drop.data, drop.length) == (reason, data, len(data))
+        assert (drop.source, drop.destination) == ("10.0.0.9:7", "10.0.0.1:5000")
+        assert drop.error  # the decoder's words, one line
+        assert "\n" not in drop.error
+
+
+def test_read_mcap_yields_kinds_messages_and_drops(codec: erc_codec.Codec, tmp_path: Path) -> None:
+    need("mcap")
+    gps = codec.message_class("SensorBoardGPSInfo")(latitude=52.2389, satellites=9)
+    path = tmp_path / "run.mcap"
+    with erc_codec.McapWriter(path, codec) as writer:
+        writer.write(codec.encode(gps), T0)
+        writer.write(bytes.fromhex("b20100"), T0 + 5, "10.0.0.9:7")
+        writer.message("gps_info", gps, T0 + 9)
+    recorded = list(erc_codec.read_mcap(path))
+    assert all(isinstance(r, erc_codec.Recorded) for r in recorded)
+    first, drop, last = recorded
+    fix, dropped = cast(Any, first.message), cast(Any, drop.message)
+    assert (first.log_time, first.kind) == (T0, "gps_info")
+    assert first.message.SerializeToString() == gps.SerializeToString()
+    assert fix.latitude == 52.2389
+    assert (drop.log_time, drop.kind, dropped.reason) == (T0 + 5, None, "unknown_member")
+    assert dropped.data == bytes.fromhex("b20100")
+    assert (last.log_time, last.kind) == (T0 + 9, "gps_info")
+
+
+def test_each_schema_is_its_payloads_file_and_imports_dependencies_first(
+    codec: erc_codec.Codec, tmp_path: Path
+) -> None:
+    need("mcap")
+    path = tmp_path / "run.mcap"
+    with erc_codec.McapWriter(path, codec) as writer:
+        for kind, payload in random_payloads(codec, 3, 1):
+            writer.message(kind, payload, T0)
+    reader = need("mcap.reader")
+    with path.open("rb") as file:
+        summary = reader.make_reader(file).get_summary()
+    assert len(summary.channels) == len(codec.kinds())
+    for schema in summary.schemas.values():
+        files = descriptor_pb2.FileDescriptorSet.FromString(schema.data).file
+        names = [file.name for file in files]
+        assert len(set(names)) == len(names)
+        for position, proto in enumerate(files):
+            assert set(proto.dependency) <= set(names[:position]), (schema.name, names)
+        top = descriptor_of(codec.message_class(schema.name)).file.name
+        assert names[-1] == top  # the payload's own file last, after all it imports
+        assert not any(file.HasField("source_code_info") for file in files)
+
+
+def test_the_file_says_where_its_schema_came_from_and_what_it_holds(
+    codec: erc_codec.Codec, tmp_path: Path
+) -> None:
+    need("mcap")
+    path = tmp_path / "run.mcap"
+    gps = codec.message_class("SensorBoardGPSInfo")()
+    with erc_codec.McapWriter(path, codec, source="udp 127.0.0.1:5000") as writer:
+        writer.message("gps_info", gps, T0, "10.0.0.2:7")
+        writer.message("gps_info", gps, T0, "10.0.0.2:7")
+        writer.message("gps_info", gps, T0, "10.0.0.3:7")
+        writer.drop(b"\x01", T0, "corrupt", "bad")
+    found = metadata(path)
+    origin = found["erc-codec"]
+    assert origin["schema_root"] == "PBEnvelope"
+    assert origin["PBEnvelope_size"] == "255"
+    assert Path(origin["schema_tree"]) == codec.schema.tree
+    assert origin["schema_digest"].startswith("sha256:")
+    assert len(origin["schema_digest"]) == len("sha256:") + 64
+    assert origin["source"] == "udp 127.0.0.1:5000"
+    assert "schema_revision" in origin  # a commit inside a git work tree, "" outside one
+    assert found["erc-codec.summary"] == {
+        "datagrams": "4",
+        "messages": "3",
+        "drops": "1",
+        "messages.gps_info": "3",
+        "drops.corrupt": "1",
+        "senders.gps_info": "10.0.0.2:7 2, 10.0.0.3:7 1",
+    }
+
+
+def test_a_damaged_file_is_caught(codec: erc_codec.Codec, tmp_path: Path) -> None:
+    need("mcap")
+    reader = need("mcap.reader")
+    path = tmp_path / "run.mcap"
+    payloads = [payload for _, payload in random_payloads(codec, 5, 20)]
+    with erc_codec.McapWriter(path, codec, chunk_size=1024, compression="none") as writer:
+        for number, payload in enumerate(payloads):
+            writer.write(codec.encode(payload), T0 + number)
+    whole = path.read_bytes()
+    with path.open("rb") as file:
+        chunk = reader.make_reader(file).get_summary().chunk_indexes[1]
+    damaged = bytearray(whole)
+    damaged[chunk.chunk_start_offset + chunk.chunk_length - 3] ^= 0x01  # inside its records
+    path.write_bytes(damaged)
+    with pytest.raises(erc_codec.CodecError, match="is not a readable MCAP recording"):
+        list(erc_codec.read_mcap(path))
+    # A byte outside every chunk (a message index): only the data section's CRC sees it.
+    damaged = bytearray(whole)
+    offset = min(chunk.message_index_offsets.values())
+    damaged[offset + 9 + 2 + 4 + 8] ^= 0x01  # opcode, length, channel, array length: a time
+    stream = reader.NonSeekingReader(io.BytesIO(bytes(damaged)), validate_crcs=True)
+    with pytest.raises(need("mcap.stream_reader").CRCValidationError):
+        list(stream.iter_messages())
+
+
+def test_the_output_must_be_seekable(codec: erc_codec.Codec) -> None:
+    need("mcap")
+    pipe = subprocess.Popen(["cat"], stdin=subprocess.PIPE, stdout=subprocess.DEVNULL)
+    assert pipe.stdin is not None
+    try:
+        with pytest.raises(erc_codec.CodecError, match="seekable file, not a pipe"):
+            erc_codec.McapWriter(cast(BinaryIO, pipe.stdin), codec)
+    finally:
+        pipe.stdin.close()
+        pipe.wait()
+
+
+def run(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "erc_codec", *args], capture_output=True, text=True, timeout=120
+    )
+
+
+def test_decode_pcap_mcap_writes_a_capture(codec: erc_codec.Codec, tmp_path: Path) -> None:
+    need("dpkt")
+    need("mcap")
+    feedback = codec.message_class("ArmBoardMovementFeedback")()  # all default: 22 00
+    gps = codec.message_class("SensorBoardGPSInfo")(latitude=52.2389, altitude=1e-40)
+    datagrams = [codec.encode(p, m) for p in (feedback, gps) for m in MODES]
+    datagrams += [data for data, _ in GARBAGE if data]  # an empty UDP payload is a datagram too
+    capture, out = tmp_path / "field.pcap", tmp_path / "field.mcap"
+    times = write_pcap(capture, datagrams, start=1_700_000_000.123456, step=0.25)
+    done = run("decode", "--pcap", str(capture), "--mcap", str(out))
+    assert done.returncode == 1, done.stderr  # as decode: some datagrams did not decode
+    assert done.stdout == ""
+    assert done.stderr == (
+        f"10 datagrams, 4 undecodable, 0 packets skipped; {out}: 6 messages on 2 channels, "
+        "4 drops\n"
+    )
+    messages = read_back(out)
+    assert [m.channel.topic for m in messages] == [
+        *["/erc/arm_movement_feedback"] * 3,
+        *["/erc/gps_info"] * 3,
+        *["/erc-codec/drops"] * 4,
+    ]
+    for read, time in zip(messages, times, strict=True):
+        assert read.message.log_time == round(time * 1e6) * 1000  # microseconds, exactly
+    assert [m.message.data for m in messages[:6]] == [feedback.SerializeToString()] * 3 + [
+        gps.SerializeToString()
+    ] * 3
+    drops = [m.decoded_message for m in messages[6:]]
+    assert [d.data for d in drops] == datagrams[6:]
+    assert {d.source for d in drops} == {"192.168.0.20:40000"}
+    assert {d.destination for d in drops} == {"192.168.0.2:5000"}
+    assert metadata(out)["erc-codec"]["source"] == "capture field.pcap"
+    again = run("decode", "--pcap", str(capture), "--mcap", str(out))
+    assert (again.returncode, again.stderr) == (
+        2,
+        f"Error: {out} exists: remove it or choose another name\n",
+    )
+    assert run("decode", "00", "--mcap", str(tmp_path / "x.mcap")).returncode == 2
+
+
+def test_without_the_mcap_extra_one_line_names_it(tmp_path: Path) -> None:
+    code = "import sys; sys.modules['mcap'] = None; from erc_codec.cli._main import main; main()"
+    capture = tmp_path / "x.pcap"
+    write_pcap(capture, [b"\x22"])
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            code,
+            "decode",
+            "--pcap",
+            str(capture),
+            "--mcap",
+            str(tmp_path / "x.mcap"),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    if "dpkt" in done.stderr:
+        need("dpkt")
+    assert (done.returncode, done.stderr) == (
+        2,
+        "Error: writing MCAP needs the mcap package: pip install 'erc-codec[mcap]'\n",
+    )
+
+
+def test_a_damaged_capture_is_written_up_to_the_damage(
+    codec: erc_codec.Codec, tmp_path: Path
+) -> None:
+    need("dpkt")
+    need("mcap")
+    capture, out = tmp_path / "cut.pcap", tmp_path / "cut.mcap"
+    gps = codec.message_class("SensorBoardGPSInfo")(satellites=5)
+    write_pcap(capture, [codec.encode(gps)] * 3)
+    capture.write_bytes(capture.read_bytes()[:-3])  # cut inside the last packet
+    done = run("decode", "--pcap", str(capture), "--mcap", str(out))
+    assert done.returncode == 2
+    summary, damage = done.stderr.splitlines()
+    assert summary.startswith("2 datagrams, 0 undecodable")
+    assert damage == f"Error: {capture} is cut off inside packet 3"
+    assert len(read_back(out)) == 2  # a complete file of what came before
+    assert metadata(out)["erc-codec.summary"]["capture.damage"] == damage.removeprefix("Error: ")
+
+
+def test_record_without_the_mcap_extra_one_line_names_it(tmp_path: Path) -> None:
+    code = "import sys; sys.modules['mcap'] = None; from erc_codec.cli._main import main; main()"
+    out = tmp_path / "x.mcap"
+    done = subprocess.run(
+        [sys.executable, "-c", code, "record", "127.0.0.1:0", str(out), "--seconds", "5"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert (done.returncode, done.stderr) == (
+        2,
+        "Error: writing MCAP needs the mcap package: pip install 'erc-codec[mcap]'\n",
+    )
+    assert not out.exists()
