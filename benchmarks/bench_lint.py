@@ -32,7 +32,9 @@ holds ``message PBEnvelope { oneof payload { ... } }`` over every fourth file's 
 Everything is fixed-size (no repeated, string or bytes fields). In the proto2 and editions pair,
 files alternate between the two; each sample has a default, each status a required mode, each
 report a group (proto2) or a delimited submessage (editions) and an extension range, which the
-next file extends. The file count includes the envelope. Exit status 1 when a target is missed.
+next file extends; the first file has a ``.options`` file and the envelope a service, so the
+nanopb and RPC rules compare something. The file count includes the envelope. Exit status 1 when
+a target is missed.
 """
 
 import argparse
@@ -322,7 +324,13 @@ def write_tree(
         target.write_text(text, encoding="utf-8")
     envelope = root / "components/common/envelope.proto"
     envelope.parent.mkdir(parents=True, exist_ok=True)
-    envelope.write_text(_envelope(plan), encoding="utf-8")
+    text = _envelope(plan)
+    if legacy:  # the nanopb and RPC rules have something to compare (the same on both sides)
+        first = plan[0]
+        options = (root / first.path).with_suffix(".options")
+        options.write_text(f"{first.messages[0].name}.* int_size:IS_32\n", encoding="utf-8")
+        text += "\nservice Telemetry {\n  rpc Send(PBEnvelope) returns (PBEnvelope);\n}\n"
+    envelope.write_text(text, encoding="utf-8")
     return changes
 
 

@@ -8,8 +8,10 @@ One module per job, and data flows one way: ``_inputs`` (a folder, or a git revi
 codec's schema layer, ``erc_codec.schema.open_tree``) → ``_loader`` (compiled files and load
 problems) → ``_model`` (one revision: its messages, enums, extensions, services, names, sizes;
 ``_features`` resolves what each element means on the wire) → ``_pairing`` (OLD and NEW paired)
-→ ``rules/`` (one pair at a time, in categories) → ``_report`` (text, JSON, GitHub annotations) →
-``cli/``. ``_run`` is one lint run, ``_config`` reads ``[tool.erc-lint]``, ``_ledger`` and
+→ ``rules/`` (one pair at a time, in categories; ``_suppressions`` reads the ``erc-lint:ignore``
+comments) → ``_report`` (text, JSON, GitHub annotations, msvs; ``_documents``: SARIF, JUnit,
+GitLab Code Quality) → ``cli/``. ``_run`` is one lint run (and one ledger update), ``_baseline``
+the accepted findings, ``_config`` reads ``[tool.erc-lint]``, ``_ledger`` and
 ``_history`` keep the number ledger, and ``_errors`` holds ``LintError``, the base of the
 linter's own failures to run (``GitError``, for a revision that cannot be read, is the schema
 layer's, an ``erc_codec.SchemaError``).

@@ -1,12 +1,15 @@
 """``[tool.erc-lint]`` in a pyproject.toml: embedded roots and their size budgets, the rules to
-run (``use`` and ``except``, rule IDs or categories; ``ignore``, rule IDs), paths to exclude.
+run (``use`` and ``except``, rule IDs or categories; ``ignore``, rule IDs; ``ignore_only``, rule
+IDs each with the paths it is not reported for), paths to exclude.
 
 Every value is checked as it is read: a wrong type, a name that is no rule or category, a budget
-for a message that is not a root, is a ``ConfigError`` naming the file, the line and the key.
+for a message that is not a root, is a ``ConfigError`` naming the file, the line and the key
+(and, for a mistyped rule or category, the name it is closest to).
 """
 
 import sys
 from collections.abc import Collection, Mapping
+from fnmatch import fnmatchcase
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any, NamedTuple
@@ -14,6 +17,7 @@ from typing import Any, NamedTuple
 from erc_codec.schema import FileError, file_exists, read_text
 
 from ._errors import ConfigError
+from ._suggest import did_you_mean
 
 __all__ = [
     "CONFIG",
@@ -36,7 +40,7 @@ LEDGER_LIMIT = 64 * 1024 * 1024
 _ROOTS = ("PBEnvelope",)  # embedded roots unless the configuration names others
 
 
-_KEYS = ("roots", "ignore", "exclude", "use", "except", "budget")
+_KEYS = ("roots", "ignore", "exclude", "use", "except", "budget", "ignore_only")
 _LISTS = ("roots", "ignore", "exclude", "use", "except")
 
 
@@ -50,6 +54,13 @@ class Config(NamedTuple):
     except_: tuple[str, ...] = ()  # rule IDs and categories not to run (``except``)
     budget: Mapping[str, int] = MappingProxyType({})  # root → most bytes its size may be
     budget_line: int = 0  # the line that sets budget
+    # rule ID → fnmatch patterns of paths (relative to a tree's root) it is not reported for
+    ignore_only: Mapping[str, tuple[str, ...]] = MappingProxyType({})
+
+    def ignored_at(self, rule: str, path: str) -> bool:
+        """Whether ``ignore_only`` silences ``rule`` for the file at ``path`` (tree-relative)."""
+        patterns = self.ignore_only.get(rule, ())
+        return any(fnmatchcase(path, pattern) for pattern in patterns)
 
     @property
     def roots_chosen(self) -> bool:
@@ -105,6 +116,7 @@ def read_config(
         if strange:
             raise ConfigError(
                 f"{_at(path, key)} [tool.erc-lint] {key} names no {what} {strange[0]!r}"
+                + did_you_mean(strange[0], allowed)
             )
     roots = tuple(values["roots"]) if "roots" in table else _ROOTS
     return Config(
@@ -117,7 +129,32 @@ def read_config(
         except_=tuple(values["except"]),
         budget=_budget(path, table.get("budget"), roots),
         budget_line=_line_of(path, "budget") if "budget" in table else 0,
+        ignore_only=_ignore_only(path, table.get("ignore_only"), known_rules),
     )
+
+
+def _ignore_only(
+    path: Path, value: object, known_rules: Collection[str]
+) -> Mapping[str, tuple[str, ...]]:
+    """``ignore_only = { RULE = ["path/*", ...] }``: each key a rule ID, each value patterns."""
+    if value is None:
+        return MappingProxyType({})
+    where = _at(path, "ignore_only")
+    if not isinstance(value, dict):
+        raise ConfigError(
+            f'{where} [tool.erc-lint] ignore_only must be a table, {{ RULE = ["path/*"] }}'
+        )
+    for rule, patterns in value.items():
+        if rule not in known_rules:
+            raise ConfigError(
+                f"{where} [tool.erc-lint] ignore_only names no rule {rule!r}"
+                + did_you_mean(rule, known_rules)
+            )
+        if not isinstance(patterns, list) or not all(isinstance(p, str) for p in patterns):
+            raise ConfigError(
+                f"{where} [tool.erc-lint] ignore_only for {rule!r} must be a list of path patterns"
+            )
+    return MappingProxyType({rule: tuple(patterns) for rule, patterns in value.items()})
 
 
 def _budget(path: Path, value: object, roots: tuple[str, ...]) -> Mapping[str, int]:

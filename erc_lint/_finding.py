@@ -1,12 +1,17 @@
-"""What the linter reports: one finding per problem, located where a CI or an editor can open it."""
+"""What the linter reports: one finding per problem, located where a CI or an editor can open it,
+and named in a way that does not move with the lines (for baselines and CI deduplication)."""
 
+import re
 from typing import Literal, NamedTuple
 
 from erc_codec.schema import Location
 
-__all__ = ["Finding", "Severity"]
+__all__ = ["Finding", "Severity", "stable_text"]
 
 Severity = Literal["error", "warning"]
+
+# A place inside a message (``file.proto:12:3``, ``erc-lint.lock:7``): what a line move changes.
+_PLACE = re.compile(r":\d+(?::\d+)?\b")
 
 
 class Finding(NamedTuple):
@@ -19,6 +24,9 @@ class Finding(NamedTuple):
     message: str
     severity: Severity = "error"
     in_old: bool = False  # the location is in OLD: the element is gone from NEW
+    # For a finding located in OLD: where NEW has the element's container (the message of a
+    # deleted field, the enum of a deleted value, the file of a deleted message), if it does.
+    in_new: Location | None = None
 
     @classmethod
     def at(
@@ -28,5 +36,19 @@ class Finding(NamedTuple):
         message: str,
         severity: Severity = "error",
         in_old: bool = False,
+        in_new: Location | None = None,
     ) -> "Finding":
-        return cls(location.path, location.line, location.column, rule, message, severity, in_old)
+        return cls(
+            location.path, location.line, location.column, rule, message, severity, in_old, in_new
+        )
+
+    @property
+    def shown_at(self) -> Location:
+        """Where a CI or an editor should point: in NEW whenever NEW has the place."""
+        return self.in_new or Location(self.path, self.line, self.column)
+
+
+def stable_text(finding: Finding, path: str) -> str:
+    """``RULE path message`` with every ``:line[:column]`` left out of the message: the same
+    element's finding after lines moved, named by ``path`` (as the caller wants it shown)."""
+    return f"{finding.rule} {path} {_PLACE.sub('', finding.message)}"

@@ -23,6 +23,7 @@ from pathlib import Path
 from google.protobuf import descriptor_pb2
 
 from erc_codec.schema import (
+    Declaration,
     GitSpec,
     ProtocError,
     Repository,
@@ -32,7 +33,7 @@ from erc_codec.schema import (
 )
 
 from ._ledger import Entry, Key, Ledger
-from ._loader import by_basename, matches, utf8_name
+from ._loader import by_basename, matches, respell, utf8_name
 from ._model import type_of
 
 __all__ = ["History", "keys"]
@@ -42,20 +43,24 @@ _Definitions = frozenset[tuple[object, ...]]  # the symbols a file and its impor
 
 
 def keys(files: Iterable[_FileProto]) -> set[Key]:
-    """What the ledger records of compiled files: every field and enum value number."""
+    """What the ledger records of compiled files: every field and enum value number, save those
+    of a message or enum that two files of the revision define (a NAME_COLLISION: which one a
+    build means is unknown, so neither body is recorded as the name's)."""
     found: set[Key] = set()
+    declared_in: dict[str, list[Declaration]] = {}
     for file in files:
         for declared in declarations(file):
-            element = declared.proto
-            if isinstance(element, descriptor_pb2.DescriptorProto):
-                found.update(
-                    Key("message", declared.name, f.number, f.name, type_of(f)[0])
-                    for f in element.field
-                )
-            else:
-                found.update(
-                    Key("enum", declared.name, v.number, v.name, "-") for v in element.value
-                )
+            declared_in.setdefault(declared.name, []).append(declared)
+    for name, alike in declared_in.items():
+        if len(alike) > 1:
+            continue
+        element = alike[0].proto
+        if isinstance(element, descriptor_pb2.DescriptorProto):
+            found.update(
+                Key("message", name, f.number, f.name, type_of(f)[0]) for f in element.field
+            )
+        else:
+            found.update(Key("enum", name, v.number, v.name, "-") for v in element.value)
     return found
 
 
@@ -80,6 +85,7 @@ class History:
     includes: Sequence[Path] = ()
     exclude: Sequence[str] = ()
     compiled: int = 0  # files compiled so far, for the benchmark's report
+    failed: set[str] = field(default_factory=set)  # files of the last revision that did not compile
     _cache: dict[tuple[object, ...], _Result] = field(default_factory=dict)
     _imports: dict[str, list[tuple[int, int, str]]] = field(default_factory=dict)  # by blob
 
@@ -114,11 +120,16 @@ class History:
                 result = _FAILED if broken else self._compile(path, protos, deps, results, scratch)
                 self._cache[key] = result
             results[path] = result
+        self.failed = {path for path in protos if results.get(path, _FAILED).proto is None}
         found: set[Key] = set()
+        owners: dict[str, set[str]] = {}  # container → the files defining it
         for path, result in results.items():
+            for found_key in result.keys:
+                owners.setdefault(found_key.container, set()).add(path)
             if not any(fnmatchcase(path, pattern) for pattern in self.exclude):
                 found |= result.keys
-        return found
+        # Two files of the revision define one name (a NAME_COLLISION): neither body is its.
+        return {key for key in found if len(owners[key.container]) == 1}
 
     def _targets(self, protos: dict[str, str]) -> dict[str, list[tuple[str, str]]]:
         """Each file's imports as ``(spelling, what it names)``: a tree path when it resolves to
@@ -153,9 +164,14 @@ class History:
         shown = str(self.spec.shown / path)
         text = self.repository.read(protos[path], name=shown).decode("utf-8", "replace")
         respelled = dict(deps)
-        for start, end, spelling in reversed(self._imports[protos[path]]):
-            if respelled.get(spelling, spelling) != spelling:
-                text = f'{text[:start]}"{respelled[spelling]}"{text[end:]}'
+        text = respell(
+            text,
+            [
+                (start, end, respelled[spelling])
+                for start, end, spelling in self._imports[protos[path]]
+                if respelled.get(spelling, spelling) != spelling
+            ],
+        )
         known = descriptor_pb2.FileDescriptorSet()
         done: set[str] = set()
         pending = [target for _, target in deps if target in results]

@@ -9,18 +9,32 @@ annotation or an editor opens the same file a plain folder would have named.
 import os
 from collections.abc import Sequence
 from contextlib import AbstractContextManager
+from pathlib import Path
 
-from erc_codec.schema import TreeSource, open_tree
+from erc_codec.schema import TreeSource, open_tree, proto_files
 
 from ._config import CONFIG, CONFIG_LIMIT, LEDGER, LEDGER_LIMIT
 from ._finding import Finding
+from ._suggest import did_you_mean
 
-__all__ = ["open_input", "relocate"]
+__all__ = ["missing_folder", "open_input", "relocate"]
 
 
 def open_input(text: str) -> AbstractContextManager[TreeSource]:
     """The tree ``text`` names, as a folder, for the duration of the ``with`` block."""
     return open_tree(text, {CONFIG: CONFIG_LIMIT, LEDGER: LEDGER_LIMIT})
+
+
+def missing_folder(folder: Path) -> str:
+    """Why ``folder`` holds no proto tree (with the closest name beside it), or ``""``."""
+    if not folder.is_dir():
+        what = "not a folder" if folder.exists() else "no such folder"
+        parent = folder.parent if folder.parent.is_dir() else None
+        names = [p.name for p in parent.iterdir() if p.is_dir()] if parent else []
+        return f"{what}{did_you_mean(folder.name, names)}"
+    if not proto_files(folder):
+        return "no .proto file"
+    return ""
 
 
 def relocate(findings: Sequence[Finding], sources: Sequence[TreeSource]) -> list[Finding]:

@@ -22,7 +22,9 @@ Guarantees:
   device, a FIFO) or is over ``LEDGER_LIMIT`` (64 MiB), refused before it is read.
 """
 
+import os
 import re
+import tempfile
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -81,6 +83,7 @@ class Ledger:
     trailer: list[str] = field(default_factory=list)  # comment lines after the last entry
     newline: str = "\n"  # as the file had them
     _numbers: dict[tuple[str, str, int], list[Entry]] | None = None
+    _bodies: dict[tuple[str, str], set[tuple[int, str, str]]] | None = None
 
     @classmethod
     def read(cls, path: Path, shown: str | None = None) -> "Ledger":
@@ -137,7 +140,7 @@ class Ledger:
         added = [Entry(key, since) for key in sorted(set(keys) - set(self.entries), key=_order)]
         for entry in added:
             self.entries[entry.key] = entry
-        self._numbers = None
+        self._numbers = self._bodies = None
         return added
 
     def at(self, kind: str, container: str, number: int) -> list[Entry]:
@@ -148,6 +151,35 @@ class Ledger:
                 slot = (key.kind, key.container, key.number)
                 self._numbers.setdefault(slot, []).append(self.entries[key])
         return self._numbers.get((kind, container, number), [])
+
+    def body(self, kind: str, container: str) -> set[tuple[int, str, str]]:
+        """``(number, name, type)`` of every entry of one container: all it ever carried."""
+        if self._bodies is None:
+            self._bodies = {}
+            for key in self.entries:
+                self._bodies.setdefault((key.kind, key.container), set()).add(
+                    (key.number, key.name, key.type)
+                )
+        return self._bodies.get((kind, container), set())
+
+    def write(self, target: Path) -> None:
+        """Replace ``target`` with the ledger at once, so an interrupted or failed update (a
+        full disk) never leaves half a ledger: the old one stays, and the failure is a
+        ``LedgerError``."""
+        try:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            handle, scratch = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent)
+        except OSError as error:
+            raise LedgerError(f"{target}: cannot write: {error.strerror}") from None
+        try:
+            with os.fdopen(handle, "w", encoding="utf-8", newline="\n") as stream:
+                stream.write(self.render())
+            os.replace(scratch, target)
+        except BaseException as error:
+            Path(scratch).unlink(missing_ok=True)
+            if isinstance(error, OSError):
+                raise LedgerError(f"{target}: cannot write: {error.strerror}") from None
+            raise
 
     def where(self, entry: Entry) -> str:
         """``file:line`` of an entry read from a file, else the file."""

@@ -27,7 +27,7 @@ into findings.
 import os
 import re
 import tempfile
-from collections.abc import Collection, Sequence
+from collections.abc import Collection, Iterable, Sequence
 from fnmatch import fnmatchcase
 from pathlib import Path
 from typing import Literal, NamedTuple
@@ -43,6 +43,7 @@ __all__ = [
     "load_tree",
     "matches",
     "relative",
+    "respell",
     "utf8_name",
 ]
 
@@ -111,11 +112,15 @@ def load_tree(
     return tree
 
 
-def _literal(name: str, span: str) -> str:
-    """A string literal protoc reads as ``name``, to stand for ``span`` (an import's literals):
-    as many lines as ``span``, so that the lines after it keep their numbers."""
-    escaped = name.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
-    return f'"{escaped}"' + "\n" * span.count("\n")
+def respell(text: str, edits: Iterable[tuple[int, int, str]]) -> str:
+    """``text`` with each import literal ``text[start:end]`` of ``edits`` replaced by a string
+    literal protoc reads as the edit's name, of as many lines as the span it replaces, so the
+    lines after it keep their numbers (protoc's locations stay the original file's)."""
+    for start, end, name in sorted(edits, reverse=True):
+        escaped = name.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
+        lines = "\n" * text.count("\n", start, end)
+        text = f'{text[:start]}"{escaped}"{lines}{text[end:]}'
+    return text
 
 
 def matches(spelling: str, known: Collection[str], by_basename: dict[str, list[str]]) -> list[str]:
@@ -153,7 +158,7 @@ def _resolve_imports(
             found = matches(spelling, known, index)
             if len(found) == 1:
                 spellings[-1] = found[0]
-                edits.append((start, end, _literal(found[0], text[start:end])))
+                edits.append((start, end, found[0]))
             elif len(found) > 1 and name in reported:
                 line = text.count("\n", 0, start) + 1
                 column = start - text.rfind("\n", 0, start)
@@ -161,10 +166,8 @@ def _resolve_imports(
                 message = f'Import "{spelling}" is ambiguous: it matches {", ".join(found)}.'
                 key = f"{name}:{spelling}"
                 tree.problems.append(LoadProblem("IMPORT_AMBIGUOUS", key, where, message))
-        for start, end, replacement in reversed(edits):
-            text = text[:start] + replacement + text[end:]
         if edits:
-            rewritten[name] = text
+            rewritten[name] = respell(text, edits)
     return rewritten, read
 
 

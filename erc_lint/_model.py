@@ -15,6 +15,7 @@ a package, if a file has one, in front). Sizes and nanopb options are computed w
 asks, once per revision (and root).
 """
 
+from collections import deque
 from collections.abc import Iterator
 from pathlib import Path
 from typing import NamedTuple
@@ -54,6 +55,7 @@ __all__ = [
     "Method",
     "Revision",
     "Service",
+    "allocation",
     "build",
     "type_of",
 ]
@@ -274,7 +276,9 @@ class Revision:
     __slots__ = (
         "_failed_names",
         "_files",
+        "_has_options",
         "_nanopb",
+        "_sizes",
         "definitions",
         "enums",
         "extended",
@@ -294,6 +298,8 @@ class Revision:
         self.definitions: dict[str, list[Definition]] = {}
         self._files: dict[str, _Files] = {}  # by root: what protoc resolved its types in
         self._nanopb: ResolvedOptions | None = None  # nanopb's options, when first asked
+        self._has_options: bool | None = None  # whether anything sets one, when first asked
+        self._sizes: dict[str, int | None] = {}  # by root: nanopb's size, when first asked
         self._failed_names: frozenset[str] | None = None  # what files that failed declare
 
     @property
@@ -325,9 +331,9 @@ class Revision:
         """Every field reachable from message ``root``, with its path (``Root.a.b``), once each,
         nearest first."""
         seen = {root}
-        queue = [(root, root)]
+        queue = deque([(root, root)])
         while queue:
-            name, path = queue.pop(0)
+            name, path = queue.popleft()
             message = self.messages.get(name)
             if message is None:
                 continue
@@ -338,11 +344,16 @@ class Revision:
                     seen.add(entry.type)
                     queue.append((entry.type, here))
 
-    def bounded(self, field: Field) -> bool:
-        """Whether nanopb gives a string or bytes field a maximum length (``max_size`` or
-        ``max_length``, from a ``.options`` file or an annotation)."""
-        bound = self.nanopb().fields.get(f"{field.owner}.{field.name}")
-        return bound is not None and (bound.HasField("max_size") or bound.HasField("max_length"))
+    def allocation(self, field: Field) -> str:
+        """How nanopb stores ``field`` (``allocation``): ``static``, ``callback``, ``pointer`` or
+        ``ignore``."""
+        options = self.nanopb().fields.get(f"{field.owner}.{field.name}")
+        return "static" if options is None else allocation(field, options)
+
+    def enum_options(self, name: str) -> Options | None:
+        """nanopb's resolved options for enum ``name`` (its file's or message's included), if
+        the tree or what it imports declares it."""
+        return self.nanopb().enums.get(name)
 
     def nanopb(self) -> ResolvedOptions:
         """nanopb's options for every message, field and oneof of the tree (and what it
@@ -355,11 +366,13 @@ class Revision:
         """Whether anything in the tree sets a nanopb option: a ``.options`` file beside one of
         its files, or a file importing nanopb.proto (annotations). Without either, every option
         of every field is nanopb's default, and resolving them would show nothing."""
-        return any(
-            "nanopb.proto" in file.dependency
-            or (self.root / Path(file.name).with_suffix(".options")).is_file()
-            for file in self.tree.imported.values()
-        )
+        if self._has_options is None:
+            self._has_options = any(
+                "nanopb.proto" in file.dependency
+                or (self.root / Path(file.name).with_suffix(".options")).is_file()
+                for file in self.tree.imported.values()
+            )
+        return self._has_options
 
     def field_options(self, field: Field) -> Options:
         """nanopb's resolved options for a field (defaults where nothing applies)."""
@@ -373,15 +386,13 @@ class Revision:
         """What a reader of ``field`` holds while the field is absent, as a value to compare and
         as buf writes it: the explicit default, else the type's own (an enum's first value)."""
         if field.kind == "enum":
-            enum = self.enums.get(field.type)
             short = field.type.rsplit(".", 1)[-1]
-            if enum is None:
+            values = self._enum_values(field.type)
+            number = values.get(field.default or "", next(iter(values.values()), None))
+            if number is None:  # no such enum among what protoc read: compare the names
                 return field.default, f"{short}.{field.default}"
-            named = enum.by_name.get(field.default or "")
-            value = named or next(iter(enum.by_name.values()), None)
-            if value is None:
-                return None, f"{short}.?"
-            return value.number, f"{short}.{value.name}"
+            name = field.default if field.default in values else next(iter(values))
+            return number, f"{short}.{name}"
         if field.default is not None:
             text = field.default
         else:
@@ -392,19 +403,40 @@ class Revision:
             return text, text  # protoc writes them normalized: "1e+10", "inf", "nan"
         return {"false": 0, "true": 1}.get(text) if field.type == "bool" else int(text), text
 
+    def _enum_values(self, name: str) -> dict[str, int]:
+        """Enum ``name``'s values, by name in declaration order: the tree's, else those of a file
+        it imports (from an include folder); none if protoc read no such enum."""
+        enum = self.enums.get(name)
+        if enum is not None:
+            return {value.name: value.number for value in enum.by_name.values()}
+        for file in self.tree.imported.values():
+            if file.name not in self.tree.files:
+                for declared in declarations(file):
+                    proto = declared.proto
+                    if declared.name == name and isinstance(
+                        proto, descriptor_pb2.EnumDescriptorProto
+                    ):
+                        return {value.name: value.number for value in proto.value}
+        return {}
+
     def max_size(self, root: str) -> int | None:
         """nanopb's ``<root>_size`` in this revision; ``None`` where nanopb has none (an
-        unbounded field on the way) or the tree has no such message."""
+        unbounded field on the way) or the tree has no such message. Computed once per root:
+        each computation builds a Schema (some 35 ms on bench_lint's tree)."""
+        if root in self._sizes:
+            return self._sizes[root]
         files = self._root_files(root)
-        if not files:
-            return None
-        try:
-            schema = Schema(self.root, root, descriptor_pb2.FileDescriptorSet(file=files.values()))
-            return Sizes(schema).max_size(root)
-        except FileError:
-            raise  # a .options file that is no file stops the run; it is no missing size
-        except SchemaError:
-            return None
+        size = None
+        if files:
+            set_ = descriptor_pb2.FileDescriptorSet(file=files.values())
+            try:
+                size = Sizes(Schema(self.root, root, set_)).max_size(root)
+            except FileError:
+                raise  # a .options file that is no file stops the run; it is no missing size
+            except SchemaError:
+                size = None
+        self._sizes[root] = size
+        return size
 
     def size_inputs(self, root: str) -> dict[tuple[str, str], object]:
         """What nanopb computes ``root``'s size from: the descriptor of every message and enum it
@@ -455,6 +487,24 @@ class Revision:
                 stack.append((after, iter(files[after].dependency)))
         self._files[root] = order
         return order
+
+
+# nanopb's FieldType values as the generator stores them (FT_INLINE is static fixed_length).
+_ALLOCATIONS = {1: "callback", 2: "static", 3: "ignore", 4: "pointer", 5: "static"}
+
+
+def allocation(field: Field, options: Options) -> str:
+    """How nanopb's generator stores a field with ``options``: its ``type``, else (``FT_DEFAULT``)
+    static where a limit allows it (a string or bytes value needs ``max_size`` or ``max_length``,
+    a repeated field ``max_count``), else its ``fallback_type`` (a callback unless set)."""
+    kind = int(options.type)
+    if not kind:
+        bounded = field.cardinality != "repeated" or options.HasField("max_count")
+        if field.type in ("string", "bytes"):
+            bounded = bounded and (options.HasField("max_size") or options.HasField("max_length"))
+        fallback = int(options.fallback_type) if options.HasField("fallback_type") else 1
+        kind = 2 if bounded else fallback
+    return _ALLOCATIONS.get(kind, str(kind))
 
 
 def build(tree: LoadedTree) -> Revision:

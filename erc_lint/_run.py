@@ -1,23 +1,36 @@
-"""One lint run: load the trees, find the ledger, run the rules, name files as the user did."""
+"""One lint run: load the trees, find the ledger, run the rules, leave out what the baseline
+accepted, name files as the user did; and one ledger update, a tree or a history added."""
 
-from collections.abc import Sequence
+import os
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
-from erc_codec.schema import TreeSource, file_exists
+from erc_codec.schema import GitSpec, Repository, TreeSource, file_exists, parse_tree_spec
 
 from ._config import LEDGER, Config
-from ._finding import Finding
-from ._inputs import open_input, relocate
-from ._loader import LoadedTree, load_tree
+from ._errors import LintError
+from ._finding import Finding, stable_text
+from ._inputs import missing_folder, open_input, relocate
+from ._loader import LoadedTree, load_tree, relative
 from ._model import build
 from ._pairing import Change
 from .rules import run
 
 if TYPE_CHECKING:
-    from ._ledger import Ledger
+    from ._ledger import Entry, Ledger
 
-__all__ = ["check", "compare", "find_ledger", "lint"]
+__all__ = ["LedgerUpdate", "Outcome", "check", "compare", "find_ledger", "lint", "update_ledger"]
+
+
+class Outcome(NamedTuple):
+    """What one run found: the findings to report, how many the baseline accepted, how many
+    .proto files NEW (or TREE) has, and every finding's baseline key (baselined ones too)."""
+
+    findings: list[Finding]
+    baselined: int
+    files: int
+    keys: list[str]
 
 
 def lint(
@@ -31,7 +44,7 @@ def lint(
     every finding of every rule ``config`` does not ignore. The ledger is ``ledger``, else the
     ``erc-lint.lock`` beside NEW's protos, if there is one."""
     with open_input(str(old)) as before, open_input(str(new)) as after:
-        return compare(before, after, config or Config(), includes, ledger)
+        return compare(before, after, config or Config(), includes, ledger).findings
 
 
 def check(
@@ -43,7 +56,7 @@ def check(
     """Lint one tree on its own: the rules over one revision (compile errors, name collisions,
     what embedded roots reach, the ledger), every finding an error."""
     with open_input(str(tree)) as source:
-        return compare(None, source, config or Config(), includes, ledger)
+        return compare(None, source, config or Config(), includes, ledger).findings
 
 
 def compare(
@@ -52,16 +65,27 @@ def compare(
     config: Config,
     includes: Sequence[str | Path] = (),
     ledger: str | Path | None = None,
-) -> list[Finding]:
-    """The findings of NEW against OLD (``None``: against nothing, which only tree rules see)."""
+    baseline: frozenset[str] = frozenset(),
+) -> Outcome:
+    """The findings of NEW against OLD (``None``: against nothing, which only tree rules see),
+    less those ``baseline`` holds."""
     roots = [Path(folder) for folder in includes]
-    after = build(load_tree(new.folder, roots, config.exclude))
+    loaded = load_tree(new.folder, roots, config.exclude)
+    after = build(loaded)
     if old is None:
         before = build(LoadedTree(new.folder))
     else:
         before = build(load_tree(old.folder, roots, config.exclude))
     change = Change(before, after, config, find_ledger(new, ledger))
-    return relocate(run(change), [new] if old is None else [old, new])
+    found = run(change)
+    keys = [
+        stable_text(f, relative((old or new).folder if f.in_old else new.folder, f.path))
+        for f in found
+    ]
+    kept = [f for f, key in zip(found, keys, strict=True) if key not in baseline]
+    sources = [new] if old is None else [old, new]
+    files = len(loaded.texts.keys() | loaded.failed)
+    return Outcome(relocate(kept, sources), len(found) - len(kept), files, keys)
 
 
 def find_ledger(tree: TreeSource, path: str | Path | None = None) -> "Ledger | None":
@@ -76,3 +100,71 @@ def find_ledger(tree: TreeSource, path: str | Path | None = None) -> "Ledger | N
     if path is not None:
         return Ledger.read(Path(path))
     return Ledger.read(beside, str(tree.shown / LEDGER))
+
+
+class LedgerUpdate(NamedTuple):
+    """What adding a tree (or a history) to a ledger did, not yet written: ``ledger.write``."""
+
+    ledger: "Ledger"
+    target: Path
+    added: "list[Entry]"
+    source: str  # what was added: a folder, or "N revisions"
+    failed: list[str]  # files (of the last revision) that did not compile: nothing recorded
+
+
+def update_ledger(
+    tree: str,
+    path: Path | None,
+    history: bool,
+    includes: Sequence[Path],
+    exclude: Callable[[Path | None], Sequence[str]],
+) -> LedgerUpdate:
+    """Add every number of ``tree`` (a folder or a git revision; with ``history``, every revision
+    reachable from its ref) to the ledger at ``path``, else the one beside the tree's protos.
+    ``exclude`` gives the configuration's exclude patterns for the folder holding the tree."""
+    from ._history import History, keys
+    from ._ledger import Ledger
+
+    spec = parse_tree_spec(tree)
+    if isinstance(spec, GitSpec):
+        with Repository(spec.folder) as repository:
+            inside, shown = repository.where(spec.subdir)
+            if shown is None and path is None:
+                raise LintError(
+                    f"{tree}: a bare repository has no folder for the ledger; give --ledger FILE"
+                )
+            target = path or (shown or spec.shown) / LEDGER
+            book = Ledger.read(target) if _exists(target) else Ledger(str(target))
+            commits = repository.history(spec.ref) if history else [repository.commit(spec.ref)]
+            if not repository.files(commits[-1], inside):
+                why = missing_in_git(repository, commits[-1], inside)
+                raise LintError(f"{tree}: no .proto file: {why}")
+            walker = History(repository, spec, includes, exclude(shown))
+            added = walker.update(book, commits)
+        source = f"{len(commits)} revision{'s' * (len(commits) != 1)}"
+        return LedgerUpdate(book, target, added, source, sorted(walker.failed))
+    if history:
+        raise LintError(f"{tree}: --history needs a git input, GITDIR#ref=REF[,subdir=PATH]")
+    problem = missing_folder(spec)
+    if problem:
+        raise LintError(f"{tree}: {problem} in TREE (a wrong path would pass every check)")
+    target = path or spec / LEDGER
+    book = Ledger.read(target) if _exists(target) else Ledger(str(target))
+    loaded = load_tree(spec, list(includes), exclude(spec))
+    added = book.add(keys(loaded.files.values()), "-")
+    return LedgerUpdate(book, target, added, str(spec), sorted(loaded.failed))
+
+
+def missing_in_git(repository: Repository, commit: str, inside: str) -> str:
+    """Where a git input found no .proto, with the closest folder that has some."""
+    from ._suggest import did_you_mean
+
+    folders = {
+        str(Path(name).parent) for name in repository.files(commit) if name.endswith(".proto")
+    }
+    where = f"subdir {inside!r}" if inside else "the repository"
+    return f"none in {where} at {commit[:12]}" + did_you_mean(inside, folders)
+
+
+def _exists(target: Path) -> bool:
+    return os.path.lexists(target)  # a device or a FIFO is one: refused, and so never replaced

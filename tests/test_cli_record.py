@@ -76,8 +76,8 @@ def test_record_writes_what_arrives(codec: erc_codec.Codec, tmp_path: Path, stop
     assert result["received"] == len(sent)
     assert result["messages"] == {
         "gps_info": 3,
-        "arm_movement_feedback": 3,
-        "driving_motor_message": 3,
+        "arm_feedback": 3,
+        "drive_motor": 3,
     }
     assert result["drops"] == {"unknown_member": 1, "corrupt": 1}
     assert result["dropped_by_kernel"] == 0
@@ -210,8 +210,8 @@ def test_replay_a_capture_at_its_timing(
     ]  # re-encoded stripped, the default
     assert result["sent"] == len(sent) - 2
     assert result["by_kind"] == {
-        "arm_movement_feedback": 3,
-        "driving_motor_message": 3,
+        "arm_feedback": 3,
+        "drive_motor": 3,
         "gps_info": 3,
     }
     assert result["skipped"] == {"drops": 2}
@@ -289,10 +289,10 @@ def test_replay_only_the_kinds_asked(
         for number, data in enumerate(fleet(codec)):
             writer.write(data, 1_700_000_000_000_000_000 + number)
     result = finished(
-        replay(recording, catcher, "--kind", "gps_info", "--kind", "driving_motor_message")
+        replay(recording, catcher, "--kind", "gps_info", "--kind", "drive_motor")
     )
     got = [codec.decode(data).kind for _, data in catcher.take(6)]
-    assert got == ["gps_info"] * 3 + ["driving_motor_message"] * 3
+    assert got == ["gps_info"] * 3 + ["drive_motor"] * 3
     assert result["skipped"] == {"drops": 2, "other_kinds": 3}
     done = subprocess.run(
         [

@@ -188,11 +188,11 @@ def test_listen_foxglove_shows_what_arrives(codec: erc_codec.Codec) -> None:
     async def watch() -> dict[str, tuple[int, bytes]]:
         async with websockets.connect(served.split()[2], subprotocols=[SUBPROTOCOL]) as ws:
             client = Client(ws)
-            await client.advertised({"/erc/driving_motor_message"})
+            await client.advertised({"/erc/drive_motor"})
             watched.update(client.channels)
-            await client.subscribe(["/erc/driving_motor_message"])
+            await client.subscribe(["/erc/drive_motor"])
             return await client.first_of_each(
-                {"/erc/driving_motor_message"}, lambda: sender.sendto(datagram, ("127.0.0.1", port))
+                {"/erc/drive_motor"}, lambda: sender.sendto(datagram, ("127.0.0.1", port))
             )
 
     watched: dict[str, dict[str, Any]] = {}
@@ -204,12 +204,12 @@ def test_listen_foxglove_shows_what_arrives(codec: erc_codec.Codec) -> None:
         listener.send_signal(2)  # Ctrl-C
         out, err = listener.communicate(timeout=60)
     assert listener.returncode == 0, err
-    log_time, data = got["/erc/driving_motor_message"]
+    log_time, data = got["/erc/drive_motor"]
     assert before <= log_time <= time.time_ns()  # the arrival time
-    decoded: Any = message_class(watched["/erc/driving_motor_message"]).FromString(data)
+    decoded: Any = message_class(watched["/erc/drive_motor"]).FromString(data)
     assert decoded.SerializeToString() == motor.SerializeToString()
     assert (decoded.distance_to_go, decoded.turning_radius) == (1.5, -2.0)
     lines = [json.loads(line) for line in out.splitlines()]  # listen's own output goes on
     assert lines
-    assert {line["kind"] for line in lines} == {"driving_motor_message"}
+    assert {line["kind"] for line in lines} == {"drive_motor"}
     assert err.splitlines()[-1].startswith("counters: ")

@@ -176,6 +176,6 @@ def test_a_file_name_that_is_not_utf8_is_reported_as_its_bytes(tmp_path: Path, o
         capture_output=True,
         env={**os.environ, "PYTHONIOENCODING": "utf-8:strict"},
     )
-    assert (done.returncode, done.stderr) == (1, b"")
+    assert (done.returncode, done.stderr) == (1, b"1 error, 0 warnings in 1 file\n")
     assert b"x\xff.proto" in done.stdout
     assert b"File name is not UTF-8" in done.stdout

@@ -31,7 +31,8 @@ def test_history_catches_reuse_across_branches_with_the_first_revision(tmp_path:
     assert before.stdout == (
         f'{repo.root}/proto/diag.proto:2:34: LEDGER_NUMBER_REUSED Field "2" with name '
         f'"error_count" on message "Diag" reuses a number that carried "temperature" ("float") '
-        f"since revision {ids['add'][:12]} ({ledger}:6).\n"
+        f"since revision {ids['add'][:12]} ({ledger}:6). Fix: use number 3 (the next free one) "
+        "and reserve 2.\n"
     )
     # Once merged, later changes carry the damage as old (a warning); check reports it plainly.
     after = erc_lint_cli(repo.spec("main"), repo.spec("main"), "--ledger", str(ledger))

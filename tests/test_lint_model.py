@@ -11,7 +11,7 @@ from google.protobuf.message import DecodeError
 from lint_support import READING, protoc_edition, tree
 
 import erc_lint
-from erc_codec.schema import options_class
+from erc_codec.schema import Sizes, load_schema, options_class
 from erc_lint._loader import load_tree
 from erc_lint._model import build
 
@@ -46,6 +46,21 @@ def test_equal_size_inputs_mean_equal_sizes(
     assert None not in sizes
     if same:
         assert sizes[0] == sizes[1]
+
+
+def test_a_roots_size_is_computed_once_per_revision(tmp_path: Path) -> None:
+    """NANOPB_LIMIT_WIDENED asks a root's size for every finding: the revision answers from its
+    first computation (the same number the plain computation gives), never from files read
+    again."""
+    root = tree(tmp_path, READING)
+    options = root / "reading.options"
+    options.write_text(READING["reading.options"])
+    revision = build(load_tree(root))
+    plain = Sizes(load_schema(root, "PBEnvelope")).max_size("PBEnvelope")
+    assert revision.max_size("PBEnvelope") == plain == 26
+    options.write_text("Reading.label max_size:200\n")  # would change a fresh computation
+    assert revision.max_size("PBEnvelope") == plain
+    assert build(load_tree(root)).max_size("PBEnvelope") != plain
 
 
 def test_a_root_at_the_end_of_a_long_import_chain_is_sized(tmp_path: Path) -> None:

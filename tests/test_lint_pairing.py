@@ -144,7 +144,11 @@ def test_a_renamed_messages_nested_types_are_not_claimed_by_lookalikes(tmp_path:
         },
     )
     assert sorted((f.rule, f.message.split(" on ")[-1]) for f in erc_lint.lint(old, new)) == [
-        ("ENUM_VALUE_DELETED", 'enum "Outer2.E" was deleted without reserving its number.'),
+        (
+            "ENUM_VALUE_DELETED",
+            'enum "Outer2.E" was deleted without reserving its number. Fix: reserve 2 or restore '
+            "the value.",
+        ),
         ("FIELD_TYPE_CHANGED", 'message "Outer2.Inner" changed type from "int32" to "string".'),
         ("MESSAGE_DELETED", 'Previously present message "Foo" was deleted.'),
         ("MESSAGE_RENAMED", 'Message "Outer" was renamed to "Outer2"; its fields are unchanged.'),

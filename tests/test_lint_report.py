@@ -23,8 +23,9 @@ def test_output_formats(tmp_path: Path) -> None:
     assert set(lines[0]) >= {"rule", "severity", "path", "line", "column", "message"}
     github = erc_lint_cli(str(old), str(new), "--format", "github").stdout.splitlines()
     assert github[0].startswith(f"::warning file={new / 'a.proto'},line=2,col=")
-    assert github[1].startswith(f"::error file={old / 'a.proto'},line=2,col=")
-    assert "::FIELD_DELETED " in github[1]
+    # A deleted field: at its message in NEW, never at a line of OLD (which says where it was).
+    assert github[1].startswith(f"::error file={new / 'a.proto'},line=2,col=1::FIELD_DELETED ")
+    assert github[1].endswith(f"(gone from NEW; OLD had it at {old / 'a.proto'}:2)")
 
 
 def test_github_annotations_escape_what_their_syntax_uses() -> None:

@@ -220,7 +220,7 @@ def test_decode_pcap_mcap_writes_a_capture(codec: erc_codec.Codec, tmp_path: Pat
     )
     messages = read_back(out)
     assert [m.channel.topic for m in messages] == [
-        *["/erc/arm_movement_feedback"] * 3,
+        *["/erc/arm_feedback"] * 3,
         *["/erc/gps_info"] * 3,
         *["/erc-codec/drops"] * 4,
     ]

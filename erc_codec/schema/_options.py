@@ -42,12 +42,13 @@ Rules = list[tuple[str, Options]]
 
 class ResolvedOptions:
     """nanopb options resolved for a schema, by full name: ``messages["Msg"]``,
-    ``fields["Msg.f"]``, ``oneofs["Msg.o"]``."""
+    ``fields["Msg.f"]``, ``oneofs["Msg.o"]``, ``enums["Msg.Kind"]``."""
 
     def __init__(self) -> None:
         self.messages: dict[str, Options] = {}
         self.fields: dict[str, Options] = {}
         self.oneofs: dict[str, Options] = {}
+        self.enums: dict[str, Options] = {}
 
 
 @functools.cache
@@ -83,9 +84,11 @@ def resolve_options(
     options_file: str = "%s.options",
     settings: Sequence[str] = (),
 ) -> ResolvedOptions:
-    """Resolve the nanopb options of every message, field and oneof in ``files``, as nanopb's
-    generator run in ``tree`` with ``-I`` for each of ``include``, ``-f options_file`` and
-    ``-s`` for each of ``settings`` resolves them."""
+    """Resolve the nanopb options of every message, field, oneof and enum in ``files``, as
+    nanopb's generator run in ``tree`` with ``-I`` for each of ``include``, ``-f options_file``
+    and ``-s`` for each of ``settings`` resolves them. As the generator does, every message
+    starts from its file's options, a nested enum from its message's (``enum_intsize``,
+    ``long_names``, ...)."""
     resolved = ResolvedOptions()
     top = _settings(settings)
     for proto in files:
@@ -93,9 +96,12 @@ def resolve_options(
         base = _merge(top, rules, proto.name, proto.options)
         for declaration in declarations(proto):
             message = declaration.proto
-            if not isinstance(message, descriptor_pb2.DescriptorProto):
-                continue
             name = declaration.name
+            if not isinstance(message, descriptor_pb2.DescriptorProto):
+                parent = resolved.messages[declaration.parent] if declaration.parent else base
+                annotated = message.options if message.HasField("options") else None
+                resolved.enums[name] = _merge(parent, rules, name, annotated)
+                continue
             own = resolved.messages[name] = _merge(base, rules, name, message.options)
             for field in message.field:
                 options = field.options if field.HasField("options") else None

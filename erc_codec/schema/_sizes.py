@@ -66,9 +66,8 @@ class Sizes:
             schema.tree, schema.files, schema.include, options_file, settings
         )
         self._optional: set[str] = set()  # proto3 `optional` fields (not in a real oneof)
-        self._proto2_groups: set[str] = (
-            set()
-        )  # proto2 groups (an editions DELIMITED field reads as one)
+        # proto2 groups (an editions DELIMITED field reads as one)
+        self._proto2_groups: set[str] = set()
         for proto in schema.files:
             for declaration in declarations(proto):
                 if isinstance(declaration.proto, descriptor_pb2.DescriptorProto):

@@ -1,46 +1,128 @@
-"""``erc-lint diff OLD NEW`` (also plain ``erc-lint OLD NEW``) and ``erc-lint check TREE``."""
+"""``erc-lint diff OLD NEW`` (also plain ``erc-lint OLD NEW``), ``erc-lint check TREE`` and
+``erc-lint baseline``, which writes what they find to a baseline file."""
 
 from collections.abc import Sequence
 from pathlib import Path
 
 import click
 
+from .._baseline import BASELINE, render_baseline
 from .._run import compare
-from ._shared import FORMAT_OPTION, LEDGER_OPTION, common_options, guard, opened, report, settings
+from ._shared import (
+    BASELINE_OPTION,
+    FILE,
+    FORMAT_OPTION,
+    LEDGER_OPTION,
+    SEVERITY_OPTION,
+    baseline_keys,
+    common_options,
+    guard,
+    opened,
+    report,
+    settings,
+)
 
-__all__ = ["check", "diff"]
+__all__ = ["baseline", "check", "diff"]
+
+_ALLOW_EMPTY_OLD = click.option(
+    "--allow-empty-old",
+    is_flag=True,
+    help="Accept an OLD with no .proto file (a first version), which is otherwise an error.",
+)
 
 
 @click.command()
 @click.argument("old")
 @click.argument("new")
 @FORMAT_OPTION
+@SEVERITY_OPTION
+@BASELINE_OPTION
+@_ALLOW_EMPTY_OLD
 @common_options
 @LEDGER_OPTION
 def diff(
     old: str,
     new: str,
     output: str,
+    severity: str,
+    baseline: Path | None,
+    allow_empty_old: bool,
     includes: Sequence[Path],
     config: Path | None,
     ledger: Path | None,
 ) -> None:
     """Compare two revisions of a proto tree and report what breaks the wire."""
-    with guard(), opened(old) as before, opened(new, "NEW") as after:
-        findings = compare(before, after, settings(config, after.folder), includes, ledger)
-    report(findings, output)
+    with guard():
+        accepted, given = baseline_keys(baseline)
+        with opened(old, "OLD", allow_empty_old) as before, opened(new, "NEW") as after:
+            outcome = compare(
+                before, after, settings(config, after.folder), includes, ledger, accepted
+            )
+    report(outcome, output, severity, given)
 
 
 @click.command()
 @click.argument("tree")
 @FORMAT_OPTION
+@SEVERITY_OPTION
+@BASELINE_OPTION
 @common_options
 @LEDGER_OPTION
 def check(
-    tree: str, output: str, includes: Sequence[Path], config: Path | None, ledger: Path | None
+    tree: str,
+    output: str,
+    severity: str,
+    baseline: Path | None,
+    includes: Sequence[Path],
+    config: Path | None,
+    ledger: Path | None,
 ) -> None:
     """Lint one tree on its own: compile errors, name collisions, what embedded roots reach
     (fixed sizes), and reused numbers if there is a ledger."""
-    with guard(), opened(tree, "TREE") as source:
-        findings = compare(None, source, settings(config, source.folder), includes, ledger)
-    report(findings, output)
+    with guard():
+        accepted, given = baseline_keys(baseline)
+        with opened(tree, "TREE") as source:
+            outcome = compare(
+                None, source, settings(config, source.folder), includes, ledger, accepted
+            )
+    report(outcome, output, severity, given)
+
+
+@click.command(name="baseline")
+@click.argument("trees", nargs=-1, required=True, metavar="[OLD] NEW")
+@click.option(
+    "--output",
+    "-o",
+    "target",
+    type=FILE,
+    default=Path(BASELINE),
+    show_default=True,
+    help="The baseline file to write.",
+)
+@_ALLOW_EMPTY_OLD
+@common_options
+@LEDGER_OPTION
+def baseline(
+    trees: tuple[str, ...],
+    target: Path,
+    allow_empty_old: bool,
+    includes: Sequence[Path],
+    config: Path | None,
+    ledger: Path | None,
+) -> None:
+    """Write every current finding of `erc-lint OLD NEW` (or of `erc-lint check TREE`) to a
+    baseline file: later runs given it report only findings it does not hold."""
+    if len(trees) > 2:
+        raise click.UsageError("give NEW, or OLD and NEW")
+    with guard():
+        if len(trees) == 1:
+            with opened(trees[0], "TREE") as source:
+                outcome = compare(None, source, settings(config, source.folder), includes, ledger)
+        else:
+            with (
+                opened(trees[0], "OLD", allow_empty_old) as before,
+                opened(trees[1], "NEW") as after,
+            ):
+                outcome = compare(before, after, settings(config, after.folder), includes, ledger)
+        target.write_text(render_baseline(outcome.keys), encoding="utf-8")
+    click.echo(f"{target}: {len(set(outcome.keys))} findings baselined", err=True)

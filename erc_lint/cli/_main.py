@@ -1,12 +1,15 @@
 """The ``erc-lint`` group: ``erc-lint OLD NEW`` means ``erc-lint diff OLD NEW``; every command
 group of the command line added to it."""
 
+from pathlib import Path
+
 import click
 
 from erc_codec.cli import OneLineGroup
 
-from ._diff import check, diff
-from ._rules import list_rules
+from .._suggest import did_you_mean
+from ._diff import baseline, check, diff
+from ._rules import explain, list_rules
 
 __all__ = ["main"]
 
@@ -18,7 +21,11 @@ class _LintGroup(OneLineGroup):
     not pay for the history walker's imports."""
 
     def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
-        if args and args[0] not in self.list_commands(ctx) and args[0] not in _OPTIONS:
+        commands = self.list_commands(ctx)
+        if args and args[0] not in commands and args[0] not in _OPTIONS:
+            hint = did_you_mean(args[0], commands) if _not_a_tree(args[0]) else ""
+            if hint:  # `erc-lint chek real`: a mistyped command, not a missing folder
+                raise click.UsageError(f"no command {args[0]!r}{hint}", ctx)
             args = ["diff", *args]
         return super().parse_args(ctx, args)
 
@@ -33,6 +40,11 @@ class _LintGroup(OneLineGroup):
         return super().get_command(ctx, name)
 
 
+def _not_a_tree(word: str) -> bool:
+    """Whether ``word`` cannot be a tree: no folder of that name, and no git input."""
+    return "#" not in word and "/" not in word and not Path(word).exists()
+
+
 @click.group(cls=_LintGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="erc-codec")
 def main() -> None:
@@ -43,5 +55,5 @@ def main() -> None:
     """
 
 
-for _command in (diff, check, list_rules):
+for _command in (diff, check, baseline, list_rules, explain):
     main.add_command(_command)

@@ -1,6 +1,8 @@
 """What the erc-lint commands share: their options, opening a tree, the configuration, one-line
 failures (exit 2) and the report (exit 1 when it holds an error)."""
 
+import os
+import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -9,25 +11,37 @@ from typing import Any, TypeVar
 import click
 
 from erc_codec import CodecError
-from erc_codec.schema import TreeSource, proto_files
+from erc_codec.schema import (
+    GitSpec,
+    Repository,
+    TreeSource,
+    file_exists,
+    parse_tree_spec,
+    proto_files,
+)
 
+from .._baseline import BASELINE, read_baseline
 from .._config import Config, find_config, read_config
 from .._errors import LintError
-from .._finding import Finding
-from .._inputs import open_input
+from .._inputs import missing_folder, open_input
 from .._report import FORMATS, render
+from .._run import Outcome, missing_in_git
 from ..rules import CATEGORIES, RULES
 
 __all__ = [
+    "BASELINE_OPTION",
     "FILE",
     "FORMAT_OPTION",
     "LEDGER_OPTION",
+    "SEVERITY_OPTION",
     "Failure",
+    "baseline_keys",
     "common_options",
     "guard",
     "opened",
     "report",
     "settings",
+    "summary",
 ]
 
 _Command = TypeVar("_Command", bound=Callable[..., Any])
@@ -78,13 +92,23 @@ FORMAT_OPTION = click.option(
 
 
 @contextmanager
-def opened(text: str, role: str = "") -> Iterator[TreeSource]:
-    """The tree ``text`` names; a wrong path is an error rather than an empty, passing tree."""
+def opened(text: str, role: str, allow_empty: bool = False) -> Iterator[TreeSource]:
+    """The tree ``text`` names: a wrong path, a subdir a revision lacks, or a tree with no .proto
+    is an error rather than an empty tree that passes every check. An empty OLD passes only
+    before a repository's first commit (``HEAD`` unborn) or with ``allow_empty``."""
+    spec = parse_tree_spec(text)
+    if isinstance(spec, Path):
+        problem = missing_folder(spec)
+        if problem and not (allow_empty and spec.is_dir()):
+            raise Failure(f"{text}: {problem} in {role} (a wrong path would pass every check)")
     with open_input(text) as source:
-        if not source.folder.is_dir():
-            raise Failure(f"{text}: not a folder holding a proto tree")
-        if role and not proto_files(source.folder):
-            raise Failure(f"{text}: no .proto file in {role} (a wrong path would pass every check)")
+        if isinstance(spec, GitSpec) and not proto_files(source.folder):
+            unborn = source.revision is None
+            if not (allow_empty or (unborn and role == "OLD")):
+                with Repository(spec.folder) as repository:
+                    inside = repository.where(spec.subdir)[0]
+                    why = missing_in_git(repository, source.revision or "", inside)
+                    raise Failure(f"{text}: no .proto file in {role}: {why}")
         yield source
 
 
@@ -93,6 +117,29 @@ def settings(config: Path | None, folder: Path | None) -> Config:
     folders = [folder] if folder is not None and folder.is_dir() else []
     found = config or find_config(*folders, Path.cwd())
     return read_config(found, set(RULES), explicit=config is not None, categories=set(CATEGORIES))
+
+
+SEVERITY_OPTION = click.option(
+    "--severity",
+    type=click.Choice(["warning", "error"]),
+    default="warning",
+    show_default=True,
+    help="The least severe finding to print: error prints errors only (the summary counts all).",
+)
+BASELINE_OPTION = click.option(
+    "--baseline",
+    type=FILE,
+    help=f"Report only findings this baseline does not hold (`erc-lint baseline` writes one). "
+    f"Default: {BASELINE} in the working directory, if there is one.",
+)
+
+
+def baseline_keys(path: Path | None) -> tuple[frozenset[str], bool]:
+    """The keys of ``--baseline``, else of ./erc-lint.baseline; and whether there was one."""
+    chosen = path or Path(BASELINE)
+    if path is None and not file_exists(chosen):
+        return frozenset(), False
+    return read_baseline(chosen), True
 
 
 @contextmanager
@@ -109,9 +156,36 @@ def guard() -> Iterator[None]:
         raise Failure(f"internal error ({type(error).__name__}): {error}") from None
 
 
-def report(findings: list[Finding], output: str) -> None:
-    """Print the findings; exit 1 when one of them is an error. A file name that is not UTF-8
-    is printed as the bytes it is (as ``ls`` prints it), whatever the locale's encoding."""
-    click.echo(render(findings, output).encode("utf-8", "surrogateescape"), nl=False)
-    if any(finding.severity == "error" for finding in findings):
+def report(
+    outcome: Outcome, output: str, severity: str = "warning", baseline: bool = False
+) -> None:
+    """Print the findings (``severity`` error: errors only), then the summary line on stderr;
+    exit 1 when an error was found. A file name that is not UTF-8 is printed as the bytes it is
+    (as ``ls`` prints it), whatever the locale's encoding. A reader that stops early (``| head``)
+    ends the run quietly with the status the findings give, as ``git log | head`` does."""
+    findings = outcome.findings
+    shown = [f for f in findings if severity == "warning" or f.severity == "error"]
+    failed = any(finding.severity == "error" for finding in findings)
+    try:
+        click.echo(render(shown, output).encode("utf-8", "surrogateescape"), nl=False)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        # Python flushes stdout again at exit: point it at nothing, so that flush is silent.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    click.echo(summary(outcome, baseline), err=True)
+    if failed:
         raise SystemExit(1)
+
+
+def summary(outcome: Outcome, baseline: bool) -> str:
+    """``2 errors, 1 warning (1 new since baseline, 4 baselined) in 41 files``."""
+    errors = sum(f.severity == "error" for f in outcome.findings)
+    warnings = len(outcome.findings) - errors
+    counted = f"{_plural(errors, 'error')}, {_plural(warnings, 'warning')}"
+    if baseline:
+        counted += f" ({len(outcome.findings)} new since baseline, {outcome.baselined} baselined)"
+    return f"{counted} in {_plural(outcome.files, 'file')}"
+
+
+def _plural(count: int, word: str) -> str:
+    return f"{count} {word}{'s' * (count != 1)}"

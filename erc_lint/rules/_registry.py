@@ -10,7 +10,12 @@ handed (buf's pair check functions): one pair at a time, never the whole change.
   each paired message and enum; ``deleted_message_rule``: each OLD message NEW no longer has;
 - ``method_rule``: each method of each paired service (``MethodPair``);
 - ``tree_rule``: one revision (run on OLD and on NEW: a report whose key OLD has too is old damage,
-  a warning; one only NEW has is an error).
+  a warning; one only NEW has is an error);
+- ``findings_rule``: what the other rules found, once they all ran (the suppressions that
+  silenced none of it).
+
+Before ``findings_rule``s run, a finding ``ignore_only`` names for its path, or an
+``erc-lint:ignore`` comment covers (``_suppressions``), is dropped.
 
 Categories select rules as buf's do (``CATEGORIES``; ``use`` and ``except`` in the configuration
 name categories or rule IDs): a pair rule is ``WIRE`` (and so ``WIRE_JSON``) unless it says
@@ -31,13 +36,17 @@ from erc_codec.schema import Location
 from .._config import Config
 from .._errors import ConfigError
 from .._finding import Finding, Severity
-from .._model import Enum, Message, Revision
+from .._loader import relative
+from .._model import Enum, Field, Message, Revision
 from .._pairing import Change, FieldPair, MethodPair, NumberPair, Paired
+from .._suggest import did_you_mean
+from .._suppressions import Suppression, apply, suppressions
 
 __all__ = [
     "CATEGORIES",
     "DEFAULT_CATEGORIES",
     "RULES",
+    "Found",
     "Report",
     "Reports",
     "Rule",
@@ -45,7 +54,9 @@ __all__ = [
     "deleted_message_rule",
     "enum_number_rule",
     "enum_rule",
+    "field_prefix",
     "field_rule",
+    "findings_rule",
     "message_rule",
     "method_rule",
     "run",
@@ -73,6 +84,9 @@ class Report(NamedTuple):
     message: str
     in_old: bool = False  # the location is in OLD: the element is gone from NEW
     key: str = ""  # a tree rule's name for the damage: OLD reporting the same key makes it old
+    fix: str = ""  # the short fix, ending the finding's text ("reserve 3 or restore the field")
+    container: Location | None = None  # in_old: where NEW has the element's container
+    like: str = ""  # a tree rule's report graded as this rule is (a rename: FIELD_RENAMED)
 
 
 Reports = Iterator[Report]
@@ -86,6 +100,15 @@ _DefinitionCheck = Callable[[Paired[Any], Change], Reports]  # a message or an e
 _DeletedCheck = Callable[[Message, Change], Reports]
 _MethodCheck = Callable[[MethodPair, Change], Reports]
 _TreeCheck = Callable[[Revision, Change], Reports]
+_FindingsCheck = Callable[["Found", Change], Reports]
+
+
+class Found(NamedTuple):
+    """What a ``findings_rule`` is handed: the suppressions of NEW and those that silenced a
+    finding of another rule."""
+
+    suppressions: list[Suppression]
+    used: set[Suppression]
 
 
 class Rule(NamedTuple):
@@ -193,6 +216,24 @@ def tree_rule(
     return _register(id, purpose, "error", "tree", categories)
 
 
+def field_prefix(
+    field: Field, owner: str, number: int | None = None, name: str | None = None
+) -> str:
+    """``Field "2" with name "x" on message "M"`` (``Extension`` for an extension): how buf starts
+    a message about a field, by OLD's ``number`` and ``name`` where the message names them."""
+    return (
+        f'{field.noun} "{field.number if number is None else number}" with name '
+        f'"{name or field.name}" on message "{owner}"'
+    )
+
+
+def findings_rule(
+    id: str, purpose: str, severity: Severity = "error"
+) -> Callable[[_FindingsCheck], _FindingsCheck]:
+    """Register a rule handed what the other rules found (and NEW's suppressions)."""
+    return _register(id, purpose, severity, "findings", ("TREE",))
+
+
 def select(config: Config, has_services: bool = False) -> dict[str, Severity]:
     """The rules a run applies, each with its severity: those of ``use`` (rule IDs and
     categories; without it ``DEFAULT_CATEGORIES``, and RPC when ``has_services``), less those
@@ -201,7 +242,10 @@ def select(config: Config, has_services: bool = False) -> dict[str, Severity]:
     strange = [name for name in (*config.use, *config.except_) if name not in known]
     strange += [name for name in config.ignore if name not in RULES]
     if strange:
-        raise ConfigError(f"[tool.erc-lint] names no rule or category {sorted(strange)[0]!r}")
+        first = sorted(strange)[0]
+        raise ConfigError(
+            f"[tool.erc-lint] names no rule or category {first!r}" + did_you_mean(first, known)
+        )
     used = set(config.use or (*DEFAULT_CATEGORIES, *(("RPC",) if has_services else ())))
     dropped = set(config.except_) | config.ignore
     return {
@@ -214,27 +258,49 @@ def select(config: Config, has_services: bool = False) -> dict[str, Severity]:
 
 
 def run(change: Change) -> list[Finding]:
-    """Every finding of every rule the configuration selects, sorted by location."""
+    """Every finding of every rule the configuration selects, less those ``ignore_only`` or a
+    suppression comment silences, sorted by location."""
     found: list[Finding] = []
     selected = select(change.config, change.has_services)
     for rule in RULES.values():
         severity = selected.get(rule.id)
-        if severity is None:
+        if severity is None or rule.pairs == "findings":
             continue
         if rule.pairs == "tree":
             existing = {report.key for report in rule.check(change.old, change)}
             for report in rule.check(change.new, change):
                 graded: Severity = "warning" if report.key in existing else "error"
-                found.append(Finding.at(report.location, rule.id, report.message, graded))
+                if report.like and graded == "error":
+                    graded = selected.get(report.like, "warning")
+                found.append(_finding(report, rule.id, graded))
             continue
         for pair in PAIRS[rule.pairs](change):
             for report in rule.check(pair, change):
-                found.append(
-                    Finding.at(report.location, rule.id, report.message, severity, report.in_old)
-                )
+                found.append(_finding(report, rule.id, severity))
     if "COMPILE" in selected:
         found += _uncompared(change)
-    return sorted(set(found))
+    found = [f for f in found if not _ignored_path(change, f)]
+    given = suppressions(change.new.tree.texts, str(change.new.root))
+    found, used = apply(found, given)
+    for rule in RULES.values():
+        severity = selected.get(rule.id)
+        if severity is not None and rule.pairs == "findings":
+            for report in rule.check(Found(given, used), change):
+                found.append(_finding(report, rule.id, severity))
+    return sorted(set(found), key=lambda f: f[:7])
+
+
+def _finding(report: Report, rule: str, severity: Severity) -> Finding:
+    message = f"{report.message} Fix: {report.fix}." if report.fix else report.message
+    return Finding.at(report.location, rule, message, severity, report.in_old, report.container)
+
+
+def _ignored_path(change: Change, finding: Finding) -> bool:
+    """Whether ``ignore_only`` names the finding's rule for its file (relative to its tree)."""
+    if not change.config.ignore_only:
+        return False
+    root = change.old.root if finding.in_old else change.new.root
+    return change.config.ignored_at(finding.rule, relative(root, finding.path))
 
 
 def _uncompared(change: Change) -> list[Finding]:
@@ -246,9 +312,13 @@ def _uncompared(change: Change) -> list[Finding]:
             1,
             1,
             "COMPILE",
-            f"OLD's {name} does not compile, so its messages were not compared with NEW's.",
+            f"OLD's {name} does not compile, so its messages could not be compared with NEW's "
+            "(every file that compiles was).",
             "warning",
             in_old=True,
+            in_new=Location(str(change.new.root / name), 1, 1)
+            if name in change.new.tree.texts
+            else None,
         )
         for name in sorted(change.old.tree.failed)
         if name not in change.new.tree.failed

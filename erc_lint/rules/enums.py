@@ -132,6 +132,8 @@ def deleted(number: NumberPair, change: Change) -> Reports:
             f'Previously present enum value "{number.old.number}" with {_names(number.before)} '
             f'on enum "{new.name}" was deleted without reserving its number.',
             in_old=True,
+            fix=f"reserve {number.old.number} or restore the value",
+            container=new.location,
         )
 
 

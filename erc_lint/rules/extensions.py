@@ -10,7 +10,11 @@ from ._registry import Report, Reports, field_rule, message_rule
 def deleted(pair: FieldPair, change: Change) -> Reports:
     """## What it does
     Reports an extension of OLD that NEW no longer has, by number and by name, on the message
-    it extended, while NEW does not declare the number reserved in its extension range.
+    it extended, while NEW does not declare the number reserved in its extension range. Not
+    reported: an extension that became an ordinary field of the message with the same number,
+    cardinality and a wire-compatible type (its bytes read as before), and a custom option (an
+    extension of `google.protobuf.FieldOptions` or another `*Options`: it annotates the
+    descriptors, no datagram carries it; buf's WIRE rules pass it too).
 
     ## Why is this bad?
     Boards built from OLD keep setting the extension, and receivers built from NEW keep its
@@ -44,12 +48,19 @@ def deleted(pair: FieldPair, change: Change) -> Reports:
     old = pair.old
     if not old.extension or pair.by_number is not None or pair.by_name is not None:
         return
+    if old.owner.startswith("google.protobuf.") and old.owner.endswith("Options"):
+        return  # a custom option: it annotates descriptors, no message on the wire carries it
+    plain = pair.new_owner.fields.get(old.number)
+    if plain is not None and plain.cardinality == old.cardinality and change.compatible(old, plain):
+        return  # now an ordinary field with the same number and type: the same bytes
     if old.number not in pair.new_owner.reserved_extensions:
         yield Report(
             old.location,
             f'Previously present extension "{old.number}" with name "{old.name}" on message '
             f'"{pair.new_owner.name}" was deleted without reserving its number.',
             in_old=True,
+            fix=f"reserve {old.number} in the extension range's declarations, or restore it",
+            container=pair.new_owner.location,
         )
 
 

@@ -5,7 +5,7 @@ a field of the message it extends, and these rules judge it as buf does, in buf'
 
 from .._model import Field
 from .._pairing import Change, FieldPair
-from ._registry import Report, Reports, field_rule
+from ._registry import Report, Reports, field_prefix, field_rule
 
 
 @field_rule("FIELD_RENUMBERED", "A field kept its name but changed number.")
@@ -172,6 +172,8 @@ def deleted(pair: FieldPair, change: Change) -> Reports:
             f'Previously present field "{pair.old.number}" with name "{pair.old.name}" on '
             f'message "{pair.new_owner.name}" was deleted without reserving its number.',
             in_old=True,
+            fix=f"reserve {pair.old.number} or restore the field",
+            container=pair.new_owner.location,
         )
 
 
@@ -434,7 +436,9 @@ def utf8_validation_changed(pair: FieldPair, change: Change) -> Reports:
     """## What it does
     Reports a string field that kept its number whose UTF-8 validation changed: proto3 and
     editions strings are `VERIFY` by default, proto2 strings `NONE`, and editions set it with
-    `features.utf8_validation`. It is a warning: only a value that is not UTF-8 breaks.
+    `features.utf8_validation`. A `bytes` field validates nothing: a verifying string that
+    became `bytes` (or the reverse), which the type rules accept as wire-compatible, is
+    reported too. It is a warning: only a value that is not UTF-8 breaks.
 
     ## Why is this bad?
     A reader that verifies fails to parse the whole message when the string holds bytes that
@@ -465,12 +469,18 @@ def utf8_validation_changed(pair: FieldPair, change: Change) -> Reports:
     field.
     """
     taken, old = pair.by_number, pair.old
-    if taken is None or taken.type != "string" or old.type != "string":
+    if (
+        taken is None
+        or {taken.type, old.type} - {"string", "bytes"}
+        or taken.type == "bytes" == old.type
+    ):
         return
     if taken.utf8 != old.utf8:
+        retyped = f" ({old.type} to {taken.type})" if taken.type != old.type else ""
         yield Report(
             taken.location,
-            f"{_field(taken, pair)} changed UTF8 validation from {_utf8(old)} to {_utf8(taken)}.",
+            f"{_field(taken, pair)} changed UTF8 validation from {_utf8(old)} to "
+            f"{_utf8(taken)}{retyped}.",
         )
 
 
@@ -518,10 +528,7 @@ def json_name_changed(pair: FieldPair, change: Change) -> Reports:
 
 def _field(now: Field, pair: FieldPair, name: str | None = None) -> str:
     """``Field "2" with name "x" on message "M"``: how buf starts a message about a field."""
-    return (
-        f'{now.noun} "{pair.old.number}" with name "{name or pair.old.name}" on message '
-        f'"{pair.new_owner.name}"'
-    )
+    return field_prefix(now, pair.new_owner.name, pair.old.number, name or pair.old.name)
 
 
 def _utf8(field: Field) -> str:

@@ -4,6 +4,8 @@ deletions, none)."""
 
 from typing import Any
 
+from erc_codec.schema import Location
+
 from .._model import Message
 from .._pairing import Change, Paired
 from ._registry import Report, Reports, definition_rule, deleted_message_rule, message_rule
@@ -39,7 +41,20 @@ def deleted(message: Message, change: Change) -> Reports:
             message.location,
             f'Previously present message "{message.name}" was deleted.',
             in_old=True,
+            container=_container_in_new(message, change),
         )
+
+
+def _container_in_new(message: Message, change: Change) -> Location | None:
+    """Where NEW has what held ``message``: its enclosing message, else its file (line 1)."""
+    outer = message.name.rpartition(".")[0]
+    while outer:
+        if outer in change.new.messages:
+            return change.new.messages[outer].location
+        outer = outer.rpartition(".")[0]
+    if message.file in change.new.tree.texts:
+        return Location(str(change.new.root / message.file), 1, 1)
+    return None
 
 
 @message_rule(
@@ -185,7 +200,7 @@ def envelope_size_grown(pair: Paired[Message], change: Change) -> Reports:
     before, after = change.old.max_size(root), change.new.max_size(root)
     if before is not None and after is not None and after > before:
         budget = change.config.budget.get(root)
-        room = f" (budget {budget} bytes: headroom {budget - after})" if budget else ""
+        room = f" (budget {budget} bytes: headroom {budget - after} bytes)" if budget else ""
         yield Report(
             pair.new.location,
             f'Maximum size of message "{root}" grew from {before} to {after} bytes{room}: '

@@ -8,7 +8,7 @@ from erc_codec.schema import Location
 
 from .._model import EnumValue, Field, Revision
 from .._pairing import Change, wire_compatible
-from ._registry import Report, Reports, tree_rule
+from ._registry import Report, Reports, field_prefix, tree_rule
 
 if TYPE_CHECKING:
     from .._ledger import Entry, Key, Ledger
@@ -203,21 +203,24 @@ def embedded_repeated(revision: Revision, change: Change) -> Reports:
             if field.cardinality == "repeated":
                 yield Report(
                     field.location,
-                    f'Field "{field.number}" with name "{field.name}" on message "{field.owner}" '
-                    f'is repeated, and embedded root "{root}" reaches it as {path}.',
+                    f'{field_prefix(field, field.owner)} is repeated, and embedded root "{root}" '
+                    f"reaches it as {path}.",
                     key=_reached(revision, change, root, field),
                 )
 
 
 @tree_rule(
     "EMBEDDED_UNBOUNDED",
-    "A string or bytes field without nanopb max_size in a message an embedded root reaches.",
+    "A field nanopb gives no fixed size (a string or bytes without max_size, a callback or"
+    " pointer) in a message an embedded root reaches.",
     categories=("TREE", "NANOPB"),
 )
 def embedded_unbounded(revision: Revision, change: Change) -> Reports:
     """## What it does
     Reports a `string` or `bytes` field without nanopb's `max_size` (or `max_length`), from a
-    `.options` file or an annotation, in any message an embedded root reaches.
+    `.options` file or an annotation, and any field set to `FT_CALLBACK` or `FT_POINTER`
+    (whatever its `max_size`: nanopb bounds only static fields), in any message an embedded root
+    reaches. A repeated field without `max_count` is `EMBEDDED_REPEATED`'s.
 
     ## Why is this bad?
     nanopb turns an unbounded string or bytes field into a callback with no storage, and every
@@ -243,15 +246,29 @@ def embedded_unbounded(revision: Revision, change: Change) -> Reports:
     """
     for root in change.config.roots:
         for path, field in revision.reach(root):
-            if field.type not in ("string", "bytes") or revision.bounded(field):
-                continue
-            yield Report(
-                field.location,
-                f'Field "{field.number}" with name "{field.name}" on message "{field.owner}" is '
-                f'{field.type} without nanopb max_size, and embedded root "{root}" reaches it as '
-                f"{path}.",
-                key=_reached(revision, change, root, field),
-            )
+            why = _unbounded(revision, field)
+            if why is not None:
+                yield Report(
+                    field.location,
+                    f'{field_prefix(field, field.owner)} is {why}, and embedded root "{root}" '
+                    f"reaches it as {path}.",
+                    key=_reached(revision, change, root, field),
+                )
+
+
+def _unbounded(revision: Revision, field: Field) -> str | None:
+    """Why nanopb gives ``field`` no fixed size, if it gives it none: a string or bytes field
+    without a limit, any field set to be a callback or pointer (``max_size`` or not). A repeated
+    field without ``max_count`` is EMBEDDED_REPEATED's."""
+    text = field.type in ("string", "bytes")
+    if not text and not revision.has_nanopb_options():
+        return None  # nanopb's defaults: every other field is static
+    stored = revision.allocation(field)
+    if stored in ("static", "ignore"):
+        return None
+    if int(revision.field_options(field).type):  # FT_CALLBACK or FT_POINTER, set on purpose
+        return f"a nanopb {stored} field"
+    return f"{field.type} without nanopb max_size" if text else None
 
 
 def _reached(revision: Revision, change: Change, root: str, field: Field) -> str:
@@ -292,15 +309,19 @@ def ledger_number_reused(revision: Revision, change: Change) -> Reports:
     if ledger is None:
         return
     for message in revision.messages.values():
+        if len(revision.definitions.get(message.name, ())) > 1:
+            continue  # two messages of one name: NAME_COLLISION's, not a reuse
         for field in message.fields.values():
-            yield from _field_reuse(change, ledger, field)
+            yield from _field_reuse(revision, change, ledger, field)
     for enum in revision.enums.values():
+        if len(revision.definitions.get(enum.name, ())) > 1:
+            continue
         for value in enum.values.values():
-            live = sorted(v.name for v in enum.by_name.values() if v.number == value.number)
-            yield from _value_reuse(change, ledger, value, live)
+            names = sorted(enum.names(value.number))
+            yield from _value_reuse(revision, change, ledger, value, names)
 
 
-def _field_reuse(change: Change, ledger: "Ledger", field: Field) -> Reports:
+def _field_reuse(revision: Revision, change: Change, ledger: "Ledger", field: Field) -> Reports:
     # Loaded already (the ledger was read): linting without a ledger does not import it, for
     # bench_lint's 30-file ratio (its dataclasses cost about 9 ms of start-up).
     from .._ledger import Key
@@ -309,48 +330,101 @@ def _field_reuse(change: Change, ledger: "Ledger", field: Field) -> Reports:
     clashes = [
         past
         for past in ledger.at("message", field.owner, field.number)
-        if past.key.name != field.name or not _same_kind(change, past.key.type, field.type)
+        if past.key.name != field.name
+        or not _same_kind(revision, change, ledger, past.key.type, field.type)
     ]
-    if clashes and not _acknowledged(change, ledger, key):
+    if clashes and not _acknowledged(revision, change, ledger, key):
+        names = {f.name for f in revision.messages[field.owner].fields.values()}
+        renamed = all(
+            p.key.name not in names and _same_kind(revision, change, ledger, p.key.type, field.type)
+            for p in clashes
+        )
         yield Report(
             field.location,
-            f'Field "{field.number}" with name "{field.name}" on message "{field.owner}" '
-            f"reuses a number that carried {_history(ledger, clashes)}.",
+            f"{field_prefix(field, field.owner)} reuses a number that carried "
+            f"{_history(ledger, clashes)}.",
             key=_id(key),
+            fix="restore the old name"
+            if renamed
+            else f"use {_free(ledger, revision, field.owner)} and reserve {field.number}",
+            like="FIELD_RENAMED" if renamed else "",
         )
 
 
-def _value_reuse(change: Change, ledger: "Ledger", value: EnumValue, live: list[str]) -> Reports:
-    """``value``, the first name of its number, with ``live``, every name of the number."""
+def _value_reuse(
+    revision: Revision, change: Change, ledger: "Ledger", value: EnumValue, live: list[str]
+) -> Reports:
+    """``value``, the first name of its number, with ``live``, every name of the number. On the
+    wire an enum value is its number: another name for it is a rename, graded as diff grades
+    one (``ENUM_VALUE_RENAMED``)."""
     from .._ledger import Key  # loaded already: see _field_reuse
 
     keys = [Key("enum", value.owner, value.number, name, "-") for name in live]
     clashes = [
         past for past in ledger.at("enum", value.owner, value.number) if past.key.name not in live
     ]
-    if clashes and not any(_acknowledged(change, ledger, key) for key in keys):
+    if clashes and not any(_acknowledged(revision, change, ledger, key) for key in keys):
+        # a pure rename, unless an old name of the number lives on under another number
+        renamed = not any(p.key.name in revision.enums[value.owner].by_name for p in clashes)
         yield Report(
             value.location,
             f'Enum value "{value.number}" with name "{value.name}" on enum "{value.owner}" '
             f"reuses a number that carried {_history(ledger, clashes)}.",
             key=_id(keys[0]),
+            fix="restore the old name, or add it as an alias"
+            if renamed
+            else f"use {_free_value(ledger, revision, value.owner)} and reserve {value.number}",
+            like="ENUM_VALUE_RENAMED" if renamed else "",
         )
 
 
-def _same_kind(change: Change, past: str, now: str) -> bool:
-    """Whether a field of type ``now`` reads what type ``past`` wrote (a message or enum type
-    renamed with an identical body in this change counts as itself)."""
-    return wire_compatible(past, now) or change.renamed.get(past) == now
+def _same_kind(revision: Revision, change: Change, ledger: "Ledger", past: str, now: str) -> bool:
+    """Whether a field of type ``now`` reads what type ``past`` wrote: a message or enum type
+    renamed with an identical body counts as itself, in this change or in the ledger's history
+    (every number the ledger has for ``past``, with its name and type, is ``now``'s body)."""
+    if wire_compatible(past, now) or change.renamed.get(past) == now:
+        return True
+    if past in revision.messages or past in revision.enums:
+        return False  # both types exist: two types, not one renamed
+    if now in revision.messages:
+        body = {(f.number, f.name, f.type) for f in revision.messages[now].fields.values()}
+        return bool(body) and ledger.body("message", past) == body
+    if now in revision.enums:
+        values = {(v.number, v.name, "-") for v in revision.enums[now].by_name.values()}
+        return bool(values) and ledger.body("enum", past) == values
+    return False
 
 
-def _acknowledged(change: Change, ledger: "Ledger", key: "Key") -> bool:
+def _acknowledged(revision: Revision, change: Change, ledger: "Ledger", key: "Key") -> bool:
     """Whether the ledger accepts this use of the number: an ``ack`` on an entry with this name
     and a type that reads the same bytes (an acknowledged ``sint32`` covers its widening to
     ``sint64``)."""
     return any(
-        past.ack and past.key.name == key.name and _same_kind(change, past.key.type, key.type)
+        past.ack
+        and past.key.name == key.name
+        and _same_kind(revision, change, ledger, past.key.type, key.type)
         for past in ledger.at(key.kind, key.container, key.number)
     )
+
+
+def _free_value(ledger: "Ledger", revision: Revision, owner: str) -> str:
+    """The next enum number neither the ledger nor NEW's enum has used, nor reserved."""
+    enum = revision.enums[owner]
+    used = {number for number, _, _ in ledger.body("enum", owner)} | set(enum.values)
+    number = max(used, default=0) + 1
+    while enum.reserved.covers(number):
+        number += 1
+    return f"number {number} (the next free one)"
+
+
+def _free(ledger: "Ledger", revision: Revision, owner: str) -> str:
+    """The next number neither the ledger nor NEW's message has used, nor reserved."""
+    message = revision.messages[owner]
+    used = {number for number, _, _ in ledger.body("message", owner)} | set(message.fields)
+    number = max(used, default=0) + 1
+    while message.reserved.covers(number):
+        number += 1
+    return f"number {number} (the next free one)"
 
 
 def _history(ledger: "Ledger", clashes: "list[Entry]") -> str:

@@ -1,0 +1,196 @@
+"""erc-lint as a CI gate, run as a user runs it: every output format validated against its
+published schema (``tests/formats``, sources named in its README), the summary line, --severity,
+baselines, suppression comments, ignore_only, no silent pass, explanations, a closed pipe."""
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import jsonschema  # type: ignore[import-untyped]
+import junitparser
+import pytest
+import xmlschema
+from lint_support import erc_lint_cli, tree
+
+FORMATS = Path(__file__).resolve().parent / "formats"
+OLD = {
+    "arm.proto": "message Arm {\n  float shoulder = 1;\n  float elbow = 2;\n"
+    "  uint32 wrist = 3;\n}\n",
+    "gone.proto": "message Gone { float x = 1; }\n",
+}
+NEW = {
+    "arm.proto": "message Arm {\n  float shoulder = 1;\n  string elbow = 2;\n}\n",
+    "note.proto": "message Note { float y = 1; }\n",
+}
+
+
+@pytest.fixture
+def pair(tmp_path: Path) -> Path:
+    tree(tmp_path / "old", OLD)
+    tree(tmp_path / "new", NEW)
+    return tmp_path
+
+
+def run(pair: Path, *args: str) -> subprocess.CompletedProcess[str]:
+    return erc_lint_cli("old", "new", *args, cwd=pair)
+
+
+def test_sarif_validates_against_the_sarif_2_1_0_schema(pair: Path) -> None:
+    done = run(pair, "--format", "sarif")
+    assert done.returncode == 1, done.stderr
+    document = json.loads(done.stdout)
+    schema = json.loads((FORMATS / "sarif-2.1.0-rtm.5.json").read_text())
+    jsonschema.Draft4Validator(schema).validate(document)
+    (only,) = document["runs"]
+    rules = {rule["id"]: rule for rule in only["tool"]["driver"]["rules"]}
+    assert "## Why is this bad?" in rules["FIELD_DELETED"]["help"]["text"]
+    by_rule = {result["ruleId"]: result for result in only["results"]}
+    deleted = by_rule["FIELD_DELETED"]["locations"][0]["physicalLocation"]
+    assert deleted["artifactLocation"] == {"uri": "new/arm.proto"}  # the container in NEW
+    assert deleted["region"]["startLine"] == 2
+    gone = by_rule["MESSAGE_DELETED"]["locations"][0]["physicalLocation"]
+    assert gone["artifactLocation"] == {"uri": "old/gone.proto", "uriBaseId": "OLD"}
+    assert all(r["partialFingerprints"]["ercLintFinding/v1"] for r in only["results"])
+
+
+def test_gitlab_code_quality_validates_against_its_documented_schema(pair: Path) -> None:
+    done = run(pair, "--format", "gitlab")
+    issues = json.loads(done.stdout)
+    schema = json.loads((FORMATS / "gitlab-code-quality.json").read_text())
+    jsonschema.Draft7Validator(schema).validate(issues)
+    assert {issue["check_name"] for issue in issues} >= {"FIELD_DELETED", "FIELD_TYPE_CHANGED"}
+    assert len({issue["fingerprint"] for issue in issues}) == len(issues)
+    with pytest.raises(jsonschema.ValidationError):  # the schema can fail
+        jsonschema.Draft7Validator(schema).validate([{**issues[0], "severity": "fatal"}])
+
+
+def test_junit_validates_against_the_junit_schema_and_reads_as_junit(pair: Path) -> None:
+    done = run(pair, "--format", "junit")
+    xmlschema.XMLSchema(FORMATS / "junit-10.xsd").validate(done.stdout)
+    report = junitparser.JUnitXml.fromstring(done.stdout)
+    cases = [case for suite in report for case in suite]
+    failed = [case for case in cases if not case.is_passed]
+    assert {case.result[0].type for case in failed} >= {"FIELD_DELETED", "FIELD_TYPE_CHANGED"}
+    clean = erc_lint_cli("new", "new", "--format", "junit", cwd=pair)
+    xmlschema.XMLSchema(FORMATS / "junit-10.xsd").validate(clean.stdout)
+    assert clean.returncode == 0
+
+
+def test_msvs_lines_are_visual_studios_canonical_errors(pair: Path) -> None:
+    lines = run(pair, "--format", "msvs").stdout.splitlines()
+    canonical = re.compile(r"^[^()]+\(\d+,\d+\) : (error|warning) [A-Z0-9_]+ : .+$")
+    assert lines
+    assert all(canonical.match(line) for line in lines), lines
+
+
+def test_github_annotations_of_deleted_elements_point_into_new(pair: Path) -> None:
+    lines = run(pair, "--format", "github").stdout.splitlines()
+    field = next(line for line in lines if "FIELD_DELETED" in line)
+    assert field.startswith("::error file=new/arm.proto,line=2,col=1::")
+    message = next(line for line in lines if "MESSAGE_DELETED" in line)
+    assert message.startswith("::warning title=MESSAGE_DELETED::")  # no file of NEW to point at
+
+
+def test_summary_and_severity(pair: Path) -> None:
+    done = run(pair)
+    assert done.stderr == "2 errors, 1 warning in 2 files\n"
+    errors_only = run(pair, "--severity", "error")
+    assert "(warning)" not in errors_only.stdout
+    assert errors_only.stdout.count("\n") == 2
+    assert errors_only.returncode == 1
+
+
+def test_a_baseline_reports_only_new_findings_across_line_moves(pair: Path) -> None:
+    written = erc_lint_cli("baseline", "old", "new", cwd=pair)
+    assert written.returncode == 0, written.stderr
+    assert "3 findings baselined" in written.stderr
+    # Lines move (a comment above), and one new break appears.
+    (pair / "new" / "arm.proto").write_text(
+        'syntax = "proto3";\n// moved\nmessage Arm {\n  uint32 shoulder = 1;\n'
+        "  string elbow = 2;\n}\n"
+    )
+    done = run(pair)
+    (line,) = done.stdout.splitlines()
+    assert line.startswith("new/arm.proto:4:3: FIELD_TYPE_CHANGED")
+    assert '"shoulder"' in line
+    assert done.stderr == "1 error, 0 warnings (1 new since baseline, 3 baselined) in 2 files\n"
+    assert done.returncode == 1
+
+
+def test_suppression_comments_end_to_end(pair: Path) -> None:
+    (pair / "new" / "arm.proto").write_text(
+        'syntax = "proto3";\n'
+        "message Arm {  // erc-lint:ignore FIELD_DELETED wrist retired with board v1\n"
+        "  float shoulder = 1;\n"
+        "  // erc-lint:ignore FIELD_TYPE_CHANGED\n"
+        "  string elbow = 2;\n"
+        "}\n"
+    )
+    done = run(pair, "--severity", "error")
+    rules = [line.split(": ", 1)[1].split()[0] for line in done.stdout.splitlines()]
+    assert rules == ["SUPPRESSION_INVALID", "FIELD_TYPE_CHANGED"]  # no reason: not honoured
+
+
+def test_ignore_only_per_rule_and_path(pair: Path) -> None:
+    (pair / "new" / "pyproject.toml").write_text(
+        '[tool.erc-lint]\nignore_only = { FIELD_TYPE_CHANGED = ["arm*"] }\n'
+    )
+    assert "FIELD_TYPE_CHANGED" not in run(pair).stdout
+    (pair / "new" / "pyproject.toml").write_text(
+        '[tool.erc-lint]\nignore_only = { FIELD_TYPE_CHANGD = ["arm*"] }\n'
+    )
+    wrong = run(pair)
+    assert wrong.returncode == 2
+    assert "did you mean 'FIELD_TYPE_CHANGED'?" in wrong.stderr
+
+
+@pytest.mark.parametrize(
+    ("args", "said"),
+    [
+        (["old", "nwe"], "no such folder (did you mean 'new'?) in NEW"),
+        (["check", "nwe"], "no such folder (did you mean 'new'?) in TREE"),
+        (["chek", "new"], "no command 'chek' (did you mean 'check'?)"),
+        (["ledger", "update", "nwe", "--check"], "no such folder (did you mean 'new'?) in TREE"),
+        (["explain", "FIELD_DELETD"], "no rule 'FIELD_DELETD' (did you mean 'FIELD_DELETED'?)"),
+    ],
+)
+def test_typos_exit_2_with_a_suggestion(pair: Path, args: list[str], said: str) -> None:
+    done = erc_lint_cli(*args, cwd=pair)
+    assert done.returncode == 2, done
+    assert said in done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1
+
+
+def test_an_empty_old_only_on_purpose(pair: Path) -> None:
+    (pair / "empty").mkdir()
+    refused = erc_lint_cli("empty", "new", cwd=pair)
+    assert refused.returncode == 2
+    assert "no .proto file in OLD" in refused.stderr
+    assert erc_lint_cli("empty", "new", "--allow-empty-old", cwd=pair).returncode == 0
+
+
+def test_explain_prints_the_rules_docstring(pair: Path) -> None:
+    for args in (["explain", "FIELD_DELETED"], ["rules", "--explain", "FIELD_DELETED"]):
+        done = erc_lint_cli(*args, cwd=pair)
+        assert done.returncode == 0
+        assert "## Use instead" in done.stdout
+        assert "reserved" in done.stdout
+
+
+def test_a_closed_pipe_exits_0_quietly(pair: Path) -> None:
+    for name in ("a", "b", "c", "d"):
+        (pair / "old" / f"{name}.proto").write_text(
+            f'syntax = "proto3";\nmessage {name.upper()} {{\n'
+            + "".join(f"  float f{k} = {k};\n" for k in range(1, 2000))
+            + "}\n"
+        )
+    shell = f"{sys.executable} -m erc_lint old new | head -1"
+    done = subprocess.run(
+        ["bash", "-o", "pipefail", "-c", shell], cwd=pair, capture_output=True, text=True
+    )
+    assert done.stdout.count("\n") == 1
+    assert "Traceback" not in done.stderr
+    assert "BrokenPipe" not in done.stderr
+    assert done.returncode == 1  # the findings' status (errors), never a pipe failure's 2 or 120
