@@ -13,7 +13,7 @@ from typing import Any as _Any
 
 from google.protobuf.message import Message as _Message
 
-from ._codec import Codec, Direction, Member
+from ._codec import Codec, Direction, Member, MessageCodec
 from ._detections import AssemblerStats, DetectionAssembler, DetectionFrame, FrameLoss, Rejected
 from ._dispatch import Dispatcher, DispatchStats, Drop
 from ._envelope import Decoded, Mode
@@ -49,6 +49,7 @@ __all__ = [
     "Liveness",
     "McapWriter",
     "Member",
+    "MessageCodec",
     "Mode",
     "Outgoing",
     "Recorded",

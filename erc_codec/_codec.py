@@ -11,11 +11,13 @@ from google.protobuf.message import Message
 
 from ._contract import contract
 from ._discovery import ENVIRONMENT, SchemaSource, find_schema, load_source, packaged_tree
-from ._envelope import Envelope
+from ._envelope import Envelope, is_envelope
 from ._errors import SchemaError
+from ._plain import Plain
+from ._strict import refusal
 from .schema import Schema, Sizes, load_schema, message_of
 
-__all__ = ["Codec", "Direction", "Member", "default_tree"]
+__all__ = ["Codec", "Direction", "Member", "MessageCodec", "default_tree", "is_envelope"]
 
 # A member's trailing comment, as the rover's envelope writes it: ``// direction: ROS2 -> BS``.
 _DIRECTION = re.compile(r"direction:[ \t]*(\S.*?)[ \t]*->[ \t]*(\S.*?)[ \t]*$", re.MULTILINE)
@@ -49,20 +51,26 @@ class Codec(Envelope):
 
     Loading compiles the root's file and its imports, computes every message's nanopb maximum size
     and checks that everything reachable from the root is fixed-size; any problem is a
-    ``SchemaError`` naming the file and line.
+    ``SchemaError`` naming the file and line. ``options_file`` and ``settings`` are nanopb's
+    generator's ``-f`` and ``-s`` (see ``erc_codec.schema.Sizes``).
     """
 
-    def __init__(self, schema: Schema) -> None:
-        self._schema = schema
-        self._sizes = Sizes(schema)
-        root = schema.root
-        self._sizes.require_fixed(root)
-        self.root = root.full_name
+    def __init__(
+        self, schema: Schema, options_file: str = "%s.options", settings: Sequence[str] = ()
+    ) -> None:
+        self._load(schema, options_file, settings)
         super().__init__(
-            schema.message_class(root.full_name),
-            self._sizes.max_size(root.full_name),
+            schema.message_class(self.root),
+            self._sizes.max_size(self.root),
             functools.partial(contract, self._sizes),
+            functools.partial(refusal, self._sizes),
         )
+
+    def _load(self, schema: Schema, options_file: str, settings: Sequence[str]) -> None:
+        self._schema = schema
+        self._sizes = Sizes(schema, options_file, settings)
+        self._sizes.require_fixed(schema.root)
+        self.root = schema.root.full_name
 
     @property
     def schema(self) -> Schema:
@@ -80,14 +88,21 @@ class Codec(Envelope):
         tree: str | os.PathLike[str],
         root: str = "PBEnvelope",
         include: Sequence[str | os.PathLike[str]] = (),
+        options_file: str = "%s.options",
+        settings: Sequence[str] = (),
     ) -> "Codec":
-        """Load the proto tree under ``tree`` (the import root), starting from message ``root``;
-        imports not found in ``tree`` are searched in the ``include`` folders."""
+        """Load the proto tree under ``tree`` (the import root), starting from message ``root``
+        (its full name), with ``include`` as further import folders (``-I``).
+
+        An envelope root (one oneof of messages, metadata fields beside it) gives the envelope
+        codec; any other message a ``MessageCodec``, which sends that message alone in the same
+        three forms.
+        """
         if not isinstance(tree, (str, os.PathLike)):
             raise TypeError(f"tree is a folder (str or os.PathLike), not {type(tree).__name__}")
         if not isinstance(root, str):
             raise TypeError(f"root is a message name (str), not {type(root).__name__}")
-        return cls(load_schema(tree, root, include))
+        return cls._for(load_schema(tree, root, include), options_file, settings)
 
     @classmethod
     def from_source(cls, source: SchemaSource) -> "Codec":
@@ -95,8 +110,18 @@ class Codec(Envelope):
         ``GITDIR#ref=REF[,subdir=PATH]`` read without a checkout."""
         return load_source(
             source,
-            lambda tree: cls(load_schema(tree.folder, source.root, source.include, tree.shown)),
+            lambda tree: cls._for(
+                load_schema(tree.folder, source.root, source.include, tree.shown)
+            ),
         )
+
+    @classmethod
+    def _for(
+        cls, schema: Schema, options_file: str = "%s.options", settings: Sequence[str] = ()
+    ) -> "Codec":
+        if cls is Codec and not is_envelope(schema.root):
+            return MessageCodec(schema, options_file, settings)
+        return cls(schema, options_file, settings)
 
     @classmethod
     def default(cls) -> "Codec":
@@ -187,6 +212,25 @@ class Codec(Envelope):
                 f"{kind_or_class!r} is neither a payload kind of {self.root} ({', '.join(kinds)}) "
                 "nor a message of its schema"
             ) from None
+
+
+class MessageCodec(Plain, Codec):
+    """A ``Codec`` rooted at a plain message (not an envelope): ``encode`` takes an instance of
+    the root, ``decode`` returns it with the root's full name as the kind; the three forms,
+    the contract and the errors are the envelope codec's. ``kinds()`` and ``members()`` are
+    empty."""
+
+    def __init__(
+        self, schema: Schema, options_file: str = "%s.options", settings: Sequence[str] = ()
+    ) -> None:
+        self._load(schema, options_file, settings)
+        Plain.__init__(
+            self,
+            schema.message_class(self.root),
+            self._sizes.max_size(self.root),
+            functools.partial(contract, self._sizes),
+            functools.partial(refusal, self._sizes),
+        )
 
 
 @functools.cache

@@ -2,7 +2,11 @@
 
 A message can be valid protobuf and still be one a nanopb receiver drops or misreads: an enum value
 the schema does not declare (proto3 enums are open in Python), a string or bytes value longer than
-its ``max_size``, more repeated items than ``max_count``, an integer wider than its ``int_size``.
+its ``max_size``, more repeated items than ``max_count``, an integer wider than its ``int_size``, a
+string holding a NUL (nanopb stores strings NUL-terminated: it would arrive cut there),
+``fixed_length`` bytes not exactly ``max_size`` long or a ``fixed_count`` field without exactly
+``max_count`` items (nanopb: "incorrect fixed length bytes size", "wrong size for fixed count
+field"), an unset proto2 ``required`` field (nanopb: "missing required field").
 ``contract(sizes, descriptor)`` returns how to check a payload type: an exact check that raises
 ``EncodeError`` naming the field path, and a cheap screen deciding whether to run it.
 
@@ -29,7 +33,7 @@ plain check refuses.
 
 import keyword
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from operator import attrgetter
 from typing import Any, NamedTuple
 
@@ -84,6 +88,7 @@ def _enum_tags(sizes: Sizes, descriptor: Descriptor, tags: dict[bytes, set[bytes
             field.is_repeated
             or field.type in (_T.TYPE_STRING, _T.TYPE_BYTES)
             or sizes.int_range(field) is not None
+            or field.is_required
         ):
             return False
         if field.type == _T.TYPE_ENUM:
@@ -107,6 +112,54 @@ def checker(sizes: Sizes, descriptor: Descriptor) -> Check | None:
     source = _Source(sizes)
     body = source.message(descriptor, "m", "")
     return _compile(descriptor, source, body) if body else None
+
+
+def _required_check(sizes: Sizes, descriptor: Descriptor) -> Check | None:
+    """A check that every proto2 ``required`` field is set, in the message and in each
+    submessage it holds (a submessage that is absent is sent as nothing, so is not asked)."""
+    wanted: dict[str, list[str]] = {}  # message full name -> its required fields
+    pending, seen = [descriptor], {descriptor.full_name}
+    while pending:
+        message = pending.pop()
+        for field in message.fields:
+            if sizes.ignored(field):
+                continue
+            if field.is_required:
+                wanted.setdefault(message.full_name, []).append(field.name)
+            sub = field.message_type
+            if sub is not None and sub.full_name not in seen:
+                seen.add(sub.full_name)
+                pending.append(sub)
+    if not wanted:
+        return None
+
+    def check(root: Message, top: str) -> None:
+        stack: list[tuple[Message, str]] = [(root, top)]
+        while stack:
+            message, path = stack.pop()
+            for name in wanted.get(message.DESCRIPTOR.full_name, ()):
+                if not message.HasField(name):
+                    raise EncodeError(f"{path}.{name} is required (proto2) but not set")
+            stack.extend(_submessages(message, path))
+
+    return check
+
+
+def _submessages(message: Message, path: str) -> Iterator[tuple[Message, str]]:
+    """The submessages ``message`` holds (repeated ones and map values too), with their paths."""
+    for field, value in message.ListFields():
+        if field.message_type is None:
+            continue
+        here = f"{path}.{field.name}"
+        if field.message_type.GetOptions().map_entry:
+            for key, item in value.items():
+                if isinstance(item, Message):
+                    yield item, entry_path(here, key)
+        elif field.is_repeated:
+            for j, item in enumerate(value):
+                yield item, f"{here}[{j}]"
+        else:
+            yield value, here
 
 
 def _compile(descriptor: Descriptor, source: "_Source", body: list[str]) -> Check:
@@ -139,6 +192,11 @@ class _Source:
 
     def message(self, descriptor: Descriptor, var: str, prefix: str) -> list[str]:
         lines: list[str] = []
+        if not prefix:  # the top: one walk checks required fields at every depth
+            required = _required_check(self._sizes, descriptor)
+            if required is not None:
+                lines.append(f" {self._name(required)}({var}, p)")
+                self.reads += 1
         tests: list[str] = []
         for field in descriptor.fields:
             if self._sizes.ignored(field):
@@ -155,7 +213,11 @@ class _Source:
                 or self._sizes.int_range(field) is not None
             ):
                 check = _field_check(self._sizes, field, path)
-                lines.append(f" {self._name(check)}({read}, p)")
+                call = f"{self._name(check)}({read}, p)"
+                if _checked_when_set(self._sizes, field):
+                    lines.append(f" if {var}.HasField({field.name!r}): {call}")
+                else:
+                    lines.append(f" {call}")
                 self.reads += 1
             elif field.type == _T.TYPE_ENUM:
                 allowed = frozenset(value.number for value in enum_of(field).values)
@@ -179,6 +241,17 @@ class _Source:
         return name
 
 
+def _checked_when_set(sizes: Sizes, field: FieldDescriptor) -> bool:
+    """Whether a field's value is checked only when set: ``fixed_length`` bytes with presence,
+    whose unset value (``b""``) is sent as nothing."""
+    return (
+        field.type == _T.TYPE_BYTES
+        and not field.is_repeated
+        and field.has_presence
+        and bool(sizes.options(field).fixed_length)
+    )
+
+
 def _field_check(sizes: Sizes, field: FieldDescriptor, path: str) -> Callable[[Any, str], None]:
     """Check the value of one repeated, string, bytes or int_size field at ``path`` below the
     message whose path a call gives."""
@@ -186,11 +259,16 @@ def _field_check(sizes: Sizes, field: FieldDescriptor, path: str) -> Callable[[A
     if not field.is_repeated:
         return lambda value, prefix: element(value, f"{prefix}.{path}")
     count = sizes.max_count(field)
+    fixed = count is not None and bool(sizes.options(field).fixed_count)
 
     def check(value: Any, prefix: str) -> None:
         where = f"{prefix}.{path}"
         if count is not None and len(value) > count:
             raise EncodeError(f"{where} holds {len(value)} items, more than its max_count {count}")
+        if fixed and len(value) != count:
+            raise EncodeError(
+                f"{where} holds {len(value)} items; fixed_count needs exactly {count}"
+            )
         if isinstance(value, Mapping):
             for key, item in value.items():
                 element(item, entry_path(where, key))
@@ -208,7 +286,11 @@ def _element_check(sizes: Sizes, field: FieldDescriptor) -> Callable[[Any, str],
     if field.type == _T.TYPE_ENUM:
         return _enum_item(field)
     if field.type in (_T.TYPE_STRING, _T.TYPE_BYTES):
-        return _sized_item(sizes.max_bytes(field), field.type == _T.TYPE_STRING)
+        limit = sizes.max_bytes(field)
+        # fixed_length bytes without presence too: protobuf sends b"" as nothing, which nanopb
+        # reads as max_size zeros (and sends as such), not as the b"" that was meant.
+        exact = field.type == _T.TYPE_BYTES and bool(sizes.options(field).fixed_length)
+        return _sized_item(limit, field.type == _T.TYPE_STRING, exact)
     bounds = sizes.int_range(field)
     if bounds is not None:
         return _ranged_item(*bounds)
@@ -230,11 +312,18 @@ def _enum_item(field: FieldDescriptor) -> Callable[[Any, str], None]:
     return enum_item
 
 
-def _sized_item(limit: int | None, text: bool) -> Callable[[Any, str], None]:
+def _sized_item(limit: int | None, text: bool, exact: bool = False) -> Callable[[Any, str], None]:
     def sized_item(value: Any, path: str) -> None:
         length = len(value.encode("utf-8")) if text else len(value)
         if limit is not None and length > limit:
             raise EncodeError(f"{path} is {length} bytes long, more than the {limit} allowed")
+        if exact and length != limit:
+            raise EncodeError(f"{path} is {length} bytes long; fixed_length needs exactly {limit}")
+        if text and "\0" in value:
+            raise EncodeError(
+                f"{path} holds a NUL at character {value.index(chr(0))}: nanopb stores strings "
+                "NUL-terminated, so it would arrive cut there"
+            )
 
     return sized_item
 

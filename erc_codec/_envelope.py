@@ -37,6 +37,7 @@ from typing import Any, Literal, NamedTuple
 
 from google.protobuf.descriptor import Descriptor, OneofDescriptor
 from google.protobuf.message import DecodeError as ProtobufDecodeError
+from google.protobuf.message import EncodeError as ProtobufEncodeError
 from google.protobuf.message import Message
 
 from ._contract import Contract
@@ -56,7 +57,7 @@ from .schema import (
     varint_size,
 )
 
-__all__ = ["Decoded", "Envelope", "Mode"]
+__all__ = ["Decoded", "Envelope", "Mode", "is_envelope"]
 
 Mode = Literal["strip", "exact", "pad"]
 _Tag = tuple[str, Callable[[bytes], Message], int]
@@ -141,8 +142,10 @@ class Envelope:
         envelope: type[Message],
         max_size: int,
         contract: Callable[[Descriptor], Contract | None],
+        refusal: Callable[[Message], str | None] | None = None,
     ) -> None:
         descriptor = descriptor_of(envelope)
+        self._refusal = refusal  # what nanopb's decoder refuses, for strict decodes
         oneofs = [oneof for oneof in descriptor.oneofs if not _synthetic(oneof)]
         if len(oneofs) != 1:
             raise SchemaError(
@@ -245,7 +248,12 @@ class Envelope:
         if member is None:
             return self._encode_other(message, mode)
         headers, screen, check, serialize = member
-        body = serialize(message)
+        try:
+            body = serialize(message)
+        except ProtobufEncodeError:  # an unset proto2 required field: the check names it
+            if check is not None:
+                check(message)
+            raise EncodeError(f"{message.DESCRIPTOR.full_name}: unset required fields") from None
         if check is not None and (screen is None or screen(body)):
             check(message)
         try:
@@ -411,8 +419,10 @@ class Envelope:
         ``data`` is bytes or any bytes-like object (``bytearray``, ``memoryview``). Restored
         zeros that give a field without presence its default, which no proto3 encoder sends,
         are a datagram cut short: ``DecodeError`` with reason ``"truncated"``. Fields the schema
-        does not know are kept (``Decoded.unknown_fields``); with ``strict``, they are a
-        ``DecodeError`` with reason ``"unknown_fields"``.
+        does not know are kept (``Decoded.unknown_fields``). With ``strict``, they are a
+        ``DecodeError`` with reason ``"unknown_fields"``, and so is what nanopb's decoder refuses
+        (a missing required field, a string, bytes or array over its limit, a fixed-length field
+        of the wrong size).
         """
         if strict:
             return self._decode_strict(data)
@@ -473,6 +483,9 @@ class Envelope:
                 f"{decoded.message.DESCRIPTOR.full_name} does not know: {listed} (another schema?)",
                 "unknown_fields",
             )
+        why = self._refusal(decoded.message) if self._refusal is not None else None
+        if why is not None:
+            raise DecodeError(f"nanopb's decoder refuses the {decoded.kind} payload: {why}")
         return decoded
 
     def _decode_stripped(
@@ -648,6 +661,20 @@ def _as_bytes(data: object) -> bytes:
         raise TypeError(
             f"a datagram is bytes (or bytearray, memoryview), not {type(data).__name__}"
         ) from None
+
+
+def is_envelope(descriptor: Descriptor) -> bool:
+    """Whether a message is an envelope: one oneof (protoc's own for a proto3 ``optional`` aside)
+    whose members are messages, and beside it only metadata: single scalars, enums or strings."""
+    oneofs = [oneof for oneof in descriptor.oneofs if not _synthetic(oneof)]
+    if len(oneofs) != 1 or not oneofs[0].fields:
+        return False
+    return all(
+        field.message_type is not None
+        if field.containing_oneof is oneofs[0]
+        else field.message_type is None and not field.is_repeated
+        for field in descriptor.fields
+    )
 
 
 def _synthetic(oneof: OneofDescriptor) -> bool:

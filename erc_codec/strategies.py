@@ -1,10 +1,13 @@
 """Hypothesis strategies for any message of a loaded schema, derived from its descriptors.
 
-``messages(codec, "SensorBoardGPSInfo")`` draws messages a fixed-size receiver accepts: declared
-enum values only, every integer over its full range, floats including ±0, subnormals, the extremes
-and ±inf (NaN only on request: NaN != NaN makes equality useless), strings and bytes within their
-nanopb ``max_size``, repeated fields within ``max_count``, and every submessage, oneof member and
-``optional`` field both present and absent. Test your own handlers with it.
+``messages(codec, "SensorBoardGPSInfo")`` draws messages a fixed-size receiver accepts and decodes
+back equal: declared enum values only, every integer over its full range (or its nanopb
+``int_size``), floats including ±0, subnormals, the extremes and ±inf (NaN only on request: NaN !=
+NaN makes equality useless), strings without NUL (nanopb stores them NUL-terminated) and bytes
+within their nanopb ``max_size`` (``fixed_length`` bytes exactly that long), repeated fields within
+``max_count`` (``fixed_count`` ones exactly that many), proto2 ``required`` fields always set, and
+every submessage, oneof member and ``optional`` field both present and absent. Test your own
+handlers with it.
 """
 
 from typing import Any
@@ -14,6 +17,7 @@ from google.protobuf.message import Message
 from hypothesis import strategies as st
 
 from ._codec import Codec
+from ._errors import SchemaError
 from .schema import descriptor_of, enum_of, message_of
 
 __all__ = ["messages"]
@@ -70,7 +74,7 @@ class _Builder:
             if oneof is not None:
                 member = st.fixed_dictionaries({field.name: self._field(field)})
                 oneofs.setdefault(oneof.name, [st.just({})]).append(member)
-            elif field.has_presence:  # submessages and proto3 `optional` fields
+            elif field.has_presence and not field.is_required:  # submessages, `optional`s
                 optional[field.name] = self._field(field)
             else:
                 required[field.name] = self._field(field)
@@ -86,6 +90,8 @@ class _Builder:
         if not field.is_repeated:
             return value
         count = self._codec.nanopb.max_count(field)
+        if count is not None and self._codec.nanopb.options(field).fixed_count:
+            return st.lists(value, min_size=count, max_size=count)
         return st.lists(value, max_size=_UNBOUNDED_COUNT if count is None else count)
 
     def _map(self, field: FieldDescriptor) -> st.SearchStrategy[Any]:
@@ -115,11 +121,14 @@ class _Builder:
             return self.message(message_of(field))
         limit = self._codec.nanopb.max_bytes(field)
         if kind == _T.TYPE_BYTES:
+            if limit is not None and self._codec.nanopb.options(field).fixed_length:
+                return st.binary(min_size=limit, max_size=limit)
             return st.binary(max_size=_UNBOUNDED_TEXT if limit is None else limit)
         if kind == _T.TYPE_STRING:
             room = _UNBOUNDED_TEXT if limit is None else limit
-            return st.text(max_size=room).map(lambda text: _fit_utf8(text, room))
-        raise TypeError(f"{field.full_name}: groups are not supported")  # proto2 only
+            text = st.text(st.characters(exclude_characters="\0"), max_size=room)
+            return text.map(lambda value: _fit_utf8(value, room))
+        raise SchemaError(f"{field.full_name}: a group, which nanopb does not support")
 
 
 def _merge(left: dict[str, Any], right: dict[str, Any]) -> dict[str, Any]:

@@ -80,7 +80,7 @@ def _answer(line: str) -> Answer:
     return Answer(True, b"" if data == "-" else bytes.fromhex(data), fields, "")
 
 
-def _missing() -> tuple[str, Path | None, Path | None]:
+def missing_toolchain() -> tuple[str, Path | None, Path | None]:
     """(what is missing, the matching generator, pb.h)."""
     if shutil.which("gcc") is None:
         return "gcc", None, None
@@ -105,7 +105,7 @@ def _missing() -> tuple[str, Path | None, Path | None]:
 
 @pytest.fixture(scope="session")
 def nanopb(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Peer]:
-    missing, generator, _ = _missing()
+    missing, generator, _ = missing_toolchain()
     if missing:
         reason = f"nanopb interop tests need {missing}: apt-get install gcc nanopb libnanopb-dev"
         if os.environ.get("ERC_REQUIRE_INTEROP") == "1":
@@ -270,7 +270,7 @@ def test_the_widest_message_fills_its_size_in_both(nanopb: Peer, kind: str) -> N
 
 def test_a_missing_toolchain_is_named(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     monkeypatch.setenv("PATH", str(tmp_path))  # no gcc, no generator
-    assert _missing() == ("gcc", None, None)
+    assert missing_toolchain() == ("gcc", None, None)
 
 
 @pytest.mark.parametrize("timeout", [1, 300, 2**32 - 1])

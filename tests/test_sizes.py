@@ -28,6 +28,8 @@ TREES_DIR = Path(__file__).resolve().parent / "size_trees"
 GENERATOR = "nanopb.generator.nanopb_generator"
 _DEFINE = re.compile(r"^#define\s+(\w+)_size\s+(\d+)\s*$", re.MULTILINE)
 _RUNTIME = re.compile(r"/\*\s*(\w+)_size depends on runtime parameters\s*\*/")
+# A size nanopb writes only if another one is defined (a field whose type is a skipped message).
+_CONDITIONAL = re.compile(r"^#if defined\((\w+)_size\)\n#define (\w+)_size\b", re.MULTILINE)
 _MESSAGE = re.compile(r"\bmessage\s+(\w+)\s*\{")
 
 Sized = dict[str, int | None]
@@ -224,6 +226,7 @@ TREES: list[Tree] = [
     # Skipped and Retired are not generated at all: no define, no "depends on runtime" comment.
     Tree("skipped", "Kept", {"Kept": 5}),
     Tree("editions", "Holder", {"Sub": 11, "Holder": 45}),
+    Tree("overrides", "Override", {"UsesSkipped": None, "Override": 34, "Relabelled": 44}),
 ]
 
 ENVELOPE = TREES_DIR / "envelope"
@@ -274,12 +277,17 @@ def nanopb_sizes(tree: Path, outdir: Path) -> Sized:
     if result.returncode != 0:
         pytest.fail(f"nanopb's generator failed on {tree}:\n{result.stderr}")
     sizes: Sized = {}
+    conditional: list[tuple[str, str]] = []
     for name in files:
         header = (outdir / name).with_suffix(".pb.h").read_text(encoding="utf-8")
         for c_name, value in _DEFINE.findall(header):
             sizes[_full_name(c_name)] = int(value)
         for c_name in _RUNTIME.findall(header):
             sizes[_full_name(c_name)] = None
+        conditional += _CONDITIONAL.findall(header)
+    for needed, c_name in conditional:
+        assert sizes.get(_full_name(needed)) is None, f"{c_name}_size is an expression: read it"
+        sizes[_full_name(c_name)] = None  # what it needs is never defined
     return sizes
 
 

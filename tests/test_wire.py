@@ -1,8 +1,21 @@
-"""erc_codec._wire: varint sizes, encoding and reading, checked against hand-written bytes."""
+"""erc_codec.schema's wire primitives: varints and ``next_field``, against hand-written bytes."""
 
 import pytest
 
-from erc_codec.schema import WireError, encode_varint, read_varint, varint_size
+from erc_codec.schema import (
+    I32,
+    I64,
+    LEN,
+    MAX_FIELD_NUMBER,
+    SGROUP,
+    VARINT,
+    FieldSpan,
+    WireError,
+    encode_varint,
+    next_field,
+    read_varint,
+    varint_size,
+)
 
 # value -> its varint encoding, written out by hand from the protobuf encoding rules.
 VARINTS: list[tuple[int, str]] = [
@@ -133,3 +146,87 @@ def test_read_varint_eleven_continuation_bytes_is_too_long_not_cut_off() -> None
 
 def test_ten_byte_varint_is_the_longest_accepted() -> None:
     assert read_varint(b"\x80" * 9 + b"\x01", 0) == (2**63, 10)
+
+
+# -- next_field: the one tag walker ---------------------------------------------------------------
+
+
+def h(text: str) -> bytes:
+    return bytes.fromhex(text)
+
+
+@pytest.mark.parametrize(
+    ("data", "span"),
+    [
+        (h("08 96 01"), FieldSpan(1, VARINT, 1, 3)),
+        (h("12 03 61 62 63"), FieldSpan(2, LEN, 2, 5)),
+        (h("1d 00 00 80 3f"), FieldSpan(3, I32, 1, 5)),
+        (h("21 01 02 03 04 05 06 07 08"), FieldSpan(4, I64, 1, 9)),
+        (h("80 01 00"), FieldSpan(16, VARINT, 2, 3)),
+        # a group, skipped up to its own end tag, nested groups and fields inside it too
+        (h("0b 10 01 1b 20 02 1c 0c"), FieldSpan(1, SGROUP, 1, 8)),
+    ],
+    ids=["varint", "len", "i32", "i64", "two-byte-tag", "group"],
+)
+def test_next_field_spans_one_field(data: bytes, span: FieldSpan) -> None:
+    assert next_field(data + b"\x08\x01", 0) == span  # what follows is not read
+
+
+@pytest.mark.parametrize(
+    ("data", "span"),
+    [
+        (h("08"), FieldSpan(1, VARINT, 1, 2)),  # the zero value was stripped
+        (h("12"), FieldSpan(2, LEN, 2, 2)),  # the zero length was stripped
+        (h("12 05 61 62"), FieldSpan(2, LEN, 2, 7)),  # three zero bytes of the value
+        (h("1d 01"), FieldSpan(3, I32, 1, 5)),
+    ],
+)
+def test_next_field_reads_zeros_past_the_end(data: bytes, span: FieldSpan) -> None:
+    assert next_field(data, 0, zeros_past_end=True) == span
+    with pytest.raises(WireError):
+        next_field(data, 0)  # without the flag, the same bytes are cut off
+
+
+def test_next_field_at_an_offset() -> None:
+    assert next_field(h("08 01 10 02"), 2) == FieldSpan(2, VARINT, 3, 4)
+
+
+@pytest.mark.parametrize(
+    ("data", "pattern"),
+    [
+        (h("00"), r"field number 0 in the tag at offset 0"),
+        (h("80 00 01"), r"field number 0 in the tag at offset 0"),
+        # 2**29 (the first number past protobuf's largest) with wire type 0
+        (encode_varint(2**29 << 3) + b"\x00", r"field number 536870912 .* outside 1\.\.536870911"),
+        (encode_varint(2**32 << 3) + b"\x00", r"field number 4294967296 .* outside"),
+        (h("0e 00"), r"field 1's wire type 6 before offset 1 is not defined"),
+        (h("17"), r"field 2's wire type 7 before offset 1 is not defined"),
+        (h("0c"), r"field 1's end-group tag \(wire type 4\) closes no group"),
+        (h("0b 08 01"), r"field 1's group \(wire type 3\) is not closed"),
+        (h("0b 14"), r"end-group tag at offset 1 is field 2's, but field 1's group is open"),
+        (h("0b 00 0c"), r"field number 0 in the tag at offset 1"),
+        (h("0b 0f 0c"), r"field 1's wire type 7 before offset 2"),
+        (h("12 05 61"), r"the value of field 2 at offset 2 needs 4 more bytes"),
+        (h("08 80"), r"varint at offset 1 is cut off"),
+    ],
+)
+def test_next_field_refuses_malformed_tags_and_values(data: bytes, pattern: str) -> None:
+    with pytest.raises(WireError, match=pattern):
+        next_field(data, 0)
+
+
+def test_the_largest_field_number_is_accepted() -> None:
+    data = encode_varint(MAX_FIELD_NUMBER << 3) + b"\x01"
+    assert next_field(data, 0) == FieldSpan(MAX_FIELD_NUMBER, VARINT, 5, 6)
+
+
+def test_a_cut_varint_is_an_error_even_with_zeros_past_the_end() -> None:
+    """A stripped tail holds zeros only, and no canonical varint ends in a continuation byte."""
+    with pytest.raises(WireError, match="cut off"):
+        next_field(h("08 80"), 0, zeros_past_end=True)
+
+
+def test_deeply_nested_groups_are_walked_without_recursion() -> None:
+    depth = 100_000
+    data = b"\x0b" * depth + b"\x0c" * depth
+    assert next_field(data, 0).end == len(data)

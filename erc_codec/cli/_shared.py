@@ -130,14 +130,19 @@ def envelope_from_json(codec: Codec, kind: str, text: str) -> Message:
     line each.
     """
     members = list(codec.kinds().values())
-    if kind not in members:
-        raise Fatal(f"unknown kind {kind!r}: {codec.root} has {', '.join(members)}")
-    envelope = codec.message_class(codec.root)()
+    plain = not members and kind == codec.root  # a plain-message root: the message itself
+    if not plain and kind not in members:
+        known = ", ".join(members) or f"no members: it is a plain message, KIND {codec.root}"
+        raise Fatal(f"unknown kind {kind!r}: {codec.root} has {known}")
     try:
         document = _payload_of(codec, kind, load_json(text))
-        getattr(envelope, kind).CopyFrom(codec.from_dict(kind, document))
+        payload = codec.from_dict(kind, document)
     except EncodeError as error:
         raise click.ClickException(one_line(str(error))) from None
+    if plain:
+        return payload
+    envelope = codec.message_class(codec.root)()
+    getattr(envelope, kind).CopyFrom(payload)
     getattr(envelope, kind).SetInParent()  # an all-default payload is still the one sent
     return envelope
 

@@ -17,10 +17,12 @@ sizes and nanopb limits. Nothing here encodes envelopes or talks to a network.
 - compiled files: ``declarations`` (every message and enum, nested ones too, with their source
   paths), ``extensions`` and ``services`` (likewise) and ``SourceIndex`` (a path's ``Location``
   and trailing comment);
-- a loaded schema: ``load_schema`` and ``Schema`` (descriptor pool, classes, locations);
-- nanopb: ``resolve_options`` (``.options`` files and annotations, as the generator resolves them)
-  and ``Sizes`` (``<Message>_size`` as the generator computes it, the fixed-size contract's limits);
-- the wire: varints, wire types and ``next_field``, the one tag walker.
+- a loaded schema: ``load_schema`` and ``Schema`` (descriptor pool, classes, locations, include
+  folders, and the messages protobuf's Python runtime refuses to build, with why);
+- nanopb: ``resolve_options`` (``.options`` files, found as the generator finds them, its ``-f``
+  and ``-s``, and annotations) and ``Sizes`` (``<Message>_size`` as the generator computes it, the
+  fixed-size contract's limits);
+- the wire: varints, wire types, ``MAX_FIELD_NUMBER`` and ``next_field``, the one tag walker.
 """
 
 from ._descriptors import (
@@ -46,6 +48,7 @@ from ._wire import (
     I32,
     I64,
     LEN,
+    MAX_FIELD_NUMBER,
     SGROUP,
     VARINT,
     WIRE_TYPE_NAMES,
@@ -63,6 +66,7 @@ __all__ = [
     "I64",
     "LEN",
     "MAX_DEPTH",
+    "MAX_FIELD_NUMBER",
     "MAX_FILES",
     "MAX_LINK_STEPS",
     "MAX_PATH_TEXT",

@@ -1,17 +1,21 @@
 """nanopb's generator options for every field, oneof and message of a schema.
 
-Options come from two places and are resolved exactly as nanopb's generator resolves them: a
-``.options`` file beside each ``.proto`` (``<stem>.options``, lines ``PATTERN option:value ...``
-matched with ``fnmatchcase`` against dotted names, or the file's own name) and in-file annotations
-(``[(nanopb).max_size = 32]``, ``option (nanopb_msgopt)...``, ``option (nanopb_fileopt)...``).
-Every message, nested or not, starts from its file's options; a field or oneof starts from its
-message's. At each level matching ``.options`` lines merge in file order, then the annotation, which
-wins.
+Options come from three places and are resolved exactly as nanopb's generator (run from the tree's
+root, ``nanopb_generator -I DIR ... -f FILE -s OPTION:VALUE``) resolves them: generator settings
+(``-s max_size:61``, every file starts from them); an options file per ``.proto``, found as the
+generator finds it (``-f``'s pattern, by default ``%s.options``, ``%s`` the file's name without
+``.proto``, looked for under the tree's root, then under each include folder in order; lines
+``PATTERN option:value ...`` matched with ``fnmatchcase`` against dotted names, or the file's own
+name); and in-file annotations (``[(nanopb).max_size = 32]``, ``option (nanopb_msgopt)...``,
+``option (nanopb_fileopt)...``). Every message, nested or not, starts from its file's options; a
+field or oneof starts from its message's. At each level matching options lines merge in file
+order, then the annotation, which wins.
 """
 
 import functools
+import os
 import re
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from fnmatch import fnmatchcase
 from pathlib import Path
 from typing import Any
@@ -74,15 +78,22 @@ def options_class() -> Any:
 
 
 def resolve_options(
-    tree: Path, files: tuple[descriptor_pb2.FileDescriptorProto, ...]
+    tree: Path,
+    files: Sequence[descriptor_pb2.FileDescriptorProto],
+    include: Sequence[Path] = (),
+    options_file: str = "%s.options",
+    settings: Sequence[str] = (),
 ) -> ResolvedOptions:
-    """Resolve the nanopb options of every message, field, oneof and enum in ``files``. As the
-    generator does, every message starts from its file's options, a nested enum from its
-    message's (``enum_intsize``, ``long_names``, ...)."""
+    """Resolve the nanopb options of every message, field, oneof and enum in ``files``, as
+    nanopb's generator run in ``tree`` with ``-I`` for each of ``include``, ``-f options_file``
+    and ``-s`` for each of ``settings`` resolves them. As the generator does, every message
+    starts from its file's options, a nested enum from its message's (``enum_intsize``,
+    ``long_names``, ...)."""
     resolved = ResolvedOptions()
+    top = _settings(settings)
     for proto in files:
-        rules = _read_rules(tree / Path(proto.name).with_suffix(".options"))
-        base = _merge(options_class()(), rules, proto.name, proto.options)
+        rules = _read_rules(_options_path(tree, include, options_file, proto.name))
+        base = _merge(top, rules, proto.name, proto.options)
         for declaration in declarations(proto):
             message = declaration.proto
             name = declaration.name
@@ -101,6 +112,40 @@ def resolve_options(
                 dotted = f"{name}.{oneof.name}"
                 resolved.oneofs[dotted] = _merge(own, rules, dotted, None)
     return resolved
+
+
+def _settings(settings: Sequence[str]) -> Options:
+    """The options every file starts from: the generator's ``-s`` settings merged in order
+    (``key=value`` read as ``key:value``, as the generator reads it)."""
+    top = options_class()()
+    if not settings:
+        return top
+    from google.protobuf import text_format  # see _read_rules
+
+    for setting in settings:
+        text = setting.replace("=", ":") if ":" not in setting and "=" in setting else setting
+        try:
+            text_format.Merge(text, top)
+        except text_format.ParseError as error:
+            raise SchemaError(f"generator setting {setting!r}: {error}") from None
+    return top
+
+
+def _options_path(tree: Path, include: Sequence[Path], pattern: str, name: str) -> Path | None:
+    """Where the generator reads the options of file ``name`` from, if anywhere: ``pattern``
+    with ``%s`` the name without its suffix (a pattern without ``%s`` names one file for all),
+    under ``tree``, then under each include folder, the first that holds it."""
+    try:
+        wanted = pattern % os.path.splitext(name)[0]
+    except TypeError:  # no %s in it (the generator's own test)
+        wanted = pattern
+    except ValueError as error:
+        raise SchemaError(f"options file pattern {pattern!r}: {error}") from None
+    for folder in (tree, *include):
+        path = folder / wanted
+        if file_exists(path):
+            return path
+    return None
 
 
 def _merge(parent: Options, rules: Rules, dotted: str, options: Message | None) -> Options:
@@ -133,10 +178,13 @@ def _annotations(data: bytes) -> Iterator[Options]:
         raise SchemaError(f"unreadable nanopb annotation: {error}") from None
 
 
-def _read_rules(path: Path) -> Rules:
-    if not file_exists(path):  # a FIFO or a device is there: read_text refuses it
+def _read_rules(path: Path | None) -> Rules:
+    if path is None:  # a FIFO or a device counts as found: read_text refuses it
         return []
-    from google.protobuf import text_format  # only when there is a file to read
+    # Imported only when there is a file to read: text_format costs every erc-lint run some
+    # milliseconds of start-up, and the rover's tree has no .options file (the erc-lint/buf
+    # ratio of benchmarks/bench_lint.py, <= 1.0, counts that start-up).
+    from google.protobuf import text_format
 
     rules: Rules = []
     cls = options_class()

@@ -10,6 +10,7 @@ device or a file over ``SOURCE_LIMIT`` is refused, naming it); symlinked folders
 
 import functools
 import os
+import re
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
@@ -27,23 +28,34 @@ __all__ = ["Schema", "descriptor_of", "enum_of", "load_schema", "message_of"]
 
 
 class Schema:
-    """The files a root message depends on, their descriptors, locations and message classes."""
+    """The files a root message depends on, their descriptors, locations and message classes.
+
+    ``files`` are the descriptors as protoc wrote them. The pool holds them too, except where
+    protobuf's Python runtime refuses what protoc accepts (a message with more than 63 required
+    fields, fields whose JSON names clash): there it holds a copy it can build (those required
+    fields made optional, JSON names made the field names), sized like the original, and
+    ``refused`` says why such a message has no class. ``include`` are the import folders
+    searched after ``tree``; ``shown`` is where messages say the files are.
+    """
 
     def __init__(
         self,
         tree: Path,
         root: str,
         files: descriptor_pb2.FileDescriptorSet,
+        include: Sequence[Path] = (),
         shown: Path | None = None,
     ) -> None:
         self.tree = tree
+        self.include = tuple(include)
         self.shown = tree if shown is None else shown  # where messages say the files are
         self.files = tuple(files.file)
         # The tree's own files, judged now: a git revision's scratch folder is gone once loaded.
         self._own = tuple(proto for proto in self.files if (tree / proto.name).is_file())
         self.pool = descriptor_pool.DescriptorPool()
+        self.refused: dict[str, str] = {}  # full message name -> why the runtime has no class
         for proto in self.files:
-            self.pool.AddSerializedFile(proto.SerializeToString())
+            _add(self.pool, proto, self.refused)
         self.root: Descriptor = self.pool.FindMessageTypeByName(root)
         self._classes: dict[str, type[Message]] = {}
 
@@ -85,11 +97,41 @@ class Schema:
         return str(location) if location else full_name
 
     def message_class(self, name: str) -> type[Message]:
-        """The message class for a full message name, e.g. ``SensorBoardGPSInfo``."""
+        """The message class for a full message name, e.g. ``SensorBoardGPSInfo``;
+        ``SchemaError`` when protobuf's Python runtime cannot build it (see ``refused``)."""
         cls = self._classes.get(name)
         if cls is None:
-            cls = self._classes[name] = message_factory.GetMessageClass(self.descriptor(name))
+            descriptor = self.descriptor(name)
+            if self.refused:
+                self._buildable(descriptor)
+            try:
+                cls = message_factory.GetMessageClass(descriptor)
+            except RecursionError:  # the runtime builds the classes a message reaches recursively
+                raise SchemaError(
+                    f"{self.where(name)}: {name} nests messages too deeply for protobuf's Python "
+                    "runtime to build its class (nanopb's sizes still hold)"
+                ) from None
+            self._classes[name] = cls
         return cls
+
+    def _buildable(self, descriptor: Descriptor) -> None:
+        """``SchemaError`` if ``descriptor`` is, or reaches, a message the runtime refused."""
+        pending, seen = [(descriptor, descriptor.full_name)], {descriptor.full_name}
+        while pending:
+            message, path = pending.pop()
+            why = self.refused.get(message.full_name)
+            if why is not None:
+                reached = "" if path == descriptor.full_name else f" (reached as {path})"
+                raise SchemaError(
+                    f"{self.where(message.full_name)}: {message.full_name}{reached}: {why}; "
+                    "protobuf's Python runtime cannot encode or decode it (nanopb's sizes "
+                    "still hold)"
+                )
+            for field in message.fields:
+                sub = field.message_type
+                if sub is not None and sub.full_name not in seen:
+                    seen.add(sub.full_name)
+                    pending.append((sub, f"{path}.{field.name}"))
 
     def descriptor(self, name: str) -> Descriptor:
         """The descriptor of a full message name, without building classes for it and every
@@ -117,23 +159,32 @@ def load_schema(
     include: Sequence[str | os.PathLike[str]] = (),
     shown: str | os.PathLike[str] | None = None,
 ) -> Schema:
-    """Compile the file under ``tree`` that defines message ``root``, with what it imports
-    (searched in ``tree``, then in the ``include`` folders); ``shown`` is where messages and
-    locations say the tree is (a git revision's repository, where ``tree`` is a scratch copy)."""
+    """Compile the file under ``tree`` that defines message ``root`` (its full name, package
+    included), with what it imports; ``include`` are further import folders, searched after
+    ``tree`` (protoc's and nanopb's ``-I``). Where two files of the tree define ``root`` (copies
+    never compiled together), ``root`` may name the file: ``"copies/b.proto:Env"``. ``shown`` is
+    where messages and locations say the tree is (a git revision's repository, where ``tree`` is
+    a scratch copy)."""
     base = Path(tree)
     if not base.is_dir():
         raise SchemaError(f"{base}: not a directory holding a proto tree")
+    folders = [Path(folder) for folder in include]
+    for folder in folders:
+        if not folder.is_dir():
+            raise SchemaError(f"{folder}: include folder is not a directory")
+    file, colon, root = root.rpartition(":")
     short = root.rpartition(".")[2]
+    names = [file] if colon else proto_files(base)
+    if colon and not (base / file).is_file():
+        raise SchemaError(f"{base / file}: no such .proto file in the tree")
     candidates = [
-        name
-        for name in proto_files(base)
-        if short in declared_names(read_text(base / name, errors="replace"))
+        name for name in names if short in declared_names(read_text(base / name, errors="replace"))
     ]
     found: list[tuple[str, descriptor_pb2.FileDescriptorSet]] = []
     failure: SchemaError | None = None
     for name in candidates:
         try:
-            compiled = compile_files(base, [name], [Path(folder) for folder in include])
+            compiled = compile_files(base, [name], includes=folders)
         except FileError:
             raise  # a file protoc would read is refused: the tree is, whatever defines the root
         except SchemaError as error:
@@ -142,12 +193,76 @@ def load_schema(
         if any(d.name == root and d.is_message for d in declarations(compiled.file[-1])):
             found.append((name, compiled))
     if len(found) > 1:
-        raise SchemaError(f"message {root} is defined in both {found[0][0]} and {found[1][0]}")
+        raise SchemaError(
+            f"message {root} is defined in both {found[0][0]} and {found[1][0]}: "
+            f"name the file, e.g. {found[0][0]}:{root}"
+        )
     if found:
-        return Schema(base, root, found[0][1], None if shown is None else Path(shown))
+        return Schema(base, root, found[0][1], folders, None if shown is None else Path(shown))
     if failure is not None:
         raise failure
-    raise SchemaError(f"{base}: no .proto file defines message {root}")
+    raise SchemaError(f"{base}: no .proto file defines message {root}{_hint(base, root)}")
+
+
+def _hint(base: Path, root: str) -> str:
+    """``" (did you mean pkg.Root?)"`` when ``root`` is a short name some package declares."""
+    if "." in root:
+        return ""
+    for name in proto_files(base):
+        text = read_text(base / name, errors="replace")
+        package = _PACKAGE.search(text)
+        if package and root in declared_names(text):
+            return f" (did you mean {package[1]}.{root}? a root is named in full)"
+    return ""
+
+
+_PACKAGE = re.compile(r"^\s*package\s+([\w.]+)\s*;", re.MULTILINE)
+_LIMIT_REQUIRED = 63  # upb's mini tables hold at most this many required fields per message
+
+
+def _add(
+    pool: descriptor_pool.DescriptorPool,
+    proto: descriptor_pb2.FileDescriptorProto,
+    refused: dict[str, str],
+) -> None:
+    """Add ``proto`` to ``pool``; where the runtime refuses it, a copy it builds, noting in
+    ``refused`` which messages differ and why."""
+    try:
+        pool.AddSerializedFile(proto.SerializeToString())
+        return
+    except TypeError as error:
+        first = str(error)
+    copy = descriptor_pb2.FileDescriptorProto()
+    copy.CopyFrom(proto)
+    for declaration in declarations(copy):
+        message = declaration.proto
+        if not isinstance(message, descriptor_pb2.DescriptorProto):
+            continue
+        required = [f for f in message.field if f.label == f.LABEL_REQUIRED]
+        if len(required) > _LIMIT_REQUIRED:
+            for field in required:
+                field.label = field.LABEL_OPTIONAL
+            refused[declaration.name] = (
+                f"{len(required)} required fields, more than the {_LIMIT_REQUIRED} protobuf's "
+                "Python runtime builds a class with"
+            )
+        by_json: dict[str, str] = {}
+        for field in message.field:
+            other = by_json.setdefault(field.json_name, field.name)
+            if other != field.name:
+                refused.setdefault(
+                    declaration.name,
+                    f"fields {other} and {field.name} share the JSON name {field.json_name!r}",
+                )
+        if declaration.name in refused:
+            for field in message.field:
+                field.json_name = field.name
+    try:
+        pool.AddSerializedFile(copy.SerializeToString())
+    except TypeError:
+        raise SchemaError(
+            f"{proto.name}: protobuf's Python runtime cannot load it: {first}"
+        ) from None
 
 
 def descriptor_of(cls: type[Message]) -> Descriptor:

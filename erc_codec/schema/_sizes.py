@@ -11,6 +11,8 @@ descriptors as written: an editions field with ``message_encoding = DELIMITED`` 
 message field it is written as, and a proto2 ``group`` has no size (the generator refuses groups).
 """
 
+from collections.abc import Sequence
+
 from google.protobuf import descriptor_pb2
 from google.protobuf.descriptor import Descriptor, FieldDescriptor, OneofDescriptor
 
@@ -50,9 +52,19 @@ _UNSIGNED = {_T.TYPE_UINT32, _T.TYPE_UINT64}
 class Sizes:
     """Maximum sizes and field limits of one schema, computed once per message."""
 
-    def __init__(self, schema: Schema) -> None:
+    def __init__(
+        self,
+        schema: Schema,
+        options_file: str = "%s.options",
+        settings: Sequence[str] = (),
+    ) -> None:
+        """nanopb's sizes for ``schema``, its generator run from the tree's root with the
+        schema's include folders (``-I``), ``-f options_file`` and ``-s`` for each setting
+        (``"max_size:61"``)."""
         self._schema = schema
-        self._options: ResolvedOptions = resolve_options(schema.tree, schema.files)
+        self._options: ResolvedOptions = resolve_options(
+            schema.tree, schema.files, schema.include, options_file, settings
+        )
         self._optional: set[str] = set()  # proto3 `optional` fields (not in a real oneof)
         # proto2 groups (an editions DELIMITED field reads as one)
         self._proto2_groups: set[str] = set()
@@ -119,7 +131,7 @@ class Sizes:
     def max_size(self, name: str) -> int:
         """nanopb's ``<name>_size``; ``SchemaError`` when nanopb has none for it."""
         descriptor = self._schema.descriptor(name)
-        size = self._size(descriptor, ())
+        size = self._size(descriptor)
         if size is None:
             self.require_fixed(descriptor)
         assert size is not None, name  # require_fixed raised otherwise
@@ -130,7 +142,7 @@ class Sizes:
         imported option vocabularies such as nanopb.proto), ``None`` where nanopb writes
         "depends on runtime parameters"."""
         return {
-            message.full_name: self._size(message, ())
+            message.full_name: self._size(message)
             for message in self._schema.messages()
             if self._generated(message)
         }
@@ -143,25 +155,30 @@ class Sizes:
 
     def require_fixed(self, root: Descriptor) -> None:
         """``SchemaError`` naming the first field, and its path from ``root``, nanopb can't size."""
-        self._walk(root, root.full_name, (root.full_name,))
-
-    def _walk(self, message: Descriptor, path: str, stack: tuple[str, ...]) -> None:
-        for field in message.fields:
-            if self.ignored(field):
-                continue
-            here = f"{path}.{field.name}"
-            problem = self._problem(field)
-            if field.message_type is not None and problem is None:
-                sub = message_of(field)
-                if sub.full_name in stack:
-                    problem = f"{sub.full_name} contains itself"
-                else:
-                    self._walk(sub, here, (*stack, sub.full_name))
-            if problem is not None:
-                raise SchemaError(
-                    f"{self._schema.where(field.full_name)}: {field.full_name}: {problem}; "
-                    f"nanopb cannot size it (reached from {stack[0]} as {here})"
-                )
+        # Depth first with a stack of its own: messages nest as deeply as protoc lets them.
+        pending: list[tuple[Descriptor, str, tuple[str, ...]]] = [
+            (root, root.full_name, (root.full_name,))
+        ]
+        while pending:
+            message, path, stack = pending.pop()
+            inner: list[tuple[Descriptor, str, tuple[str, ...]]] = []
+            for field in message.fields:
+                if self.ignored(field):
+                    continue
+                here = f"{path}.{field.name}"
+                problem = self._problem(field)
+                if field.message_type is not None and problem is None:
+                    sub = message_of(field)
+                    if sub.full_name in stack:
+                        problem = f"{sub.full_name} contains itself"
+                    else:
+                        inner.append((sub, here, (*stack, sub.full_name)))
+                if problem is not None:
+                    raise SchemaError(
+                        f"{self._schema.where(field.full_name)}: {field.full_name}: {problem}; "
+                        f"nanopb cannot size it (reached from {stack[0]} as {here})"
+                    )
+            pending.extend(reversed(inner))
 
     def _problem(self, field: FieldDescriptor) -> str | None:
         """Why ``field`` itself (not what it contains) has no static size, if it hasn't."""
@@ -170,30 +187,58 @@ class Sizes:
         options = self.options(field)
         if options.type in (_FT_CALLBACK, _FT_POINTER):
             return f"nanopb type {'FT_CALLBACK' if options.type == _FT_CALLBACK else 'FT_POINTER'}"
-        if field.is_repeated and self.max_count(field) is None:
+        if self._repeated(field) and self.max_count(field) is None:
             return "repeated field without nanopb max_count"
+        sub = field.message_type
+        if sub is not None and not self._generated(sub):
+            # the generator writes "#if defined(Sub_size)" around a size that never is defined
+            return f"its type {sub.full_name} is not generated (skip_message, or deprecated)"
         if field.type in (_T.TYPE_STRING, _T.TYPE_BYTES) and self.max_bytes(field) is None:
             kind = "string" if field.type == _T.TYPE_STRING else "bytes"
             return f"{kind} field without nanopb max_size"
         return None
 
-    def _size(self, message: Descriptor, stack: tuple[str, ...]) -> int | None:
-        name = message.full_name
-        if name in self._memo:
-            return self._memo[name]
-        if name in stack:
-            return None  # nanopb turns a static recursion into callbacks
-        inner = (*stack, name)
-        total: int | None = 0
+    def _size(self, message: Descriptor) -> int | None:
+        """The size of ``message``, every message it contains sized first (after the messages
+        they contain, depth first, with a stack of its own: nesting may be deep). A message that
+        contains itself, or reaches one that does, has none: nanopb makes such fields callbacks."""
+        memo = self._memo
+        if message.full_name in memo:
+            return memo[message.full_name]
+        pending: list[tuple[Descriptor, bool]] = [(message, False)]
+        open_now: set[str] = set()  # on the current path: sized as None by what they contain
+        while pending:
+            descriptor, contents_sized = pending.pop()
+            name = descriptor.full_name
+            if contents_sized:
+                open_now.discard(name)
+                memo[name] = self._own_size(descriptor)
+                continue
+            if name in memo:
+                continue
+            open_now.add(name)
+            pending.append((descriptor, True))
+            for field in descriptor.fields:
+                sub = field.message_type
+                if (
+                    sub is not None
+                    and sub.full_name not in memo
+                    and sub.full_name not in open_now
+                    and not self.ignored(field)
+                    and self._problem(field) is None
+                ):
+                    pending.append((sub, False))
+        return memo[message.full_name]
+
+    def _own_size(self, message: Descriptor) -> int | None:
+        """The size of ``message``, the messages it contains being sized (or open: None)."""
+        total = 0
         for oneof, fields in self._groups(message):
-            sizes = [self._field_size(field, inner) for field in fields]
+            sizes = [self._field_size(field) for field in fields]
             known = [size for size in sizes if size is not None]
-            if total is None or len(known) < len(sizes):
-                total = None
-                break
+            if len(known) < len(sizes):
+                return None
             total += max(known, default=0) if oneof else sum(known)
-        if not stack or total is not None:
-            self._memo[name] = total
         return total
 
     def _groups(
@@ -215,19 +260,27 @@ class Sizes:
                 groups.append((oneof, unions[oneof.full_name]))
         return groups
 
-    def _field_size(self, field: FieldDescriptor, stack: tuple[str, ...]) -> int | None:
+    def _repeated(self, field: FieldDescriptor) -> bool:
+        """Whether nanopb sees ``field`` as repeated (its ``label_override``, else the label)."""
+        options = self.options(field)
+        if options.HasField("label_override"):
+            return bool(options.label_override == _T.LABEL_REPEATED)
+        return field.is_repeated
+
+    def _field_size(self, field: FieldDescriptor) -> int | None:
         if self._problem(field) is not None:
             return None
         options = self.options(field)
         kind = options.type_override if options.HasField("type_override") else field.type
         payload: int | None
         if kind in (_T.TYPE_MESSAGE, _T.TYPE_GROUP):  # a group here: written DELIMITED
-            sub = self._size(message_of(field), stack)
+            sub = self._memo.get(message_of(field).full_name)  # absent: open, contains itself
             payload = None if sub is None else sub + varint_size(sub)
         elif kind in (_T.TYPE_STRING, _T.TYPE_BYTES):
+            # max_length sizes a field written as a string, whatever its type_override
             limit = (
                 options.max_length + 1
-                if kind == _T.TYPE_STRING and options.HasField("max_length")
+                if field.type == _T.TYPE_STRING and options.HasField("max_length")
                 else options.max_size
             )
             payload = varint_size(limit) + limit - (1 if kind == _T.TYPE_STRING else 0)
@@ -240,7 +293,7 @@ class Sizes:
         if payload is None:
             return None
         tag = varint_size(field.number << 3)
-        if not field.is_repeated:
+        if not self._repeated(field):
             return tag + payload
         count = int(options.max_count)
         return (tag + payload) * count + (1 if count == 1 else 0)

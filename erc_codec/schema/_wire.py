@@ -14,6 +14,7 @@ __all__ = [
     "I32",
     "I64",
     "LEN",
+    "MAX_FIELD_NUMBER",
     "SGROUP",
     "VARINT",
     "WIRE_TYPE_NAMES",
@@ -37,6 +38,7 @@ WIRE_TYPE_NAMES = {
 }
 _FIXED = {I64: 8, I32: 4}
 _MAX_VARINT_BYTES = 10
+MAX_FIELD_NUMBER = 2**29 - 1  # protobuf's largest field number: a tag's number has 29 bits
 
 
 class WireError(ValueError):
@@ -97,9 +99,7 @@ def next_field(data: bytes, pos: int, zeros_past_end: bool = False) -> FieldSpan
     an error either way: a stripped tail holds zeros only, and no canonical varint ends in one.
     """
     key, value = read_varint(data, pos)
-    number, wire_type = key >> 3, key & 7
-    if number == 0:
-        raise WireError(f"field number 0 in the tag at offset {pos}")
+    number, wire_type = _number(key, pos), key & 7
     if wire_type == LEN:
         if value >= len(data) and zeros_past_end:
             return FieldSpan(number, LEN, value + 1, value + 1)  # a zero length was stripped
@@ -109,6 +109,16 @@ def next_field(data: bytes, pos: int, zeros_past_end: bool = False) -> FieldSpan
     return FieldSpan(
         number, wire_type, value, _skip(data, value, number, wire_type, zeros_past_end)
     )
+
+
+def _number(key: int, pos: int) -> int:
+    """The field number of tag ``key`` read at ``pos``, if protobuf allows it (1..2**29-1)."""
+    number = key >> 3
+    if not 0 < number <= MAX_FIELD_NUMBER:
+        raise WireError(
+            f"field number {number} in the tag at offset {pos} is outside 1..{MAX_FIELD_NUMBER}"
+        )
+    return number
 
 
 def _within(data: bytes, end: int, number: int, pos: int, zeros_past_end: bool) -> int:
@@ -136,7 +146,9 @@ def _skip(data: bytes, pos: int, number: int, wire_type: int, zeros_past_end: bo
         return _skip_group(data, pos, number)
     if wire_type == EGROUP:
         raise WireError(f"field {number}'s end-group tag (wire type 4) closes no group")
-    raise WireError(f"wire type {wire_type} before offset {pos} is not defined in protobuf")
+    raise WireError(
+        f"field {number}'s wire type {wire_type} before offset {pos} is not defined in protobuf"
+    )
 
 
 def _skip_group(data: bytes, pos: int, number: int) -> int:
@@ -151,9 +163,7 @@ def _skip_group(data: bytes, pos: int, number: int) -> int:
                 "of the data"
             )
         key, after = read_varint(data, pos)
-        inner, wire_type = key >> 3, key & 7
-        if inner == 0:
-            raise WireError(f"field number 0 in the tag at offset {pos}")
+        inner, wire_type = _number(key, pos), key & 7
         if wire_type == EGROUP:
             expected = open_groups.pop()
             if inner != expected:

@@ -1,0 +1,305 @@
+"""Any nanopb schema through the public API: plain-message roots, include folders, the options
+files and settings nanopb's generator takes, and schemas protobuf's Python runtime cannot build.
+
+Sizes are checked against nanopb's generator (PyPI ``nanopb`` 0.4.9.1) run as a nanopb user runs
+it, from the tree's root with the same ``-I``, ``-f`` and ``-s``; tests/test_interop_any.py holds
+the encode rules and decodes against nanopb's C library.
+"""
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any, cast
+
+import pytest
+
+import erc_codec
+from erc_codec import Codec, DecodeError, EncodeError, MessageCodec, SchemaError
+from erc_codec.schema import Sizes, load_schema
+
+TREES = Path(__file__).resolve().parent / "any_trees"
+INCLUDE = TREES / "include"
+SCHEMA_TREES = Path(__file__).resolve().parent / "schema_trees"
+_DEFINE = re.compile(r"^#define\s+(\w+)_size\s+(\d+)\s*$", re.MULTILINE)
+_RUNTIME = re.compile(r"/\*\s*(\w+)_size depends on runtime parameters\s*\*/")
+
+
+def generator_sizes(tmp: Path, tree: Path, files: list[str], *args: str) -> dict[str, int | None]:
+    """``<Msg>_size`` of every message nanopb's generator writes for ``files`` (run in ``tree``
+    with ``args``), ``None`` where it writes "depends on runtime parameters"."""
+    command = [sys.executable, "-m", "nanopb.generator.nanopb_generator", "-q", *args]
+    subprocess.run(
+        [*command, "-D", str(tmp), *files],
+        cwd=tree,
+        check=True,
+    )
+    sizes: dict[str, int | None] = {}
+    for name in files:
+        header = (tmp / name).with_suffix(".pb.h").read_text()
+        sizes.update({c.replace("_", "."): int(size) for c, size in _DEFINE.findall(header)})
+        sizes.update({c.replace("_", "."): None for c in _RUNTIME.findall(header)})
+    return sizes
+
+
+@pytest.fixture(scope="module")
+def generator() -> None:
+    pytest.importorskip("nanopb")
+
+
+# -- include folders, -f and -s ----------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("options_file", "settings", "expected"),
+    [
+        ("%s.options", (), {"App": None}),  # App.label has no max_size without -s
+        ("%s.options", ("max_size:20", "max_count=3"), {"App": 74}),
+        ("%s.nanopb", ("max_count:3",), {"App": 69}),  # app.nanopb and units.nanopb instead
+    ],
+    ids=["default", "settings", "options-file-pattern"],
+)
+def test_include_folders_options_and_settings_size_as_nanopb(
+    generator: None,
+    tmp_path: Path,
+    options_file: str,
+    settings: tuple[str, ...],
+    expected: dict[str, int | None],
+) -> None:
+    main, inc = INCLUDE / "main", INCLUDE / "inc"
+    args = ["-I", ".", "-I", "../inc", "-f", options_file, *(f"-s{s}" for s in settings)]
+    theirs = generator_sizes(tmp_path, main, ["app.proto"], *args)
+    schema = load_schema(main, "App", include=[inc])
+    ours = Sizes(schema, options_file, settings).all()
+    assert ours == theirs == expected
+
+
+def test_a_codec_with_an_include_folder_and_settings() -> None:
+    codec = Codec.from_path(
+        INCLUDE / "main", "App", include=[INCLUDE / "inc"], settings=["max_size:20", "max_count:3"]
+    )
+    assert isinstance(codec, MessageCodec)
+    assert codec.max_size("Reading") == 33  # units.options, found beside units.proto on -I
+    app: Any = codec.message_class("App")(label="x" * 19, counts=[1, 2, 3])
+    app.reading.unit = "kPa"
+    assert codec.decode(codec.encode(app)).message == app
+    with pytest.raises(EncodeError, match=r"App\.label is 20 bytes long, more than the 19"):
+        codec.encode(codec.message_class("App")(label="x" * 20))
+
+
+def test_without_the_include_folder_the_import_is_not_found() -> None:
+    with pytest.raises(SchemaError, match=r"shared/units\.proto"):
+        Codec.from_path(INCLUDE / "main", "App")
+
+
+def test_an_include_folder_that_is_not_a_directory(tmp_path: Path) -> None:
+    with pytest.raises(SchemaError, match=r"nowhere: include folder is not a directory"):
+        load_schema(INCLUDE / "main", "App", include=[tmp_path / "nowhere"])
+
+
+@pytest.mark.parametrize("setting", ["max_size:x", "no_such_option:1"])
+def test_a_bad_generator_setting_is_a_schema_error(setting: str) -> None:
+    schema = load_schema(INCLUDE / "main", "App", include=[INCLUDE / "inc"])
+    with pytest.raises(SchemaError, match=rf"generator setting {re.escape(repr(setting))}"):
+        Sizes(schema, settings=[setting])
+
+
+def test_a_bad_options_file_pattern_is_a_schema_error() -> None:
+    schema = load_schema(INCLUDE / "main", "App", include=[INCLUDE / "inc"])
+    with pytest.raises(SchemaError, match=r"options file pattern '%q\.options'"):
+        Sizes(schema, options_file="%q.options")
+
+
+# -- roots named as protoc names them -------------------------------------------------------------
+
+
+def test_a_root_in_a_package_is_named_in_full(tmp_path: Path) -> None:
+    (tmp_path / "p.proto").write_text('syntax = "proto3";\npackage rover.arm;\nmessage Joint {}\n')
+    assert Codec.from_path(tmp_path, "rover.arm.Joint").root == "rover.arm.Joint"
+    with pytest.raises(SchemaError, match=r"did you mean rover\.arm\.Joint\?"):
+        Codec.from_path(tmp_path, "Joint")
+
+
+def test_a_root_defined_twice_is_chosen_by_its_file() -> None:
+    with pytest.raises(SchemaError, match=r"name the file, e\.g\. a\.proto:Env"):
+        Codec.from_path(SCHEMA_TREES / "twice", "Env")
+    codec = Codec.from_path(SCHEMA_TREES / "twice", "copies/b.proto:Env")
+    assert codec.kinds() == {1: "b"}
+    with pytest.raises(SchemaError, match=r"no such \.proto file"):
+        Codec.from_path(SCHEMA_TREES / "twice", "c.proto:Env")
+
+
+# -- a plain message as the root ----------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def plain() -> MessageCodec:
+    codec = Codec.from_path(TREES / "rules", "Probe")
+    assert isinstance(codec, MessageCodec)
+    return codec
+
+
+def test_a_plain_root_in_the_three_forms(plain: MessageCodec) -> None:
+    probe = plain.message_class("Probe")(key=b"\1\2\3\0", quad=[0, 0, 0, 0])
+    exact = plain.encode(probe, "exact")
+    assert exact == probe.SerializeToString()
+    assert plain.encode(probe) == exact.rstrip(b"\0")
+    assert plain.encode(probe, "pad") == exact + bytes(plain.max_size("Probe") - len(exact))
+    for mode in ("strip", "exact", "pad"):
+        assert plain.decode(plain.encode(probe, mode)) == ("Probe", probe)
+    assert plain.peek(plain.encode(probe)) == ("Probe", exact)
+    assert plain.payload_class("Probe") is plain.message_class("Probe")
+    assert (plain.kinds(), plain.members()) == ({}, ())
+
+
+def test_a_plain_root_refuses_what_it_does_not_send(plain: MessageCodec) -> None:
+    with pytest.raises(EncodeError, match=r"Probe\.Inner is not Probe"):
+        plain.encode(plain.message_class("Probe.Inner")())
+    with pytest.raises(EncodeError, match=r"unknown mode 'loud'"):
+        plain.encode(plain.message_class("Probe")(key=b"abcd", quad=[1, 2, 3, 4]), "loud")  # type: ignore[arg-type]
+    with pytest.raises(SchemaError, match=r"'Inner' is not Probe"):
+        plain.payload_class("Inner")
+
+
+@pytest.mark.parametrize(
+    ("data", "pattern", "reason"),
+    [
+        (bytes(79), r"79 bytes is longer than Probe's maximum of 78", "too_long"),
+        (b"\x08\x01\x00\x05", r"zero byte at offset 2 ends the message, but a non-zero", "corrupt"),
+        (b"\x0a\x50", r"restoring its stripped zeros makes the datagram 82 bytes", "corrupt"),
+        (b"\x0f", r"truncated or corrupt datagram: field 1's wire type 7", "corrupt"),
+        (b"\x2a\x02\x0f", r"not a valid Probe \(after restoring its trailing zeros\)", "corrupt"),
+    ],
+)
+def test_a_plain_root_names_what_is_wrong_with_a_datagram(
+    plain: MessageCodec, data: bytes, pattern: str, reason: str
+) -> None:
+    with pytest.raises(DecodeError, match=pattern) as raised:
+        plain.decode(data)
+    assert raised.value.reason == reason
+    # peek, parsing nothing, finds no exact form for all but the last, whose fields it walks
+    assert (plain.peek(data) is None) == ("not a valid" not in pattern)
+
+
+def test_an_empty_datagram_is_the_default_message(plain: MessageCodec) -> None:
+    assert plain.decode(b"") == ("Probe", plain.message_class("Probe")())
+
+
+def test_strict_decoding_of_an_envelope(tmp_path: Path) -> None:
+    (tmp_path / "e.proto").write_text(
+        'syntax = "proto2";\nimport "nanopb.proto";\n'
+        "message Part { required uint32 serial = 1;"
+        " optional string name = 2 [(nanopb).max_size = 4]; }\n"
+        "message Env { oneof payload { Part part = 1; } }\n"
+    )
+    codec = Codec.from_path(tmp_path, "Env")
+    for data, why in [
+        (b"\x0a\x00", r"Part\.serial is required but missing"),
+        (b"\x0a\x08\x08\x01\x12\x04abcd", r"Part\.name is 4 bytes long, more than the 3"),
+    ]:
+        assert codec.decode(data).kind == "part"  # protobuf's reading takes it
+        with pytest.raises(DecodeError, match=rf"nanopb's decoder refuses the part payload: {why}"):
+            codec.decode(data, strict=True)
+    assert codec.decode(b"\x0a\x02\x08\x01", strict=True).kind == "part"
+
+
+# -- what protobuf's Python runtime cannot build --------------------------------------------------
+
+
+def test_schemas_the_runtime_refuses_still_get_nanopbs_sizes(
+    generator: None, tmp_path: Path
+) -> None:
+    tree = TREES / "runtime"
+    theirs = generator_sizes(tmp_path, tree, ["many.proto"])
+    schema = load_schema(tree, "Fine")
+    assert Sizes(schema).all() == theirs
+    assert theirs == {"ManyRequired": 405, "JsonClash": 22, "HoldsClash": 24, "Fine": 11}
+    assert set(schema.refused) == {"ManyRequired", "JsonClash"}
+
+
+@pytest.mark.parametrize(
+    ("root", "pattern"),
+    [
+        (
+            "ManyRequired",
+            r"many\.proto:\d+:\d+: ManyRequired: 70 required fields, more than the 63",
+        ),
+        ("JsonClash", r"JsonClash: fields foo_bar and fooBar share the JSON name 'fooBar'"),
+        ("HoldsClash", r"JsonClash \(reached as HoldsClash\.clash\): fields foo_bar and fooBar"),
+    ],
+)
+def test_a_message_the_runtime_refuses_is_a_schema_error(root: str, pattern: str) -> None:
+    with pytest.raises(SchemaError, match=pattern):
+        Codec.from_path(TREES / "runtime", root)
+
+
+def test_the_rest_of_such_a_tree_works() -> None:
+    codec = Codec.from_path(TREES / "runtime", "Fine")
+    fine = codec.message_class("Fine")(x=-1)
+    assert codec.decode(codec.encode(fine)).message == fine
+    assert codec.sizes()["ManyRequired"] == 405
+    with pytest.raises(SchemaError, match=r"ManyRequired: 70 required fields"):
+        codec.message_class("ManyRequired")
+
+
+def test_nesting_deeper_than_python_recurses(tmp_path: Path) -> None:
+    """700 messages, each holding the next: sized without recursion; the runtime cannot build
+    the class (nanopb's own generator, recursive too, gives up on it)."""
+    depth = 700
+    lines = [f"message M{i} {{ M{i + 1} next = 1; }}" for i in range(depth - 1)]
+    (tmp_path / "deep.proto").write_text(
+        'syntax = "proto3";\n' + "\n".join(lines) + f"\nmessage M{depth - 1} {{ int32 x = 1; }}\n"
+    )
+    sizes = Sizes(load_schema(tmp_path, "M0"))
+    assert sizes.max_size(f"M{depth - 1}") == 11
+    expected = 11
+    for _ in range(depth - 1):
+        expected += 1 + (expected.bit_length() + 6) // 7
+    assert sizes.max_size("M0") == expected
+    sizes.require_fixed(load_schema(tmp_path, "M0").root)
+    with pytest.raises(SchemaError, match=r"M0 nests messages too deeply"):
+        Codec.from_path(tmp_path, "M0")
+
+
+def test_default_codec_is_unchanged() -> None:
+    assert type(erc_codec.Codec.default()) is Codec
+
+
+# -- the command line ----------------------------------------------------------------------------
+
+
+def erc_codec_cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "erc_codec", *args], capture_output=True, text=True, check=False
+    )
+
+
+def test_the_cli_encodes_and_decodes_a_plain_root() -> None:
+    tree = ("--proto", str(TREES / "rules"), "--root", "Probe")
+    done = erc_codec_cli("encode", *tree, "Probe", '{"key": "YWJjZA==", "quad": [1, 2, 3, 4]}')
+    assert done.returncode == 0, done.stderr
+    datagram = done.stdout.strip()
+    assert datagram == "0a0461626364121001000000020000000300000004"  # stripped: 3 zeros fewer
+    decoded = erc_codec_cli("decode", *tree, datagram)
+    assert decoded.returncode == 0, decoded.stderr
+    assert '"kind": "Probe"' in decoded.stdout
+    assert '"quad": [1, 2, 3, 4]' in decoded.stdout
+    refused = erc_codec_cli("encode", *tree, "Probe", '{"quad": [1, 2, 3, 4]}')
+    assert refused.returncode == 1
+    assert refused.stderr == "Error: Probe.key is 0 bytes long; fixed_length needs exactly 4\n"
+    wrong = erc_codec_cli("encode", *tree, "probe", "{}")
+    assert wrong.returncode == 2
+    assert "Probe has no members: it is a plain message, KIND Probe" in wrong.stderr
+    sizes = erc_codec_cli("sizes", *tree)
+    assert re.search(r"^\s+Probe\.Inner\s+5$", sizes.stdout, re.MULTILINE), sizes.stdout
+
+
+def test_a_plain_root_tells_a_cut_datagram_from_a_stripped_one(plain: MessageCodec) -> None:
+    probe: Any = plain.message_class("Probe")(key=b"abcd", quad=[1, 2, 3, 4])
+    probe.inner.a = 0x80  # its varint ends in 80 01: cut after the 80, it reads as cut
+    exact = plain.encode(probe, "exact")
+    with pytest.raises(DecodeError, match=r"cut short: .* in Probe\.inner\.a continues a varint"):
+        plain.decode(exact[:-1])
+    assert plain.decode(cast(bytes, memoryview(exact))) == ("Probe", probe)  # any bytes-like
+    with pytest.raises(TypeError, match="not str"):
+        plain.decode(exact.hex())  # type: ignore[arg-type]

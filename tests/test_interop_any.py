@@ -1,0 +1,261 @@
+"""Any nanopb schema against nanopb's real generator and C library: sizes, encode rules, decode.
+
+The session generates C for tests/any_trees/rules (a proto2 and a proto3 file using nanopb's
+size-relevant options: required fields and defaults, fixed_length, fixed_count, int_size,
+max_length, an ignored field and an ignored callback, oneofs, repeated submessages and bytes) with
+Debian's generator matching the installed headers, builds tests/interop/any_filter.c against
+nanopb's C library, and asks it to decode and re-encode hypothesis-drawn messages of every root.
+Without gcc or nanopb the tests skip, unless ERC_REQUIRE_INTEROP=1 (CI).
+
+What is proven, per message type: ``<Msg>_size`` as the C library compiles it equals ours; nanopb
+decodes each of our encodings (exact plainly, padded and restored-stripped NULLTERMINATED) and
+re-encodes it to our exact bytes (but where nanopb packs a proto2 array protobuf leaves
+unpacked), which we decode back, in every form, to the message we drew; and what our contract
+refuses to encode, nanopb's decoder refuses too, as does our strict decode.
+"""
+
+import os
+import re
+import subprocess
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from google.protobuf.message import Message
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from test_interop import missing_toolchain
+
+import erc_codec
+from erc_codec import strategies
+
+pytestmark = pytest.mark.interop
+
+TREE = Path(__file__).parent / "any_trees" / "rules"
+FILTER_SOURCE = Path(__file__).parent / "interop" / "any_filter.c"
+ROOTS = ["Rules", "Probe"]
+PROTO2_UNPACKED = {"triple"}  # Rules' repeated scalar field: proto2, so not packed by protobuf
+CODECS = {root: erc_codec.Codec.from_path(TREE, root=root) for root in ROOTS}
+
+
+class Peer:
+    """The running any_filter.c."""
+
+    def __init__(self, program: Path) -> None:
+        self._process = subprocess.Popen(
+            [str(program)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, bufsize=1
+        )
+
+    def ask(self, *requests: str) -> list[tuple[bool, str]]:
+        assert self._process.stdin is not None
+        assert self._process.stdout is not None
+        self._process.stdin.write("".join(f"{request}\n" for request in requests))
+        self._process.stdin.flush()
+        answers = []
+        for _ in requests:
+            status, _, rest = self._process.stdout.readline().rstrip("\n").partition(" ")
+            answers.append((status == "OK", rest))
+        return answers
+
+    def recode(self, name: str, data: bytes, nullterminated: bool = False) -> bytes | str:
+        """nanopb's re-encoding of ``data`` read as ``name``, or its error text."""
+        ((ok, rest),) = self.ask(f"{'N' if nullterminated else 'D'} {name} {data.hex() or '-'}")
+        if not ok:
+            return rest
+        return b"" if rest == "-" else bytes.fromhex(rest)
+
+    def close(self) -> None:
+        assert self._process.stdin is not None
+        assert self._process.stdout is not None
+        self._process.stdin.close()
+        assert self._process.wait(timeout=10) == 0
+        self._process.stdout.close()
+
+
+def c_name(full_name: str) -> str:
+    return full_name.replace(".", "_")
+
+
+@pytest.fixture(scope="module")
+def nanopb(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Peer]:
+    missing, generator, _ = missing_toolchain()
+    if missing:
+        reason = f"nanopb interop tests need {missing}: apt-get install gcc nanopb libnanopb-dev"
+        if os.environ.get("ERC_REQUIRE_INTEROP") == "1":
+            pytest.fail(f"ERC_REQUIRE_INTEROP=1 but {reason}")
+        pytest.skip(reason)
+    assert generator is not None
+    build = tmp_path_factory.mktemp("nanopb-any")
+    protos = sorted(path.name for path in TREE.glob("*.proto"))
+    subprocess.run(
+        [str(generator), "-q", "-I", ".", "-D", str(build), *protos], cwd=TREE, check=True
+    )
+    sized = sorted(
+        name for codec in CODECS.values() for name, size in codec.sizes().items() if size
+    )
+    (build / "messages.h").write_text(
+        "".join(f'#include "{Path(proto).with_suffix(".pb.h")}"\n' for proto in protos)
+        + "#define MESSAGES "
+        + " ".join(f"X({c_name(name)})" for name in sorted(set(sized)))
+        + "\n"
+    )
+    program = build / "any_filter"
+    subprocess.run(
+        [
+            *("gcc", "-std=c11", "-Wall", "-Wextra", "-Werror", "-O1", "-I", str(build)),
+            *("-o", str(program), str(FILTER_SOURCE), *map(str, build.glob("*.pb.c"))),
+            "-lprotobuf-nanopb",
+        ],
+        check=True,
+    )
+    peer = Peer(program)
+    yield peer
+    peer.close()
+
+
+def test_every_size_is_the_c_librarys_own(nanopb: Peer) -> None:
+    ((ok, listed),) = nanopb.ask("S")
+    assert ok
+    theirs = {name: int(size) for name, size in re.findall(r"(\w+)=(\d+)", listed)}
+    ours = {
+        c_name(name): size
+        for codec in CODECS.values()
+        for name, size in codec.sizes().items()
+        if size is not None
+    }
+    assert ours == theirs
+    assert theirs == {"Part": 12, "Rules": 140, "Probe": 78, "Probe_Inner": 5}
+
+
+@pytest.mark.parametrize("root", ROOTS)
+@given(data=st.data())
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_every_form_round_trips_through_nanopb(
+    nanopb: Peer, root: str, data: st.DataObject
+) -> None:
+    codec = CODECS[root]
+    message = data.draw(strategies.messages(codec, root))
+    exact, stripped = codec.encode(message, "exact"), codec.encode(message, "strip")
+    padded = codec.encode(message, "pad")
+    restored = stripped + bytes(codec.max_size(root) - len(stripped))
+    # nanopb reads our exact bytes (plainly), padded and restored ones (NULLTERMINATED) alike
+    theirs = nanopb.recode(root, exact)
+    assert isinstance(theirs, bytes), theirs
+    assert nanopb.recode(root, padded, nullterminated=True) == theirs
+    assert nanopb.recode(root, restored, nullterminated=True) == theirs
+    # its encoding of what it read is ours, byte for byte, but for one rule of its own: nanopb
+    # packs every packable array, proto2's unpacked ones too (Rules.triple); values are equal
+    if PROTO2_UNPACKED.isdisjoint(field.name for field, _ in message.ListFields()):
+        assert theirs == exact
+    padded_theirs = theirs + bytes(codec.max_size(root) - len(theirs))
+    for form in (theirs, theirs.rstrip(b"\0"), padded_theirs, exact, stripped, padded):
+        assert codec.decode(form, strict=True) == (root, message)
+
+
+def _refused(codec: erc_codec.Codec, message: Message) -> str:
+    with pytest.raises(erc_codec.EncodeError) as raised:
+        codec.encode(message, "exact")
+    return str(raised.value)
+
+
+@pytest.mark.parametrize(
+    ("root", "values", "ours", "theirs"),
+    [
+        (
+            "Rules",
+            {"key": b"abcd", "triple": [1, 2, 3]},
+            r"Rules\.id is required",
+            "missing required",
+        ),
+        (
+            "Rules",
+            {"id": 1, "key": b"abc", "triple": [1, 2, 3]},
+            r"Rules\.key .*fixed_length",
+            "fixed length",
+        ),
+        (
+            "Rules",
+            {"id": 1, "key": b"abcd", "triple": [1, 2]},
+            r"Rules\.triple .*fixed_count",
+            "fixed count",
+        ),
+        (
+            "Rules",
+            {"id": 1, "key": b"abcd", "triple": [1, 2, 3], "parts": [{"serial": 1}, {}]},
+            r"Rules\.parts\[1\]\.serial is required",
+            "missing required",
+        ),
+        (
+            "Rules",
+            {"id": 1, "key": b"abcd", "triple": [1, 2, 3], "name": "12345678"},
+            r"Rules\.name is 8 bytes",
+            "overflow",
+        ),
+        (
+            "Rules",
+            {"id": 70000, "key": b"abcd", "triple": [1, 2, 3]},
+            r"Rules\.id = 70000 does not fit",
+            "integer too large",
+        ),
+        ("Probe", {"key": b"ab"}, r"Probe\.key .*fixed_length", "fixed length"),
+        ("Probe", {"key": b"abcd", "quad": [1, 2, 3]}, r"Probe\.quad .*fixed_count", "fixed count"),
+    ],
+    ids=[
+        "required",
+        "fixed-length",
+        "fixed-count",
+        "nested-required",
+        "max-length",
+        "int-size",
+        "proto3-fixed-length",
+        "proto3-fixed-count",
+    ],
+)
+def test_what_we_refuse_to_send_nanopb_refuses_to_read(
+    nanopb: Peer, root: str, values: dict[str, object], ours: str, theirs: str
+) -> None:
+    codec = CODECS[root]
+    message = codec.message_class(root)(**values)
+    assert re.search(ours, _refused(codec, message))
+    data = message.SerializePartialToString()  # sent by something that does not check
+    answer = nanopb.recode(root, data)
+    assert isinstance(answer, str), answer
+    assert theirs in answer
+    with pytest.raises(erc_codec.DecodeError, match="nanopb's decoder refuses"):
+        codec.decode(data, strict=True)
+    codec.decode(data)  # not strict: protobuf's reading
+
+
+def test_a_string_with_a_nul_arrives_cut_at_it(nanopb: Peer) -> None:
+    """Why the contract refuses a NUL in a string: nanopb keeps what comes before it."""
+    codec = CODECS["Probe"]
+    message = codec.message_class("Probe")(key=b"abcd", quad=[1, 2, 3, 4], name="ab\0cd")
+    assert re.search(r"Probe\.name holds a NUL at character 2", _refused(codec, message))
+    cut = nanopb.recode("Probe", message.SerializeToString())
+    assert isinstance(cut, bytes)
+    decoded: Any = codec.decode(cut).message
+    assert decoded.name == "ab"
+
+
+@pytest.mark.parametrize(
+    ("values", "field"),
+    [
+        ({"quad": [1, 2, 3, 4]}, "key"),
+        ({"key": b"abcd", "quad": [1, 2, 3, 4], "blob": b""}, "blob"),
+    ],
+    ids=["implicit-presence", "set-but-empty"],
+)
+def test_empty_fixed_length_bytes_arrive_as_zeros(
+    nanopb: Peer, values: dict[str, object], field: str
+) -> None:
+    """Why the contract refuses b"" for fixed_length bytes: nanopb reads it (or its absence) as
+    max_size zeros, and sends those on, so the value would change on the way."""
+    codec = CODECS["Probe"]
+    message = codec.message_class("Probe")(**values)
+    assert re.search(rf"Probe\.{field} is 0 bytes long; fixed_length", _refused(codec, message))
+    theirs = nanopb.recode("Probe", message.SerializeToString())
+    assert isinstance(theirs, bytes), theirs
+    limit = 4 if field == "key" else 2
+    assert getattr(codec.decode(theirs, strict=True).message, field) == bytes(limit)
+    codec.decode(message.SerializeToString(), strict=True)  # nanopb's decoder takes it, too
