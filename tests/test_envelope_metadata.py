@@ -12,7 +12,7 @@ import pytest
 from datagrams import MAX, MODES, h
 
 import erc_codec
-from erc_codec import Codec, Decoded, DecodeError, EncodeError, SchemaError
+from erc_codec import Codec, Decoded, DecodeError, EncodeError
 
 
 def test_timeout_is_the_packaged_envelopes_metadata(codec: Codec) -> None:
@@ -109,13 +109,20 @@ def test_several_metadata_fields_before_and_after_the_payload(tmp_path: Path) ->
     assert other.decode(h("08 01 12")) == ("ping", ping)
 
 
-@pytest.mark.parametrize(
-    "declaration",
-    ["Ping extra = 30;", "repeated uint32 extra = 30;"],
-)
-def test_metadata_must_be_a_single_scalar(tmp_path: Path, declaration: str) -> None:
-    tree = write(tmp_path, OTHER.replace("sint32 skew = 21;", declaration))
-    with pytest.raises(SchemaError, match=r"Env\.extra: (beside its one oneof|repeated field)"):
+def test_a_message_beside_the_oneof_makes_a_plain_root(tmp_path: Path) -> None:
+    """A message with more than single scalars beside its oneof is no envelope: it loads as a
+    plain root (issue 16), sent as itself, with no kinds and no metadata."""
+    tree = write(tmp_path, OTHER.replace("sint32 skew = 21;", "Ping extra = 30;"))
+    codec = Codec.from_path(tree, "Env")
+    assert isinstance(codec, erc_codec.MessageCodec)
+    assert codec.kinds() == {}
+    env = codec.message_class("Env")()
+    assert codec.decode(codec.encode(env, "exact")) == ("Env", env)
+
+
+def test_a_repeated_field_beside_the_oneof_needs_a_limit(tmp_path: Path) -> None:
+    tree = write(tmp_path, OTHER.replace("sint32 skew = 21;", "repeated uint32 extra = 30;"))
+    with pytest.raises(erc_codec.SchemaError, match=r"Env\.extra: repeated field without"):
         Codec.from_path(tree, "Env")
 
 
