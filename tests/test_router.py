@@ -108,7 +108,7 @@ def test_configuration_errors_name_what_is_wrong(codec: Codec) -> None:
     stop = codec.message_class("drive_motor")()
     to_board = [Route(("board",), kinds=("drive_motor",))]
     for rate in (0, 1e-300, 0.009, 1001, 1e9, float("nan"), True):
-        with pytest.raises(ValueError, match="rate must be a number of Hz from 0.01 to 1000"):
+        with pytest.raises(ValueError, match=r"rate must be a number of Hz from 0\.01 to 1000"):
             Router(codec, FORMS, to_board, [Failsafe("drive_motor", stop, ("board",), rate, 0.3)])
     for timeout in (-1, None, float("nan")):
         failsafe = Failsafe("drive_motor", stop, ("board",), 10, timeout)  # type: ignore[arg-type]
