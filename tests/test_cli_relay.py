@@ -149,7 +149,7 @@ interval = 0.1
 
 
 def test_the_readmes_rover_configuration_is_valid() -> None:
-    from erc_codec.cli._relay import read_config
+    from erc_codec.cli._relayconfig import read_config
 
     readme = (Path(__file__).parent.parent / "README.md").read_text()
     (block,) = re.findall(r"```toml\n(# relay\.toml.*?)```", readme, re.S)
