@@ -27,13 +27,12 @@ from .._errors import CodecError
 from .._router import FailsafeEvent, Router
 from .._transport import UdpEndpoint, open_udp
 from ._net import shown
-from ._relayconfig import Config, read_config
+from ._relayconfig import TICK, Config, read_config
 from ._shared import Fatal, load, one_line, schema_options
 
 __all__ = ["relay"]
 
 _LATENCIES = 10_000  # latency samples kept for the percentiles
-_TICK = 0.002  # seconds between two polls of the failsafes
 
 
 @click.command()
@@ -76,6 +75,7 @@ class _Relay:
         )
         self.endpoints: dict[str, UdpEndpoint] = {}
         self.latencies: deque[float] = deque(maxlen=_LATENCIES)
+        self.errors: dict[str, int] = {}  # error type → datagrams it stopped (none expected)
         self._targets: dict[str, tuple[UdpEndpoint, tuple[Any, ...]]] = {}
 
     async def run(self) -> None:
@@ -140,6 +140,7 @@ class _Relay:
             "debug": stats.debug,
             "failsafe": {"engaged": stats.engaged, "released": stats.released},
             "engaged": sorted(self.router.engaged()),
+            "errors": dict(self.errors),
             "latency_us": _percentiles(self.latencies),
             "listen": listening,
         }
@@ -151,7 +152,13 @@ class _Relay:
         def heard(data: bytes, sender: Any) -> None:
             start = time.perf_counter()
             source = sources.get(sender[:2], listener) if sources else listener
-            for outgoing in route(data, source, clock()):
+            try:
+                out = route(data, source, clock())
+            except Exception as error:  # a bug's, not the datagram's: counted, never a traceback
+                name = type(error).__name__
+                self.errors[name] = self.errors.get(name, 0) + 1
+                return
+            for outgoing in out:
                 send(outgoing.destination, outgoing.data)
             latencies.append(time.perf_counter() - start)
 
@@ -173,7 +180,7 @@ class _Relay:
         while True:
             for outgoing in poll(clock()):
                 self._send(outgoing.destination, outgoing.data)
-            await asyncio.sleep(_TICK)
+            await asyncio.sleep(TICK)
 
     async def _report(self) -> None:
         import asyncio
@@ -203,7 +210,7 @@ def _line(metrics: dict[str, Any]) -> str:
         f"{name}={route['forwarded']}" + (f"+{route['failsafe']}fs" if route["failsafe"] else "")
         for name, route in metrics["routes"].items()
     )
-    dropped = sum(metrics["dropped"].values())
+    dropped = sum(metrics["dropped"].values()) + sum(metrics["errors"].values())
     latency = metrics["latency_us"]
     engaged = ",".join(metrics["engaged"]) or "-"
     return f"relay: {routes} dropped={dropped} engaged={engaged} p99={latency['p99']}us"

@@ -11,13 +11,18 @@ from typing import Any, NamedTuple, cast
 import click
 from google.protobuf import json_format
 
+from .._checks import duration
 from .._codec import Codec
 from .._envelope import Mode
 from .._router import Failsafe, Route
 from ._net import parse_address, resolve
 from ._shared import Fatal, one_line
 
-__all__ = ["Config", "Destination", "read_config"]
+__all__ = ["TICK", "Config", "Destination", "read_config"]
+
+TICK = 0.002  # seconds between two polls of the failsafes: they repeat at most 1 / TICK a second
+_INTERVAL = 0.01  # the shortest status interval, in seconds (a hundred lines a second)
+_WILDCARDS = ("0.0.0.0", "::")  # a listening host that receives on every local address
 
 
 class Destination(NamedTuple):
@@ -71,6 +76,33 @@ class _Reader:
         }
         if not listen:
             raise ValueError("[listen] names no endpoint: the relay needs at least one")
+        destinations = self.destinations(document, listen)
+        sources = self.sources(document, listen)
+        senders = set(listen) | set(sources.values())
+        routes = [
+            self.route(i, entry, senders) for i, entry in enumerate(_list(document, "routes"))
+        ]
+        failsafes = self.failsafes(document, senders)
+        status = settings.get("status", "line")
+        if status not in ("line", "json", "none"):
+            raise ValueError(f"relay.status must be line, json or none, not {status!r}")
+        interval = duration("relay.interval", settings.get("interval", 1.0))
+        if interval < _INTERVAL:
+            raise ValueError(f"relay.interval must be at least {_INTERVAL} s, not {interval!r}")
+        return Config(
+            listen,
+            destinations,
+            sources,
+            routes,
+            failsafes,
+            settings.get("debug"),
+            status,
+            interval,
+        )
+
+    def destinations(
+        self, document: dict[str, Any], listen: dict[str, tuple[Any, ...]]
+    ) -> dict[str, Destination]:
         first = next(iter(listen))
         destinations = {}
         for name, entry in _table(document, "destinations").items():
@@ -87,33 +119,36 @@ class _Reader:
             if "address" not in entry:
                 raise ValueError(f"{where}.address is missing")
             address = self.address(f"{where}.address", entry["address"])
+            _not_listening(f"{where}.address", address, listen)
             destinations[name] = Destination(address, cast(Mode, form), via)
+        return destinations
+
+    def sources(
+        self, document: dict[str, Any], listen: dict[str, tuple[Any, ...]]
+    ) -> dict[tuple[str, int], str]:
         sources = {}
         for name, text in _table(document, "sources").items():
+            if name in listen:
+                raise ValueError(
+                    f"sources.{name}: {name!r} names a [listen] endpoint too: a route's sources "
+                    "could not tell them apart"
+                )
             host, port = self.address(f"sources.{name}", text)[:2]
             sources[(host, port)] = name
-        routes = [self.route(i, entry) for i, entry in enumerate(_list(document, "routes"))]
-        failsafes = [
-            self.failsafe(i, entry) for i, entry in enumerate(_list(document, "failsafes"))
-        ]
-        status = settings.get("status", "line")
-        if status not in ("line", "json", "none"):
-            raise ValueError(f"relay.status must be line, json or none, not {status!r}")
-        interval = settings.get("interval", 1.0)
-        if isinstance(interval, bool) or not isinstance(interval, (int, float)) or interval <= 0:
-            raise ValueError(
-                f"relay.interval must be a positive number of seconds, not {interval!r}"
-            )
-        return Config(
-            listen,
-            destinations,
-            sources,
-            routes,
-            failsafes,
-            settings.get("debug"),
-            status,
-            interval,
-        )
+        return sources
+
+    def failsafes(self, document: dict[str, Any], senders: set[str]) -> list[Failsafe]:
+        failsafes: list[Failsafe] = []
+        for i, entry in enumerate(_list(document, "failsafes")):
+            failsafe = self.failsafe(i, entry, senders)
+            for j, other in enumerate(failsafes):
+                if other.kind == failsafe.kind:
+                    raise ValueError(
+                        f"failsafes[{i}].kind: {failsafe.kind} has a failsafe already "
+                        f"(failsafes[{j}]): one per kind"
+                    )
+            failsafes.append(failsafe)
+        return failsafes
 
     def address(self, where: str, text: Any, default_host: str | None = None) -> tuple[Any, ...]:
         if not isinstance(text, str):
@@ -124,7 +159,7 @@ class _Reader:
             raise ValueError(f"{where}: {error.format_message()}") from None
         return resolve(host, port)[1]
 
-    def route(self, index: int, entry: Any) -> Route:
+    def route(self, index: int, entry: Any, senders: set[str]) -> Route:
         where = f"routes[{index}]"
         if not isinstance(entry, dict):
             raise ValueError(f"{where} must be a table")
@@ -132,29 +167,46 @@ class _Reader:
         return Route(
             _names(entry, "to", where, required=True) or (),
             _names(entry, "kinds", where),
-            _names(entry, "sources", where),
+            _senders(entry, where, senders),
             _text(entry, "sender", where),
             _text(entry, "receiver", where),
         )
 
-    def failsafe(self, index: int, entry: Any) -> Failsafe:
+    def failsafe(self, index: int, entry: Any, senders: set[str]) -> Failsafe:
         where = f"failsafes[{index}]"
         if not isinstance(entry, dict):
             raise ValueError(f"{where} must be a table")
-        _only(entry, where, {"kind", "message", "to", "rate", "timeout"})
+        _only(entry, where, {"kind", "message", "to", "rate", "timeout", "sources"})
         kind = _text(entry, "kind", where)
         if kind is None or kind not in self.codec.kinds().values():
             raise ValueError(f"{where}.kind: {kind!r} is not a payload kind of {self.codec.root}")
         message = self.codec.message_class(kind)()
+        fields = entry.get("message", {})
+        if not isinstance(fields, dict):
+            raise ValueError(
+                f"{where}.message must be a table (the payload's fields), not {fields!r}"
+            )
         try:
-            json_format.ParseDict(entry.get("message", {}), message)
+            json_format.ParseDict(fields, message)
         except json_format.ParseError as error:
             raise ValueError(f"{where}.message: {error}") from None
         rate, timeout = entry.get("rate"), entry.get("timeout")
         if rate is None:
             raise ValueError(f"{where}.rate is missing (failsafe messages a second)")
+        if not isinstance(rate, bool) and isinstance(rate, (int, float)) and rate > 1 / TICK:
+            raise ValueError(
+                f"{where}.rate: the relay polls every {TICK * 1000:g} ms, so at most "
+                f"{1 / TICK:g} a second, not {rate!r}"
+            )
+        if timeout is None:
+            raise ValueError(f"{where}.timeout is missing (seconds of silence before it engages)")
         return Failsafe(
-            kind, message, _names(entry, "to", where, required=True) or (), rate, timeout
+            kind,
+            message,
+            _names(entry, "to", where, required=True) or (),
+            rate,
+            timeout,
+            _senders(entry, where, senders),
         )
 
 
@@ -189,7 +241,35 @@ def _names(
         return None
     if not isinstance(value, list) or not all(isinstance(item, str) for item in value):
         raise ValueError(f"{where}.{key} must be a list of names, not {value!r}")
+    if not value:  # a route or failsafe that could never take anything
+        raise ValueError(f"{where}.{key} = [] names nothing: leave it out or name at least one")
     return tuple(value)
+
+
+def _senders(entry: dict[str, Any], where: str, senders: set[str]) -> tuple[str, ...] | None:
+    """``entry``'s ``sources``: each a [listen] endpoint or a [sources] name."""
+    names = _names(entry, "sources", where)
+    for name in names or ():
+        if name not in senders:
+            raise ValueError(
+                f"{where}.sources: no sender {name!r} (the [listen] endpoints and [sources] "
+                f"names: {', '.join(sorted(senders))})"
+            )
+    return names
+
+
+def _not_listening(
+    where: str, address: tuple[Any, ...], listen: dict[str, tuple[Any, ...]]
+) -> None:
+    """Refuse a destination the relay itself listens on: it would forward to itself forever."""
+    host, port = address[:2]
+    for name, (listening, bound) in ((n, a[:2]) for n, a in listen.items()):
+        if port == bound and (host == listening or (listening in _WILDCARDS and _local(host))):
+            raise ValueError(f"{where}: the relay listens there itself ([listen] {name})")
+
+
+def _local(host: str) -> bool:
+    return host in _WILDCARDS or host == "::1" or host.startswith("127.")
 
 
 def _text(entry: dict[str, Any], key: str, where: str) -> str | None:
