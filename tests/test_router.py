@@ -233,3 +233,18 @@ def test_only_what_reaches_the_failsafes_destinations_releases_it(codec: Codec) 
     assert only.poll(0.31) != []
     assert only.route(go, "rover", 0.35) == []  # unrouted
     assert only.engaged() == {"drive_motor"}
+
+
+def test_each_form_is_the_codecs_own_for_every_kind(codec: Codec) -> None:
+    """The router cuts strip and pad from the exact encoding itself (``Router._form``): pinned
+    here to ``encode``'s forms, for each member, empty and with its metadata."""
+    router = Router(codec, FORMS, [Route(("base", "jetson", "logger"))])
+    for kind in codec.kinds().values():
+        for metadata in ({}, {"timeout": 300}):
+            message = codec.message_class(kind)()
+            out = router.route(codec.encode(message, "exact", **metadata), "x", 0.0)
+            assert out == [
+                Outgoing("base", codec.encode(message, "exact", **metadata)),
+                Outgoing("jetson", codec.encode(message, "strip", **metadata)),
+                Outgoing("logger", codec.encode(message, "pad", **metadata)),
+            ], kind
