@@ -88,7 +88,7 @@ def __getattr__(name: str) -> _Any:
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-def encode(message: _Message, mode: Mode = "strip", **metadata: object) -> bytes:
+def encode(message: _Message, mode: Mode = "strip", /, **metadata: object) -> bytes:
     """``Codec.default().encode(message, mode, **metadata)``: a datagram of the schema found
     (``decode``; ``timeout=300``: the sender's timeout in milliseconds)."""
     return Codec.default().encode(message, mode, **metadata)

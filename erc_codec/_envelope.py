@@ -239,7 +239,7 @@ class Envelope:
 
     # -- encoding ------------------------------------------------------------------------------
 
-    def encode(self, message: Message, mode: Mode = "strip", **metadata: object) -> bytes:
+    def encode(self, message: Message, mode: Mode = "strip", /, **metadata: object) -> bytes:
         """The datagram carrying ``message`` (a payload, or a whole envelope) in ``mode``, with
         the envelope metadata fields named (``timeout=300``) set to their values."""
         if metadata:

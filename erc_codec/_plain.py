@@ -59,7 +59,7 @@ class Plain:
             raise SchemaError(f"{kind!r} is not {self._name}, the plain message this codec sends")
         return self._class
 
-    def encode(self, message: Message, mode: Mode = "strip", **metadata: object) -> bytes:
+    def encode(self, message: Message, mode: Mode = "strip", /, **metadata: object) -> bytes:
         """The datagram carrying ``message`` (an instance of the root message) in ``mode``; a
         plain root has no envelope, so no metadata to set."""
         if metadata:

@@ -14,14 +14,17 @@ with plain ``pb_decode`` on the datagram's length), ``strip`` (receivers that fo
 contract and restore the zeros) or ``pad``. A datagram is decoded once and encoded once, exact,
 with the metadata it carried (``timeout``); the stripped and padded forms are cut from that.
 
-Failsafe: for each ``Failsafe(kind, ...)`` the router watches ``kind`` (with its configured
-timeout, or the sender's advertised ``timeout`` metadata; a configured one is never loosened by
-an advertised one, see ``Watchdog``). Once the kind was arriving and then stays silent past its
-timeout, ``poll`` returns the failsafe message for its destinations at once and then every
-``1 / rate`` seconds, until the kind arrives again; each change is a ``FailsafeEvent``.
+Failsafe: for each ``Failsafe(kind, ...)`` (one per kind) the router watches ``kind`` with its
+configured timeout (a sender's advertised ``timeout`` metadata can shorten it, never lengthen it,
+see ``Watchdog``). Only what reaches the failsafe's destinations counts as an arrival: a datagram
+of the kind forwarded to at least one of them (from one of its ``sources``, when it names them);
+one dropped, or routed elsewhere only, does not release the brake. The first ``poll`` counts as
+an arrival, so a kind that never arrives engages its failsafe one timeout after the router
+started. Once the kind stays silent past its timeout, ``poll`` returns the failsafe message for
+its destinations at once and then every ``1 / rate`` seconds, until the kind arrives again; each
+change is a ``FailsafeEvent``.
 """
 
-import math
 from collections.abc import Callable, Iterable, Mapping
 from typing import NamedTuple
 
@@ -31,12 +34,13 @@ from ._checks import duration
 from ._codec import Codec
 from ._envelope import Mode
 from ._errors import DecodeError, EncodeError, SchemaError
-from ._watchdog import Watchdog
+from ._watchdog import Liveness, Watchdog
 
 __all__ = ["Failsafe", "FailsafeEvent", "Outgoing", "Route", "Router", "RouterStats"]
 
 _FORMS = ("exact", "strip", "pad")
 _CACHED_SOURCES = 1024  # (source, kind) pairs whose destinations are remembered
+_RATES = (0.01, 1000.0)  # Hz: a failsafe repeats at least every 100 s, at most every millisecond
 
 
 class Route(NamedTuple):
@@ -52,15 +56,17 @@ class Route(NamedTuple):
 
 
 class Failsafe(NamedTuple):
-    """While ``kind`` is silent past its timeout, send ``message`` (a payload of the envelope)
-    ``to`` these destinations, ``rate`` times a second. ``timeout`` in seconds; ``None``: the one
-    the sender advertises in the envelope's ``timeout`` metadata (unwatched until it does)."""
+    """While ``kind`` is silent past ``timeout`` seconds (counted from the router's first poll
+    too), send ``message`` (a payload of the envelope) ``to`` these destinations, ``rate`` times a
+    second. Only a datagram of ``kind`` forwarded to one of them, from one of ``sources`` (any
+    source: ``None``), counts as an arrival."""
 
     kind: str
     message: Message
     to: tuple[str, ...]
     rate: float
-    timeout: float | None = None
+    timeout: float
+    sources: tuple[str, ...] | None = None
 
 
 class Outgoing(NamedTuple):
@@ -125,10 +131,12 @@ class Router:
         self._on_event = on_event
         self._watchdog = Watchdog()
         self._failsafes: dict[str, tuple[float, list[Outgoing]]] = {}
+        self._brakes: dict[str, tuple[frozenset[str], frozenset[object] | None]] = {}
         for failsafe in failsafes:
             self._add_failsafe(failsafe)
+        self._started = False  # the first poll counts as an arrival of every watched kind
         self._engaged: dict[str, _Engaged] = {}
-        self._table: dict[tuple[object, str], tuple[str, ...]] = {}
+        self._table: dict[tuple[object, str], tuple[tuple[str, ...], bool]] = {}
         self._forwarded = dict.fromkeys(self._forms, 0)
         self._dropped: dict[str, int] = {}
         self._debug_sent = 0
@@ -148,17 +156,13 @@ class Router:
         except DecodeError as error:
             return self._drop(error.reason, data)
         kind = decoded.kind
-        if kind in self._failsafes:
-            advertised = decoded.timeout
-            self._watchdog.seen(kind, now, advertised / 1000 if advertised else None)
-            if kind in self._engaged:
-                self._release(kind, now)
         key = (source, kind)
-        targets = self._table.get(key)
-        if targets is None:
-            targets = self._targets(kind, source)
+        entry = self._table.get(key)
+        if entry is None:
+            entry = self._targets(kind, source)
             if len(self._table) < _CACHED_SOURCES:
-                self._table[key] = targets
+                self._table[key] = entry
+        targets, brake = entry
         if not targets:
             return self._drop("unrouted", data)
         metadata = decoded.metadata
@@ -169,6 +173,11 @@ class Router:
                 exact = self._encode(decoded.message, "exact")
         except EncodeError:
             return self._drop("contract", data)
+        if brake:  # it reaches the failsafe's destinations: an arrival
+            advertised = decoded.timeout
+            self._watchdog.seen(kind, now, advertised / 1000 if advertised else None)
+            if kind in self._engaged:
+                self._release(kind, now)
         out = []
         forwarded = self._forwarded
         for name in targets:
@@ -177,7 +186,10 @@ class Router:
         return out
 
     def poll(self, now: float) -> list[Outgoing]:
-        """The failsafe datagrams due at ``now``: call it often (every few milliseconds)."""
+        """The failsafe datagrams due at ``now``: call it often (every few milliseconds). The
+        first call starts the watch: a kind that has not arrived yet counts as arriving now."""
+        if not self._started:
+            self._start(now)
         for kind in self._watchdog.poll(now):
             if kind in self._failsafes:
                 self._engage(kind, now)
@@ -257,35 +269,67 @@ class Router:
         kind = failsafe.kind
         if kind not in self._codec.kinds().values():
             raise SchemaError(f"failsafe: {kind!r} is not a payload kind of {self._codec.root}")
+        if kind in self._failsafes:
+            raise ValueError(f"failsafe {kind}: a second failsafe for {kind} (one per kind)")
         rate = failsafe.rate
-        if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 0 < rate < math.inf:
+        low, high = _RATES
+        if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not low <= rate <= high:
             raise ValueError(
-                f"failsafe {kind}: rate must be a positive, finite number of Hz, not {rate!r}"
+                f"failsafe {kind}: rate must be a number of Hz from {low:g} to {high:g}, "
+                f"not {rate!r}"
             )
-        if failsafe.timeout is not None:
-            try:
-                timeout = duration("timeout", failsafe.timeout)
-            except ValueError as error:
-                raise ValueError(f"failsafe {kind}: {error}") from None
-            self._watchdog.watch(kind, timeout, timeout)  # the period matters not: no rate check
+        try:
+            timeout = duration("timeout", failsafe.timeout)
+        except ValueError as error:
+            raise ValueError(f"failsafe {kind}: {error}") from None
+        if not failsafe.to:
+            raise ValueError(f"failsafe {kind}: to names no destination")
         datagrams = []
         for name in failsafe.to:
             self._known(name, f"failsafe {kind}")
             datagrams.append(
                 Outgoing(name, self._codec.encode(failsafe.message, self._forms[name]))
             )
+        sources = frozenset(failsafe.sources) if failsafe.sources is not None else None
+        if not any(
+            (kinds is None or kind in kinds)
+            and (sources is None or accepted is None or sources & accepted)
+            and set(to) & set(failsafe.to)
+            for to, kinds, accepted in self._routes
+        ):
+            raise ValueError(
+                f"failsafe {kind}: no route takes {kind} to {', '.join(failsafe.to)}"
+                + (f" from {', '.join(sorted(map(str, sources)))}" if sources is not None else "")
+                + ": it could never arrive"
+            )
+        self._watchdog.watch(kind, timeout, timeout)  # the period matters not: no rate check
         self._failsafes[kind] = (1 / rate, datagrams)
+        self._brakes[kind] = (frozenset(failsafe.to), sources)
 
     # -- the hot path's helpers ---------------------------------------------------------------
 
-    def _targets(self, kind: str, source: object) -> tuple[str, ...]:
+    def _targets(self, kind: str, source: object) -> tuple[tuple[str, ...], bool]:
+        """The destinations of ``kind`` from ``source``, and whether that is an arrival for a
+        failsafe (some of them are its destinations, and it accepts the source)."""
         found: dict[str, None] = {}  # ordered, without repeats
         for to, kinds, sources in self._routes:
             if (kinds is None or kind in kinds) and (sources is None or source in sources):
                 found.update(dict.fromkeys(to))
-        return tuple(found)
+        brake = self._brakes.get(kind)
+        arrival = brake is not None and (
+            not brake[0].isdisjoint(found) and (brake[1] is None or source in brake[1])
+        )
+        return tuple(found), arrival
+
+    def _start(self, now: float) -> None:
+        watchdog = self._watchdog
+        for kind in self._failsafes:
+            if watchdog.state(kind) is Liveness.INACTIVE:  # not arrived since the router was made
+                watchdog.seen(kind, now)
+        self._started = True
 
     def _form(self, exact: bytes, form: Mode) -> bytes:
+        """``Envelope._in_form``'s cut, kept in step with it by test_router's every-kind test."""
         if form == "exact":
             return exact
         if form == "strip":  # every trailing zero of an exact encoding is its last field's

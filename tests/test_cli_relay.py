@@ -33,6 +33,7 @@ base = { address = "127.0.0.1:9", form = "exact" }
 [[routes]]
 to = ["base"]
 """
+FAILSAFE = '[[failsafes]]\nkind = "drive_motor"\nto = ["base"]\nrate = 10\ntimeout = 0.3\n'
 
 
 @pytest.mark.parametrize(
@@ -58,6 +59,36 @@ to = ["base"]
             r"failsafes\[0\].message: .*speed",
         ),
         (GOOD + '[relay]\nstatus = "loud"\n', "relay.status must be line, json or none"),
+        (GOOD + "[relay]\ninterval = nan\n", "relay.interval must be a positive, finite"),
+        (GOOD + "[relay]\ninterval = 0.001\n", r"relay.interval must be at least 0\.01 s"),
+        (GOOD + FAILSAFE + "message = 5\n", r"failsafes\[0\].message must be a table"),
+        (
+            GOOD + FAILSAFE + FAILSAFE.replace("rate = 10", "rate = 5"),
+            r"failsafes\[1\].kind: drive_motor has a failsafe already \(failsafes\[0\]\)",
+        ),
+        (GOOD + FAILSAFE.replace("timeout = 0.3\n", ""), r"failsafes\[0\].timeout is missing"),
+        (GOOD + FAILSAFE.replace("rate = 10", "rate = 1e9"), "at most 500 a second"),
+        (GOOD + FAILSAFE.replace("rate = 10", "rate = 1e-300"), "rate must be a number of Hz"),
+        (GOOD + FAILSAFE.replace('["base"]', '["logger"]'), "no destination 'logger'"),
+        (
+            GOOD + FAILSAFE + 'sources = ["grond"]\n',
+            r"failsafes\[0\].sources: no sender 'grond' \(.*: rover\)",
+        ),
+        (GOOD + 'sources = ["grond"]\n', r"routes\[0\].sources: no sender 'grond'"),
+        (GOOD.replace('to = ["base"]', "to = []"), r"routes\[0\].to = \[\] names nothing"),
+        (
+            GOOD + 'kinds = ["gps_info"]\n' + FAILSAFE,
+            "failsafe drive_motor: no route takes drive_motor to base: it could never arrive",
+        ),
+        (GOOD + '[sources]\nrover = "127.0.0.1:7"\n', "sources.rover: 'rover' names a .listen"),
+        (
+            GOOD.replace('rover = "0"', 'rover = "5000"').replace(":9", ":5000"),
+            r"destinations.base.address: the relay listens there itself \(\[listen\] rover\)",
+        ),
+        (
+            GOOD.replace('rover = "0"', 'rover = "0.0.0.0:5000"').replace(":9", ":5000"),
+            "the relay listens there itself",
+        ),
     ],
 )
 def test_a_bad_configuration_is_one_line_and_status_2(
@@ -149,7 +180,7 @@ interval = 0.1
 
 
 def test_the_readmes_rover_configuration_is_valid() -> None:
-    from erc_codec.cli._relay import read_config
+    from erc_codec.cli._relayconfig import read_config
 
     readme = (Path(__file__).parent.parent / "README.md").read_text()
     (block,) = re.findall(r"```toml\n(# relay\.toml.*?)```", readme, re.S)
@@ -170,3 +201,57 @@ def test_the_readmes_rover_configuration_is_valid() -> None:
         config.failsafes,
         config.debug,
     )
+
+
+def test_a_relay_started_while_the_base_station_is_down_brakes(tmp_path: Path) -> None:
+    """No drive command ever arrives: the start counts as one, so the board is braked."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as board:
+        board.bind(("127.0.0.1", 0))
+        board.settimeout(10)
+        config = tmp_path / "relay.toml"
+        config.write_text(
+            GOOD.replace("127.0.0.1:9", f"127.0.0.1:{board.getsockname()[1]}")
+            + FAILSAFE.replace("timeout = 0.3", "timeout = 0.2")
+            + '[relay]\nstatus = "none"\n'
+        )
+        relay = run_relay(config)
+        try:
+            assert board.recv(4096) == bytes.fromhex("4a 00")  # the all-zero drive command
+        finally:
+            relay.send_signal(signal.SIGTERM)
+            _, errors = relay.communicate(timeout=10)
+    assert "failsafe drive_motor engaged" in errors
+    assert relay.returncode == 0, errors
+
+
+def test_a_relay_forwards_metadata_named_like_encodes_parameters(tmp_path: Path) -> None:
+    (tmp_path / "env.proto").write_text(
+        'syntax = "proto3";\nmessage Ping { uint32 n = 1; }\n'
+        "message Env { oneof payload { Ping ping = 2; } uint32 mode = 20; }\n"
+    )
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as peer:
+        peer.bind(("127.0.0.1", 0))
+        peer.settimeout(10)
+        config = tmp_path / "relay.toml"
+        config.write_text(
+            GOOD.replace("127.0.0.1:9", f"127.0.0.1:{peer.getsockname()[1]}")
+            + '[relay]\nstatus = "none"\n'
+        )
+        command = ["relay", "--proto", str(tmp_path), "--root", "Env", str(config)]
+        relay = subprocess.Popen(
+            [sys.executable, "-m", "erc_codec", *command],
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            assert relay.stderr is not None
+            port = int(relay.stderr.readline().rsplit(":", 1)[1])
+            datagram = bytes.fromhex("12 02 08 01 a0 01 03")  # ping n=1, mode=3
+            peer.sendto(datagram, ("127.0.0.1", port))
+            assert peer.recv(4096) == datagram
+        finally:
+            relay.send_signal(signal.SIGTERM)
+            _, errors = relay.communicate(timeout=10)
+    assert relay.returncode == 0, errors
+    counters = json.loads(errors.rsplit("counters: ", 1)[1])
+    assert (counters["routes"]["base"]["forwarded"], counters["errors"]) == (1, {})

@@ -134,3 +134,16 @@ def test_metadata_without_a_payload_says_so(codec: Codec) -> None:
     with pytest.raises(DecodeError, match=r"PBEnvelope\.timeout = 0") as cut:
         codec.decode(h("4a 00 f0 01"))
     assert cut.value.reason == "truncated"
+
+
+def test_metadata_may_be_named_like_encodes_own_parameters(tmp_path: Path) -> None:
+    """``mode`` and ``message`` are positional-only in ``encode``: a field may take the names."""
+    text = OTHER.replace("bool urgent", "uint32 mode").replace("skew", "message")
+    other = Codec.from_path(write(tmp_path, text), "Env")
+    assert other.metadata_fields() == {1: "sequence", 20: "mode", 21: "message"}
+    ping = other.message_class("Ping")(id=1)
+    data = other.encode(ping, "exact", mode=3, message=-1)
+    assert data == h("12 02 08 01 a0 01 03 a8 01 01")
+    assert dict(other.decode(data).metadata) == {"mode": 3, "message": -1}
+    router = erc_codec.Router(other, {"x": "strip"}, [erc_codec.Route(("x",))])
+    assert router.route(data, "anyone", 0.0) == [erc_codec.Outgoing("x", data)]

@@ -106,13 +106,27 @@ def test_configuration_errors_name_what_is_wrong(codec: Codec) -> None:
     with pytest.raises(ValueError, match="form must be exact, strip or pad"):
         Router(codec, {"base": "stripped"}, [])  # type: ignore[dict-item]
     stop = codec.message_class("drive_motor")()
-    with pytest.raises(ValueError, match="rate must be a positive"):
-        Router(codec, FORMS, [], [Failsafe("drive_motor", stop, ("board",), rate=0)])
-    with pytest.raises(ValueError, match="timeout must be a positive"):
-        Router(codec, FORMS, [], [Failsafe("drive_motor", stop, ("board",), 10, timeout=-1)])
+    to_board = [Route(("board",), kinds=("drive_motor",))]
+    for rate in (0, 1e-300, 0.009, 1001, 1e9, float("nan"), True):
+        with pytest.raises(ValueError, match=r"rate must be a number of Hz from 0\.01 to 1000"):
+            Router(codec, FORMS, to_board, [Failsafe("drive_motor", stop, ("board",), rate, 0.3)])
+    for timeout in (-1, None, float("nan")):
+        failsafe = Failsafe("drive_motor", stop, ("board",), 10, timeout)  # type: ignore[arg-type]
+        with pytest.raises(ValueError, match="timeout must be a positive"):
+            Router(codec, FORMS, to_board, [failsafe])
+    with pytest.raises(ValueError, match="failsafe drive_motor: to names no destination"):
+        Router(codec, FORMS, to_board, [Failsafe("drive_motor", stop, (), 10, 0.3)])
+    brake = Failsafe("drive_motor", stop, ("board",), 10, 0.3)
+    with pytest.raises(ValueError, match="a second failsafe for drive_motor"):
+        Router(codec, FORMS, to_board, [brake, brake._replace(rate=5)])
+    with pytest.raises(ValueError, match="no route takes drive_motor to board: it could never"):
+        Router(codec, FORMS, [Route(("base",), kinds=("drive_motor",))], [brake])
+    from_ground = [Route(("board",), kinds=("drive_motor",), sources=("ground",))]
+    with pytest.raises(ValueError, match="no route takes drive_motor to board from rover"):
+        Router(codec, FORMS, from_ground, [brake._replace(sources=("rover",))])
 
 
-def brake(codec: Codec, timeout: float | None) -> tuple[Router, list[FailsafeEvent]]:
+def brake(codec: Codec, timeout: float) -> tuple[Router, list[FailsafeEvent]]:
     events: list[FailsafeEvent] = []
     failsafe = Failsafe(
         "drive_motor", codec.message_class("drive_motor")(), ("board",), rate=10, timeout=timeout
@@ -126,7 +140,6 @@ def test_the_failsafe_repeats_while_commands_are_silent_and_stops_when_they_resu
 ) -> None:
     router, events = brake(codec, timeout=0.3)
     go = codec.encode(codec.message_class("drive_motor")(distance_to_go=2.0), "exact")
-    assert router.poll(10.0) == []  # never arrived: nothing to miss yet
     for now in (0.0, 0.1, 0.2):
         router.route(go, "base", now)
         assert router.poll(now) == []
@@ -150,15 +163,88 @@ def test_the_failsafe_repeats_while_commands_are_silent_and_stops_when_they_resu
 
 
 def test_the_failsafe_follows_an_advertised_timeout_but_never_a_longer_one(codec: Codec) -> None:
-    advertised, _ = brake(codec, timeout=None)
+    advertised, _ = brake(codec, timeout=0.3)
     go = codec.encode(codec.message_class("drive_motor")(distance_to_go=2.0), "exact", timeout=200)
     advertised.route(go, "base", 0.0)
     assert advertised.poll(0.2) == []
-    assert advertised.poll(0.21) != []
+    assert advertised.poll(0.21) != []  # the sender asked for 0.2 s: stricter, so it holds
     capped, _ = brake(codec, timeout=0.3)
     lax = codec.encode(codec.message_class("drive_motor")(), "exact", timeout=60_000)
     capped.route(lax, "base", 0.0)
     assert capped.poll(0.31) != []  # the sender asked for a minute: the configured 0.3 s wins
-    unadvertised, _ = brake(codec, timeout=None)
-    unadvertised.route(codec.encode(codec.message_class("drive_motor")()), "base", 0.0)
-    assert unadvertised.poll(100.0) == []  # no timeout configured, none advertised: unwatched
+
+
+def test_a_kind_that_never_arrives_engages_its_failsafe_a_timeout_after_the_start(
+    codec: Codec,
+) -> None:
+    """A relay restarted while the base station is down brakes: its first poll is an arrival."""
+    router, events = brake(codec, timeout=0.3)
+    assert router.poll(10.0) == []  # the start
+    assert router.poll(10.25) == []
+    assert router.poll(10.31) == [Outgoing("board", h("4a 00"))]
+    assert events == [FailsafeEvent("drive_motor", True, 10.31)]
+    early, _ = brake(codec, timeout=0.3)  # a command before the first poll: the watch runs
+    early.route(h("4a"), "base", 5.0)  # from it, not from the later first poll
+    assert early.poll(5.31) == [Outgoing("board", h("4a 00"))]
+
+
+def test_only_what_reaches_the_failsafes_destinations_releases_it(codec: Codec) -> None:
+    """A command dropped (unrouted, contract), from a source the failsafe does not accept, or
+    routed elsewhere only is not an arrival: the board got nothing, so the brake stays on."""
+    Drive, Control = codec.message_class("drive_motor"), codec.message_class("control_mode")
+    events: list[FailsafeEvent] = []
+    router = Router(
+        codec,
+        FORMS,
+        [
+            Route(("board",), kinds=("drive_motor",), sources=("ground", "test")),
+            Route(("jetson",), kinds=("drive_motor",)),
+            Route(("base",), kinds=("control_mode",)),
+        ],
+        [
+            Failsafe("drive_motor", Drive(), ("board",), 10, 0.3, sources=("ground",)),
+            Failsafe("control_mode", Control(), ("base",), 10, 0.3),
+        ],
+        on_event=events.append,
+    )
+    go = codec.encode(Drive(distance_to_go=1.0), "exact")
+    mode = codec.encode(Control(mode=1), "exact")
+    undeclared = mode[:-1] + bytes([99])  # decodes, but breaks the fixed-size contract
+    assert router.route(go, "ground", 0.0) == [Outgoing("board", go), Outgoing("jetson", go)]
+    router.route(mode, "ground", 0.0)
+    assert len(router.poll(0.31)) == 2
+    assert router.engaged() == {"drive_motor", "control_mode"}
+    assert router.route(go, "rover", 0.35) == [Outgoing("jetson", go)]  # not to the board
+    assert router.route(go, "test", 0.36) == [Outgoing("board", go), Outgoing("jetson", go)]
+    assert router.route(undeclared, "ground", 0.37) == []
+    assert router.stats().dropped == {"contract": 1}
+    assert router.engaged() == {"drive_motor", "control_mode"}  # neither released
+    assert router.poll(0.42) == [Outgoing("board", h("4a 00")), Outgoing("base", h("82 01 00"))]
+    router.route(go, "ground", 0.5)
+    assert router.engaged() == {"control_mode"}
+    assert [event.kind for event in events] == ["drive_motor", "control_mode", "drive_motor"]
+    only = Router(
+        codec,
+        {"board": "exact"},
+        [Route(("board",), kinds=("drive_motor",), sources=("ground",))],
+        [Failsafe("drive_motor", Drive(), ("board",), rate=10, timeout=0.3)],
+    )
+    only.route(go, "ground", 0.0)
+    assert only.poll(0.31) != []
+    assert only.route(go, "rover", 0.35) == []  # unrouted
+    assert only.engaged() == {"drive_motor"}
+
+
+def test_each_form_is_the_codecs_own_for_every_kind(codec: Codec) -> None:
+    """The router cuts strip and pad from the exact encoding itself (``Router._form``): pinned
+    here to ``encode``'s forms, for each member, empty and with its metadata."""
+    router = Router(codec, FORMS, [Route(("base", "jetson", "logger"))])
+    for kind in codec.kinds().values():
+        for metadata in ({}, {"timeout": 300}):
+            message = codec.message_class(kind)()
+            out = router.route(codec.encode(message, "exact", **metadata), "x", 0.0)
+            assert out == [
+                Outgoing("base", codec.encode(message, "exact", **metadata)),
+                Outgoing("jetson", codec.encode(message, "strip", **metadata)),
+                Outgoing("logger", codec.encode(message, "pad", **metadata)),
+            ], kind

@@ -2,8 +2,7 @@
 
 The configuration (documented, with the rover's, in README.md) names the listening endpoints,
 the destinations (address, form, and the endpoint they are sent from), optionally named senders,
-the routes, the failsafes and a debug destination. Every key is checked: an unknown one, a bad
-address, an unknown kind or destination is one line naming the file and the key, exit 2.
+the routes, the failsafes and a debug destination; ``_relayconfig`` reads and checks it.
 
 While it runs it prints, every ``interval`` seconds, a status line on stderr (or, with
 ``status = "json"``, one JSON object a line on stdout): per destination the datagrams forwarded,
@@ -16,43 +15,23 @@ same counters on stderr.
 import contextlib
 import json
 import signal
-import sys
 import time
 from collections import deque
 from pathlib import Path
-from typing import Any, NamedTuple, cast
+from typing import Any
 
 import click
-from google.protobuf import json_format
 
 from .._codec import Codec
-from .._envelope import Mode
 from .._errors import CodecError
-from .._router import Failsafe, FailsafeEvent, Route, Router
+from .._router import FailsafeEvent, Router
 from .._transport import UdpEndpoint, open_udp
-from ._shared import Fatal, load, one_line, parse_address, resolve, schema_options, shown
+from ._relayconfig import TICK, Config, read_config
+from ._shared import Fatal, load, one_line, schema_options, shown
 
 __all__ = ["relay"]
 
 _LATENCIES = 10_000  # latency samples kept for the percentiles
-_TICK = 0.002  # seconds between two polls of the failsafes
-
-
-class Destination(NamedTuple):
-    address: tuple[Any, ...]
-    form: Mode
-    via: str  # the listening endpoint it is sent from
-
-
-class Config(NamedTuple):
-    listen: dict[str, tuple[Any, ...]]  # name → socket address to bind
-    destinations: dict[str, Destination]
-    sources: dict[tuple[str, int], str]  # sender (host, port) → name
-    routes: list[Route]
-    failsafes: list[Failsafe]
-    debug: str | None
-    status: str  # "line", "json" or "none"
-    interval: float
 
 
 @click.command()
@@ -79,168 +58,6 @@ def relay(config: Path, tree: str | None, root: str | None) -> None:
     click.echo(f"counters: {json.dumps(session.metrics())}", err=True)
 
 
-def read_config(path: Path, codec: Codec) -> Config:
-    """The relay configuration in ``path``, checked against ``codec``'s schema."""
-    if sys.version_info >= (3, 11):
-        import tomllib
-    else:  # tomllib is tomli, joined to the standard library in 3.11
-        import tomli as tomllib
-    try:
-        document = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as error:
-        raise Fatal(f"{path}: {error.strerror or error}") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
-        raise Fatal(f"{path}: not TOML: {one_line(str(error))}") from None
-    reader = _Reader(path, codec)
-    try:
-        return reader.config(document)
-    except (ValueError, click.BadParameter, Fatal) as error:
-        text = error.format_message() if isinstance(error, click.ClickException) else str(error)
-        raise Fatal(f"{path}: {one_line(text)}") from None
-
-
-class _Reader:
-    def __init__(self, path: Path, codec: Codec) -> None:
-        self.path, self.codec = path, codec
-
-    def config(self, document: dict[str, Any]) -> Config:
-        _only(document, "", {"relay", "listen", "destinations", "sources", "routes", "failsafes"})
-        settings = _table(document, "relay")
-        _only(settings, "relay", {"debug", "status", "interval"})
-        listen = {
-            name: self.address(f"listen.{name}", text, default_host="127.0.0.1")
-            for name, text in _table(document, "listen").items()
-        }
-        if not listen:
-            raise ValueError("[listen] names no endpoint: the relay needs at least one")
-        first = next(iter(listen))
-        destinations = {}
-        for name, entry in _table(document, "destinations").items():
-            where = f"destinations.{name}"
-            if not isinstance(entry, dict):
-                raise ValueError(f"{where} must be a table {{ address = ..., form = ... }}")
-            _only(entry, where, {"address", "form", "via"})
-            form = entry.get("form", "exact")
-            if form not in ("exact", "strip", "pad"):
-                raise ValueError(f"{where}.form must be exact, strip or pad, not {form!r}")
-            via = entry.get("via", first)
-            if via not in listen:
-                raise ValueError(f"{where}.via: no [listen] endpoint {via!r}")
-            if "address" not in entry:
-                raise ValueError(f"{where}.address is missing")
-            address = self.address(f"{where}.address", entry["address"])
-            destinations[name] = Destination(address, cast(Mode, form), via)
-        sources = {}
-        for name, text in _table(document, "sources").items():
-            host, port = self.address(f"sources.{name}", text)[:2]
-            sources[(host, port)] = name
-        routes = [self.route(i, entry) for i, entry in enumerate(_list(document, "routes"))]
-        failsafes = [
-            self.failsafe(i, entry) for i, entry in enumerate(_list(document, "failsafes"))
-        ]
-        status = settings.get("status", "line")
-        if status not in ("line", "json", "none"):
-            raise ValueError(f"relay.status must be line, json or none, not {status!r}")
-        interval = settings.get("interval", 1.0)
-        if isinstance(interval, bool) or not isinstance(interval, (int, float)) or interval <= 0:
-            raise ValueError(
-                f"relay.interval must be a positive number of seconds, not {interval!r}"
-            )
-        return Config(
-            listen,
-            destinations,
-            sources,
-            routes,
-            failsafes,
-            settings.get("debug"),
-            status,
-            interval,
-        )
-
-    def address(self, where: str, text: Any, default_host: str | None = None) -> tuple[Any, ...]:
-        if not isinstance(text, str):
-            raise ValueError(f'{where} must be a string "HOST:PORT", not {text!r}')
-        try:
-            host, port = parse_address(text, default_host)
-        except click.BadParameter as error:
-            raise ValueError(f"{where}: {error.format_message()}") from None
-        return resolve(host, port)[1]
-
-    def route(self, index: int, entry: Any) -> Route:
-        where = f"routes[{index}]"
-        if not isinstance(entry, dict):
-            raise ValueError(f"{where} must be a table")
-        _only(entry, where, {"to", "kinds", "sources", "sender", "receiver"})
-        return Route(
-            _names(entry, "to", where, required=True) or (),
-            _names(entry, "kinds", where),
-            _names(entry, "sources", where),
-            _text(entry, "sender", where),
-            _text(entry, "receiver", where),
-        )
-
-    def failsafe(self, index: int, entry: Any) -> Failsafe:
-        where = f"failsafes[{index}]"
-        if not isinstance(entry, dict):
-            raise ValueError(f"{where} must be a table")
-        _only(entry, where, {"kind", "message", "to", "rate", "timeout"})
-        kind = _text(entry, "kind", where)
-        if kind is None or kind not in self.codec.kinds().values():
-            raise ValueError(f"{where}.kind: {kind!r} is not a payload kind of {self.codec.root}")
-        message = self.codec.message_class(kind)()
-        try:
-            json_format.ParseDict(entry.get("message", {}), message)
-        except json_format.ParseError as error:
-            raise ValueError(f"{where}.message: {error}") from None
-        rate, timeout = entry.get("rate"), entry.get("timeout")
-        if rate is None:
-            raise ValueError(f"{where}.rate is missing (failsafe messages a second)")
-        return Failsafe(
-            kind, message, _names(entry, "to", where, required=True) or (), rate, timeout
-        )
-
-
-def _table(document: dict[str, Any], key: str) -> dict[str, Any]:
-    value = document.get(key, {})
-    if not isinstance(value, dict):
-        raise ValueError(f"[{key}] must be a table")
-    return value
-
-
-def _list(document: dict[str, Any], key: str) -> list[Any]:
-    value = document.get(key, [])
-    if not isinstance(value, list):
-        raise ValueError(f"{key} must be an array of tables ([[{key}]])")
-    return value
-
-
-def _only(table: dict[str, Any], where: str, keys: set[str]) -> None:
-    unknown = sorted(set(table) - keys)
-    if unknown:
-        prefix = f"{where}." if where else ""
-        raise ValueError(f"unknown key {prefix}{unknown[0]} (known: {', '.join(sorted(keys))})")
-
-
-def _names(
-    entry: dict[str, Any], key: str, where: str, required: bool = False
-) -> tuple[str, ...] | None:
-    value = entry.get(key)
-    if value is None:
-        if required:
-            raise ValueError(f"{where}.{key} is missing")
-        return None
-    if not isinstance(value, list) or not all(isinstance(item, str) for item in value):
-        raise ValueError(f"{where}.{key} must be a list of names, not {value!r}")
-    return tuple(value)
-
-
-def _text(entry: dict[str, Any], key: str, where: str) -> str | None:
-    value = entry.get(key)
-    if value is not None and not isinstance(value, str):
-        raise ValueError(f"{where}.{key} must be a string, not {value!r}")
-    return value
-
-
 class _Relay:
     """One running relay: its router, endpoints, counters and latency samples."""
 
@@ -257,6 +74,7 @@ class _Relay:
         )
         self.endpoints: dict[str, UdpEndpoint] = {}
         self.latencies: deque[float] = deque(maxlen=_LATENCIES)
+        self.errors: dict[str, int] = {}  # error type → datagrams it stopped (none expected)
         self._targets: dict[str, tuple[UdpEndpoint, tuple[Any, ...]]] = {}
 
     async def run(self) -> None:
@@ -321,6 +139,7 @@ class _Relay:
             "debug": stats.debug,
             "failsafe": {"engaged": stats.engaged, "released": stats.released},
             "engaged": sorted(self.router.engaged()),
+            "errors": dict(self.errors),
             "latency_us": _percentiles(self.latencies),
             "listen": listening,
         }
@@ -332,7 +151,13 @@ class _Relay:
         def heard(data: bytes, sender: Any) -> None:
             start = time.perf_counter()
             source = sources.get(sender[:2], listener) if sources else listener
-            for outgoing in route(data, source, clock()):
+            try:
+                out = route(data, source, clock())
+            except Exception as error:  # a bug's, not the datagram's: counted, never a traceback
+                name = type(error).__name__
+                self.errors[name] = self.errors.get(name, 0) + 1
+                return
+            for outgoing in out:
                 send(outgoing.destination, outgoing.data)
             latencies.append(time.perf_counter() - start)
 
@@ -354,7 +179,7 @@ class _Relay:
         while True:
             for outgoing in poll(clock()):
                 self._send(outgoing.destination, outgoing.data)
-            await asyncio.sleep(_TICK)
+            await asyncio.sleep(TICK)
 
     async def _report(self) -> None:
         import asyncio
@@ -384,7 +209,7 @@ def _line(metrics: dict[str, Any]) -> str:
         f"{name}={route['forwarded']}" + (f"+{route['failsafe']}fs" if route["failsafe"] else "")
         for name, route in metrics["routes"].items()
     )
-    dropped = sum(metrics["dropped"].values())
+    dropped = sum(metrics["dropped"].values()) + sum(metrics["errors"].values())
     latency = metrics["latency_us"]
     engaged = ",".join(metrics["engaged"]) or "-"
     return f"relay: {routes} dropped={dropped} engaged={engaged} p99={latency['p99']}us"

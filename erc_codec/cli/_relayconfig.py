@@ -1,0 +1,278 @@
+"""The ``erc-codec relay`` configuration: the TOML file read and checked against the schema.
+
+Every key is checked: an unknown one, a bad address, an unknown kind or destination is a
+``Fatal`` of one line naming the file and the key (exit 2).
+"""
+
+import sys
+from pathlib import Path
+from typing import Any, NamedTuple, cast
+
+import click
+from google.protobuf import json_format
+
+from .._checks import duration
+from .._codec import Codec
+from .._envelope import Mode
+from .._router import Failsafe, Route
+from ._shared import Fatal, one_line, parse_address, resolve
+
+__all__ = ["TICK", "Config", "Destination", "read_config"]
+
+TICK = 0.002  # seconds between two polls of the failsafes: they repeat at most 1 / TICK a second
+_INTERVAL = 0.01  # the shortest status interval, in seconds (a hundred lines a second)
+_WILDCARDS = ("0.0.0.0", "::")  # a listening host that receives on every local address
+
+
+class Destination(NamedTuple):
+    address: tuple[Any, ...]
+    form: Mode
+    via: str  # the listening endpoint it is sent from
+
+
+class Config(NamedTuple):
+    listen: dict[str, tuple[Any, ...]]  # name → socket address to bind
+    destinations: dict[str, Destination]
+    sources: dict[tuple[str, int], str]  # sender (host, port) → name
+    routes: list[Route]
+    failsafes: list[Failsafe]
+    debug: str | None
+    status: str  # "line", "json" or "none"
+    interval: float
+
+
+def read_config(path: Path, codec: Codec) -> Config:
+    """The relay configuration in ``path``, checked against ``codec``'s schema."""
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # tomllib is tomli, joined to the standard library in 3.11
+        import tomli as tomllib
+    try:
+        document = tomllib.loads(path.read_text(encoding="utf-8"))
+    except OSError as error:
+        raise Fatal(f"{path}: {error.strerror or error}") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
+        raise Fatal(f"{path}: not TOML: {one_line(str(error))}") from None
+    reader = _Reader(path, codec)
+    try:
+        return reader.config(document)
+    except (ValueError, click.BadParameter, Fatal) as error:
+        text = error.format_message() if isinstance(error, click.ClickException) else str(error)
+        raise Fatal(f"{path}: {one_line(text)}") from None
+
+
+class _Reader:
+    def __init__(self, path: Path, codec: Codec) -> None:
+        self.path, self.codec = path, codec
+
+    def config(self, document: dict[str, Any]) -> Config:
+        _only(document, "", {"relay", "listen", "destinations", "sources", "routes", "failsafes"})
+        settings = _table(document, "relay")
+        _only(settings, "relay", {"debug", "status", "interval"})
+        listen = {
+            name: self.address(f"listen.{name}", text, default_host="127.0.0.1")
+            for name, text in _table(document, "listen").items()
+        }
+        if not listen:
+            raise ValueError("[listen] names no endpoint: the relay needs at least one")
+        destinations = self.destinations(document, listen)
+        sources = self.sources(document, listen)
+        senders = set(listen) | set(sources.values())
+        routes = [
+            self.route(i, entry, senders) for i, entry in enumerate(_list(document, "routes"))
+        ]
+        failsafes = self.failsafes(document, senders)
+        status = settings.get("status", "line")
+        if status not in ("line", "json", "none"):
+            raise ValueError(f"relay.status must be line, json or none, not {status!r}")
+        interval = duration("relay.interval", settings.get("interval", 1.0))
+        if interval < _INTERVAL:
+            raise ValueError(f"relay.interval must be at least {_INTERVAL} s, not {interval!r}")
+        return Config(
+            listen,
+            destinations,
+            sources,
+            routes,
+            failsafes,
+            settings.get("debug"),
+            status,
+            interval,
+        )
+
+    def destinations(
+        self, document: dict[str, Any], listen: dict[str, tuple[Any, ...]]
+    ) -> dict[str, Destination]:
+        first = next(iter(listen))
+        destinations = {}
+        for name, entry in _table(document, "destinations").items():
+            where = f"destinations.{name}"
+            if not isinstance(entry, dict):
+                raise ValueError(f"{where} must be a table {{ address = ..., form = ... }}")
+            _only(entry, where, {"address", "form", "via"})
+            form = entry.get("form", "exact")
+            if form not in ("exact", "strip", "pad"):
+                raise ValueError(f"{where}.form must be exact, strip or pad, not {form!r}")
+            via = entry.get("via", first)
+            if via not in listen:
+                raise ValueError(f"{where}.via: no [listen] endpoint {via!r}")
+            if "address" not in entry:
+                raise ValueError(f"{where}.address is missing")
+            address = self.address(f"{where}.address", entry["address"])
+            _not_listening(f"{where}.address", address, listen)
+            destinations[name] = Destination(address, cast(Mode, form), via)
+        return destinations
+
+    def sources(
+        self, document: dict[str, Any], listen: dict[str, tuple[Any, ...]]
+    ) -> dict[tuple[str, int], str]:
+        sources = {}
+        for name, text in _table(document, "sources").items():
+            if name in listen:
+                raise ValueError(
+                    f"sources.{name}: {name!r} names a [listen] endpoint too: a route's sources "
+                    "could not tell them apart"
+                )
+            host, port = self.address(f"sources.{name}", text)[:2]
+            sources[(host, port)] = name
+        return sources
+
+    def failsafes(self, document: dict[str, Any], senders: set[str]) -> list[Failsafe]:
+        failsafes: list[Failsafe] = []
+        for i, entry in enumerate(_list(document, "failsafes")):
+            failsafe = self.failsafe(i, entry, senders)
+            for j, other in enumerate(failsafes):
+                if other.kind == failsafe.kind:
+                    raise ValueError(
+                        f"failsafes[{i}].kind: {failsafe.kind} has a failsafe already "
+                        f"(failsafes[{j}]): one per kind"
+                    )
+            failsafes.append(failsafe)
+        return failsafes
+
+    def address(self, where: str, text: Any, default_host: str | None = None) -> tuple[Any, ...]:
+        if not isinstance(text, str):
+            raise ValueError(f'{where} must be a string "HOST:PORT", not {text!r}')
+        try:
+            host, port = parse_address(text, default_host)
+        except click.BadParameter as error:
+            raise ValueError(f"{where}: {error.format_message()}") from None
+        return resolve(host, port)[1]
+
+    def route(self, index: int, entry: Any, senders: set[str]) -> Route:
+        where = f"routes[{index}]"
+        if not isinstance(entry, dict):
+            raise ValueError(f"{where} must be a table")
+        _only(entry, where, {"to", "kinds", "sources", "sender", "receiver"})
+        return Route(
+            _names(entry, "to", where, required=True) or (),
+            _names(entry, "kinds", where),
+            _senders(entry, where, senders),
+            _text(entry, "sender", where),
+            _text(entry, "receiver", where),
+        )
+
+    def failsafe(self, index: int, entry: Any, senders: set[str]) -> Failsafe:
+        where = f"failsafes[{index}]"
+        if not isinstance(entry, dict):
+            raise ValueError(f"{where} must be a table")
+        _only(entry, where, {"kind", "message", "to", "rate", "timeout", "sources"})
+        kind = _text(entry, "kind", where)
+        if kind is None or kind not in self.codec.kinds().values():
+            raise ValueError(f"{where}.kind: {kind!r} is not a payload kind of {self.codec.root}")
+        message = self.codec.message_class(kind)()
+        fields = entry.get("message", {})
+        if not isinstance(fields, dict):
+            raise ValueError(
+                f"{where}.message must be a table (the payload's fields), not {fields!r}"
+            )
+        try:
+            json_format.ParseDict(fields, message)
+        except json_format.ParseError as error:
+            raise ValueError(f"{where}.message: {error}") from None
+        rate, timeout = entry.get("rate"), entry.get("timeout")
+        if rate is None:
+            raise ValueError(f"{where}.rate is missing (failsafe messages a second)")
+        if not isinstance(rate, bool) and isinstance(rate, (int, float)) and rate > 1 / TICK:
+            raise ValueError(
+                f"{where}.rate: the relay polls every {TICK * 1000:g} ms, so at most "
+                f"{1 / TICK:g} a second, not {rate!r}"
+            )
+        if timeout is None:
+            raise ValueError(f"{where}.timeout is missing (seconds of silence before it engages)")
+        return Failsafe(
+            kind,
+            message,
+            _names(entry, "to", where, required=True) or (),
+            rate,
+            timeout,
+            _senders(entry, where, senders),
+        )
+
+
+def _table(document: dict[str, Any], key: str) -> dict[str, Any]:
+    value = document.get(key, {})
+    if not isinstance(value, dict):
+        raise ValueError(f"[{key}] must be a table")
+    return value
+
+
+def _list(document: dict[str, Any], key: str) -> list[Any]:
+    value = document.get(key, [])
+    if not isinstance(value, list):
+        raise ValueError(f"{key} must be an array of tables ([[{key}]])")
+    return value
+
+
+def _only(table: dict[str, Any], where: str, keys: set[str]) -> None:
+    unknown = sorted(set(table) - keys)
+    if unknown:
+        prefix = f"{where}." if where else ""
+        raise ValueError(f"unknown key {prefix}{unknown[0]} (known: {', '.join(sorted(keys))})")
+
+
+def _names(
+    entry: dict[str, Any], key: str, where: str, required: bool = False
+) -> tuple[str, ...] | None:
+    value = entry.get(key)
+    if value is None:
+        if required:
+            raise ValueError(f"{where}.{key} is missing")
+        return None
+    if not isinstance(value, list) or not all(isinstance(item, str) for item in value):
+        raise ValueError(f"{where}.{key} must be a list of names, not {value!r}")
+    if not value:  # a route or failsafe that could never take anything
+        raise ValueError(f"{where}.{key} = [] names nothing: leave it out or name at least one")
+    return tuple(value)
+
+
+def _senders(entry: dict[str, Any], where: str, senders: set[str]) -> tuple[str, ...] | None:
+    """``entry``'s ``sources``: each a [listen] endpoint or a [sources] name."""
+    names = _names(entry, "sources", where)
+    for name in names or ():
+        if name not in senders:
+            raise ValueError(
+                f"{where}.sources: no sender {name!r} (the [listen] endpoints and [sources] "
+                f"names: {', '.join(sorted(senders))})"
+            )
+    return names
+
+
+def _not_listening(
+    where: str, address: tuple[Any, ...], listen: dict[str, tuple[Any, ...]]
+) -> None:
+    """Refuse a destination the relay itself listens on: it would forward to itself forever."""
+    host, port = address[:2]
+    for name, (listening, bound) in ((n, a[:2]) for n, a in listen.items()):
+        if port == bound and (host == listening or (listening in _WILDCARDS and _local(host))):
+            raise ValueError(f"{where}: the relay listens there itself ([listen] {name})")
+
+
+def _local(host: str) -> bool:
+    return host in _WILDCARDS or host == "::1" or host.startswith("127.")
+
+
+def _text(entry: dict[str, Any], key: str, where: str) -> str | None:
+    value = entry.get(key)
+    if value is not None and not isinstance(value, str):
+        raise ValueError(f"{where}.{key} must be a string, not {value!r}")
+    return value
