@@ -108,7 +108,9 @@ class McapWriter:
             enable_data_crcs=True,
         )
         self._writer.start(profile="", library=f"erc-codec {erc_codec_version()}")
-        self._writer.add_metadata("erc-codec", {**schema_origin(self._codec), "source": source})
+        self._writer.add_metadata(
+            "erc-codec", _texts({**schema_origin(self._codec), "source": source})
+        )
         self._add = self._writer.add_message
         self._channels: dict[str, int] = {}  # kind → channel id
         self._schemas: dict[str, int] = {}  # payload full name → schema id
@@ -194,7 +196,9 @@ class McapWriter:
             return
         self._closed = True
         try:
-            self._writer.add_metadata("erc-codec.summary", {**self._summary(), **(summary or {})})
+            self._writer.add_metadata(
+                "erc-codec.summary", _texts({**self._summary(), **(summary or {})})
+            )
             self._writer.finish()  # type: ignore[no-untyped-call]  # mcap leaves it unannotated
         finally:
             if self._owned:
@@ -230,6 +234,24 @@ class McapWriter:
         if self._unlisted_senders:
             summary["senders.unlisted_messages"] = str(self._unlisted_senders)
         return summary
+
+
+def _texts(entries: Mapping[str, str]) -> dict[str, str]:
+    """Metadata as UTF-8 can hold it: a file name that is not UTF-8 (its bytes held as
+    surrogates, as Python reads such names) keeps those bytes backslash-escaped."""
+    return {_text(key): _text(value) for key, value in entries.items()}
+
+
+def _text(text: str) -> str:
+    try:
+        text.encode("utf-8")
+        return text
+    except UnicodeEncodeError:
+        pass
+    try:  # the name's own bytes: the file b"r\xff.pcap" is written r\xff.pcap
+        return text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    except UnicodeEncodeError:  # a surrogate that stands for no byte
+        return text.encode("utf-8", "backslashreplace").decode("utf-8")
 
 
 def read_mcap(path: str | os.PathLike[str]) -> Iterator[Recorded]:

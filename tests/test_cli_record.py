@@ -134,6 +134,25 @@ def test_record_refuses_to_overwrite_and_to_bind_twice(tmp_path: Path) -> None:
     assert not (tmp_path / "new.mcap").exists()
 
 
+def test_record_never_writes_through_a_name_that_exists(tmp_path: Path) -> None:
+    """The open itself refuses (O_EXCL), so nothing that appears at the name is written over
+    or through: a link planted there, pointing nowhere yet, is no way to write elsewhere."""
+    need("mcap")
+    out, target = tmp_path / "run.mcap", tmp_path / "elsewhere"
+    out.symlink_to(target)  # dangling: a check with exists() sees nothing there
+    recorder = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "record", "127.0.0.1:0", str(out), "--seconds", "1"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert (recorder.returncode, recorder.stderr) == (
+        2,
+        f"Error: {out} exists: remove it or choose another name\n",
+    )
+    assert not target.exists()
+
+
 # -- replay ------------------------------------------------------------------------------------
 
 

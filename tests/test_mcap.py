@@ -3,6 +3,7 @@ checks on, payloads decoded by mcap-protobuf-support's decoder factory from the 
 FileDescriptorSet each channel carries (as Foxglove decodes them), never by erc_codec."""
 
 import io
+import os
 import random
 import subprocess
 import sys
@@ -241,6 +242,14 @@ def test_decode_pcap_mcap_writes_a_capture(codec: erc_codec.Codec, tmp_path: Pat
         f"Error: {out} exists: remove it or choose another name\n",
     )
     assert run("decode", "00", "--mcap", str(tmp_path / "x.mcap")).returncode == 2
+    linked, target = tmp_path / "linked.mcap", tmp_path / "elsewhere"
+    linked.symlink_to(target)  # dangling: exists() sees nothing; the open itself refuses
+    refused = run("decode", "--pcap", str(capture), "--mcap", str(linked))
+    assert (refused.returncode, refused.stderr) == (
+        2,
+        f"Error: {linked} exists: remove it or choose another name\n",
+    )
+    assert not target.exists()
 
 
 def test_without_the_mcap_extra_one_line_names_it(tmp_path: Path) -> None:
@@ -268,6 +277,19 @@ def test_without_the_mcap_extra_one_line_names_it(tmp_path: Path) -> None:
         2,
         "Error: writing MCAP needs the mcap package: pip install 'erc-codec[mcap]'\n",
     )
+    assert not (tmp_path / "x.mcap").exists()  # nothing left to block the retry
+
+
+def test_a_capture_whose_name_is_not_utf8_is_written(codec: erc_codec.Codec, tmp_path: Path) -> None:
+    need("dpkt")
+    need("mcap")
+    capture = tmp_path / os.fsdecode(b"r\xff.pcap")
+    out = tmp_path / os.fsdecode(b"o\xff.mcap")
+    write_pcap(capture, [codec.encode(codec.message_class("SensorBoardGPSInfo")(satellites=5))])
+    done = run("decode", "--pcap", str(capture), "--mcap", str(out))
+    assert done.returncode == 0, done.stderr
+    assert len(read_back(out)) == 1
+    assert metadata(out)["erc-codec"]["source"] == "capture r\\xff.pcap"  # its byte, escaped
 
 
 def test_random_damage_is_a_codec_error_or_a_correct_read(

@@ -21,7 +21,7 @@ import sys
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any, NamedTuple, cast
+from typing import Any, BinaryIO, NamedTuple, cast
 
 import click
 from google.protobuf import json_format
@@ -61,14 +61,13 @@ _CAPTURE_MAGICS = {
 }
 
 
-def _writer(output: Path, codec: Codec, source: str, chunk_size: int) -> McapWriter:
-    """An MCAP writer on a new file: an existing one (last week's run) is never overwritten."""
-    if output.exists():
-        raise Fatal(f"{output} exists: remove it or choose another name")
+def create(output: Path) -> BinaryIO:
+    """A new file: an existing one (last week's run) is never overwritten, even one made
+    between a check and the open (the open itself refuses)."""
     try:
-        return McapWriter(output, codec, source=source, chunk_size=chunk_size)
-    except ImportError as error:
-        raise Fatal(str(error)) from None
+        return output.open("xb")
+    except FileExistsError:
+        raise Fatal(f"{output} exists: remove it or choose another name") from None
     except OSError as error:
         raise Fatal(f"cannot write {output}: {error.strerror or error}") from None
 
@@ -80,17 +79,28 @@ def capture_to_mcap(capture: Capture, codec: Codec, output: Path) -> tuple[int, 
     """Write every UDP datagram of a capture to an MCAP file: the number that did not decode
     (written as drops) and the summary line. A damaged capture is written up to the damage, the
     file finished, the summary printed, then the damage is the command's error (exit 2)."""
-    writer = _writer(output, codec, f"capture {capture.path.name}", 1 << 20)
-    write = writer.write
+    file = create(output)
     try:
-        for at, source, destination, data in capture.datagrams():
-            write(data, nanoseconds(at), source, destination)
-    finally:
-        skipped = capture.skipped
-        extra = {f"capture.skipped.{why}": str(n) for why, n in sorted(skipped.items())}
-        if capture.damage:
-            extra["capture.damage"] = capture.damage
-        writer.close(extra)
+        writer = McapWriter(file, codec, source=f"capture {capture.path.name}")
+        write = writer.write
+        try:
+            for at, source, destination, data in capture.datagrams():
+                write(data, nanoseconds(at), source, destination)
+        finally:
+            skipped = capture.skipped
+            extra = {f"capture.skipped.{why}": str(n) for why, n in sorted(skipped.items())}
+            if capture.damage:
+                extra["capture.damage"] = capture.damage
+            writer.close(extra)
+    except BaseException as error:  # no half-written file to block the retry
+        file.close()
+        output.unlink()
+        if isinstance(error, ImportError):  # it names the extra to install
+            raise Fatal(str(error)) from None
+        if isinstance(error, OSError):
+            raise Fatal(f"cannot write {output}: {error.strerror or error}") from None
+        raise
+    file.close()
     stats = writer.stats()
     messages, failed = sum(stats.messages.values()), sum(stats.drops.values())
     reasons = ", ".join(f"{count} {why}" for why, count in sorted(skipped.items()))

@@ -146,15 +146,18 @@ def _serve(conn: Connection, codec: Codec | None, tree: Path, root: str) -> None
                 command = ("close", {"ended": "the recording process stopped unannounced"})
             if command[0] == "open":
                 _, output, source = command
-                if Path(output).exists():
+                try:
+                    file = Path(output).open("xb")  # noqa: SIM115 (closed after the writer)
+                except FileExistsError:  # never over an existing file, however new
                     conn.send(("error", f"{output} exists: remove it or choose another name"))
                     return
-                writer = McapWriter(output, codec, source=source, chunk_size=_CHUNK)
+                writer = McapWriter(file, codec, source=source, chunk_size=_CHUNK)
                 conn.send(("opened",))
             elif command[0] == "batch" and writer is not None:
                 _write(writer, command[1])
             elif command[0] == "close" and writer is not None:
                 writer.close(command[1])
+                file.close()
                 conn.send(("closed", writer.stats(), Path(output).stat().st_size))
                 return
             else:  # quit
