@@ -299,6 +299,18 @@ def test_replay_a_recording_in_the_form_asked(
     assert result["skipped"] == {}
 
 
+def test_replay_sends_an_empty_datagram_recorded_as_a_drop(
+    codec: erc_codec.Codec, tmp_path: Path, catcher: Catcher
+) -> None:
+    need("mcap")
+    recording = tmp_path / "run.mcap"
+    with erc_codec.McapWriter(recording, codec) as writer:
+        writer.write(b"", 1_700_000_000_000_000_000)  # an empty UDP payload is a datagram too
+    result = finished(replay(recording, catcher, "--drops", "--as-fast-as-possible"))
+    assert [data for _, data in catcher.take(1)] == [b""]
+    assert (result["by_kind"], result["skipped"]) == ({"drops": 1}, {})
+
+
 def test_replay_only_the_kinds_asked(
     codec: erc_codec.Codec, tmp_path: Path, catcher: Catcher
 ) -> None:

@@ -325,7 +325,7 @@ class _Entry(NamedTuple):
     time: int | None  # nanoseconds since the epoch; None where the source has no time
     kind: str | None  # the envelope member; None for a datagram that did not decode
     message: Message | None  # the payload (kind given)
-    data: bytes  # a drop's bytes as received (b"" where the source did not keep them)
+    data: bytes | None  # a drop's bytes as received (None where the source did not keep them)
 
 
 @click.command()
@@ -464,7 +464,7 @@ class _Player:
             if not self._with_drops:
                 self.skip("drops")
                 return None
-            if not entry.data:
+            if entry.data is None:  # an empty datagram was received too: it is sent
                 self.skip("drops_without_bytes")
                 return None
             self.sent["drops"] = self.sent.get("drops", 0) + 1
@@ -569,7 +569,7 @@ def _from_json_lines(path: Path, codec: Codec, skip: Callable[[str], None]) -> I
             )
             kind = record.get("kind") if isinstance(record, dict) else None
             if kind is None and isinstance(record, dict) and "error" in record:
-                yield _Entry(at, None, None, b"")
+                yield _Entry(at, None, None, None)
                 continue
             if not isinstance(kind, str) or kind not in kinds:
                 skip("not_valid")
