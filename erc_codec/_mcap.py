@@ -327,7 +327,8 @@ def _recorded(path: str | os.PathLike[str]) -> Iterator[tuple[Any, Any, Any, str
                 if kind is not None or channel.topic == DROPS_TOPIC:
                     yield schema, channel, message, kind
     except errors as error:
-        raise CodecError(f"{path} is not a readable MCAP recording: {error}") from None
+        why = str(error) or ("it ends early" if isinstance(error, EOFError) else repr(error))
+        raise CodecError(f"{path} is not a readable MCAP recording: {why}") from None
 
 
 _FOOTER = struct.Struct("<BQQQI8s")  # opcode, length, summary start and offset start, CRC, magic

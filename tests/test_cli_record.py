@@ -311,6 +311,25 @@ def test_replay_sends_an_empty_datagram_recorded_as_a_drop(
     assert (result["by_kind"], result["skipped"]) == ({"drops": 1}, {})
 
 
+def test_replay_of_a_damaged_recording_is_a_read_error_not_a_send_error(
+    codec: erc_codec.Codec, tmp_path: Path, catcher: Catcher
+) -> None:
+    need("mcap")
+    recording = tmp_path / "run.mcap"
+    with erc_codec.McapWriter(recording, codec) as writer:
+        for number, data in enumerate(fleet(codec)):
+            writer.write(data, 1_700_000_000_000_000_000 + number)
+    whole = recording.read_bytes()
+    for cut in (len(whole) // 2, len(whole) - 20, len(whole) - 1):
+        recording.write_bytes(whole[:cut])
+        process = replay(recording, catcher, "--as-fast-as-possible")
+        _, err = process.communicate(timeout=60)
+        assert process.returncode in (1, 2), err
+        assert err.splitlines()[-1].startswith(
+            f"Error: {recording} is not a readable MCAP recording: "
+        ), err
+
+
 def test_replay_only_the_kinds_asked(
     codec: erc_codec.Codec, tmp_path: Path, catcher: Catcher
 ) -> None:

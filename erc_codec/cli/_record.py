@@ -400,11 +400,21 @@ def replay(
     player = _Player(codec, cast(Mode, mode), set(kinds), with_drops, 0.0 if flat_out else speed)
     entries = _entries(source, codec, player.skip)
     with socket.socket(family, socket.SOCK_DGRAM) as sock:
+
+        def send(data: bytes) -> None:
+            try:
+                sock.sendto(data, address)
+            except OSError as error:  # a send's error, never the file's
+                raise Fatal(f"cannot send to {shown(address)}: {error}") from None
+
         try:
-            player.play(entries, lambda data: sock.sendto(data, address))
-        except OSError as error:
+            player.play(entries, send)
+        except Fatal:
             click.echo(f"replayed: {json.dumps(player.summary())}", err=True)
-            raise Fatal(f"cannot send to {shown(address)}: {error}") from None
+            raise
+        except OSError as error:  # reading the file
+            click.echo(f"replayed: {json.dumps(player.summary())}", err=True)
+            raise Fatal(f"cannot read {source}: {error.strerror or error}") from None
         except CodecError as error:
             click.echo(f"replayed: {json.dumps(player.summary())}", err=True)
             raise click.ClickException(one_line(str(error))) from None
