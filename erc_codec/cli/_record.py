@@ -5,10 +5,10 @@
 ``record`` is ``listen`` writing instead of printing: an ``open_udp`` endpoint whose dispatcher
 hands every payload to an ``McapWriter`` and every drop to its drops channel, with each
 datagram's arrival time and sender. It ends as ``listen`` does (``--count``, ``--seconds``,
-Ctrl-C, and SIGTERM too), always with a complete file, and says what it received, what it wrote
-and what the kernel dropped before the socket was read. ``replay`` sends each recorded datagram
-re-encoded in the form asked for, at its recorded time (scaled by ``--speed``), and says what it
-sent, what it did not send and why, and how late it ran.
+Ctrl-C, and SIGTERM and SIGHUP too), always with a complete file, and says what it received,
+what it wrote and what the kernel dropped before the socket was read. ``replay`` sends each
+recorded datagram re-encoded in the form asked for, at its recorded time (scaled by
+``--speed``), and says what it sent, what it did not send and why, and how late it ran.
 """
 
 import contextlib
@@ -51,6 +51,7 @@ from ._writer import WriterProcess
 
 __all__ = ["capture_to_mcap", "record", "replay"]
 
+_STOPS = ("SIGINT", "SIGTERM", "SIGHUP")  # what ends a recording (SIGHUP: not on Windows)
 _MCAP_MAGIC = b"\x89MCAP0\r\n"
 _CAPTURE_MAGICS = {
     b"\xd4\xc3\xb2\xa1",  # pcap, microseconds, little-endian
@@ -145,9 +146,10 @@ def record(
     /erc-codec/drops with its bytes, reason and sender; log time is the
     arrival time. The file opens in Foxglove and reads with any MCAP reader
     (erc_codec.read_mcap in Python). It stops after --count datagrams,
-    --seconds, Ctrl-C or SIGTERM, always with a complete file; the first
-    line on stderr is the address bound, the last what was received,
-    written and dropped (by the kernel, before it was read: on Linux).
+    --seconds, Ctrl-C, SIGTERM or SIGHUP (a dropped ssh session), always
+    with a complete file; the first line on stderr is the address bound,
+    the last what was received, written and dropped (by the kernel, before
+    it was read: on Linux).
 
     \b
     Exit status: 0 recorded; 2 usage error, an address that cannot be
@@ -232,7 +234,8 @@ class _Recording:
             endpoint.close()
             raise
         click.echo(f"recording on {shown(bound)} to {self._output}", err=True)
-        signals = (signal.SIGINT, signal.SIGTERM)
+        # SIGHUP: an ssh session drops, which would kill the recorder before its file is done.
+        signals = [getattr(signal, name) for name in _STOPS if hasattr(signal, name)]
         for signum in signals:
             with contextlib.suppress(NotImplementedError, RuntimeError):  # not on this platform
                 loop.add_signal_handler(signum, stop)
