@@ -94,8 +94,10 @@ _HEADER = """\
 -- or for good: copy it into Wireshark's personal Lua plugins folder (Help > About > Folders).
 -- It restores stripped trailing zeros and cuts zero padding exactly as `erc-codec decode` does,
 -- refuses a datagram cut short as decode does (erc.reason "truncated", naming the field),
--- names the envelope member, shows every field by name (filter on erc.<Message>.<field>), and
--- marks unknown members and corrupt datagrams with expert info (erc.refused, erc.unknown_member).
+-- names the envelope member and shows every field by name (filter on erc.<Message>.<field>).
+-- A datagram decode refuses is marked erc.refused with decode's reason in erc.reason (one whose
+-- only member is unknown: erc.reason == "unknown_member"); an unknown member beside a known one
+-- is marked erc.unknown_member.
 -- Regenerate it when the schema changes: erc-codec wireshark > erc_envelope.lua
 
 """
