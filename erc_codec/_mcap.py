@@ -294,7 +294,7 @@ def recorded_payloads(path: str | os.PathLike[str]) -> Iterator[tuple[int, str |
     """``(log_time, kind, payload bytes)`` of every member message of an MCAP file, and
     ``(log_time, None, datagram as received)`` of every drop, in log-time order, undecoded."""
     parse_drop = dropped_datagram().FromString
-    for _, channel, message, kind in _recorded(path):
+    for _, _, message, kind in _recorded(path):
         if kind is not None:
             yield message.log_time, kind, message.data
         else:

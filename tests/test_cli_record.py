@@ -177,7 +177,8 @@ def test_a_recorder_killed_leaves_its_writer_to_finish_the_file(
     recorder.communicate(timeout=60)  # the pipes, which the writer held open too
     assert not lingers, "the writer lingers after its recorder died"
     assert len(read_back(out)) == len(sent)  # a complete file: indexed, CRCs right
-    assert metadata(out)["erc-codec.summary"]["ended"] == "the recording process stopped unannounced"
+    ended = metadata(out)["erc-codec.summary"]["ended"]
+    assert ended == "the recording process stopped unannounced"
 
 
 def test_record_never_writes_through_a_name_that_exists(tmp_path: Path) -> None:

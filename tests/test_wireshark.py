@@ -514,7 +514,7 @@ def test_a_folder_name_is_never_lua_code(tshark: str, tmp_path: Path) -> None:
     tree = tmp_path / 't\nprint("INJECTED")\n--'
     shutil.copytree(TREE, tree)
     lua = dissector(tmp_path, "--proto", str(tree), "--root", "Env")
-    assert '--   schema_tree: ' + str(tree).replace("\n", "\\n") + "\n" in lua.read_text()
+    assert "--   schema_tree: " + str(tree).replace("\n", "\\n") + "\n" in lua.read_text()
     codec = erc_codec.Codec.from_path(tree, "Env")
     capture = tmp_path / "one.pcap"
     write_pcap(capture, [codec.encode(codec.message_class("Inner")())])
