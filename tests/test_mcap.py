@@ -326,9 +326,9 @@ def test_random_damage_is_a_codec_error_or_a_correct_read(
             continue
         assert read == expected  # a flip no CRC covers changes nothing read (padding, indexes)
     assert len(errors) > len(damaged) // 2
-    for error in errors:
-        assert error.startswith(f"{path} is not a readable MCAP recording: "), error
-        assert not error.endswith(": "), error
+    for text in errors:
+        assert text.startswith(f"{path} is not a readable MCAP recording: "), text
+        assert not text.endswith(": "), text
 
 
 def test_only_the_recordings_channels_are_read(codec: erc_codec.Codec, tmp_path: Path) -> None:
