@@ -8,7 +8,8 @@ What it guarantees:
 - the drops on ``/erc-codec/drops`` (a ``DroppedDatagram``, as in a recording); the rover's
   position as a ``foxglove.LocationFix`` on ``/erc-codec/fix``, from every ``gps_info`` that has
   a fix (``fix_quality`` other than 0), for the Map panel; and every ``interval`` seconds on
-  ``/erc-codec/stats`` (JSON) the counts and rates by kind and the drops by reason;
+  ``/erc-codec/stats`` (JSON) the counts and rates by kind, the drops by reason, and the
+  datagrams the view failed to show (``view_errors``: it never fails its caller);
 - bound to 127.0.0.1 unless told otherwise: a view of the rover is not served to the whole
   network by accident.
 The server runs in the SDK's own native threads and the statistics in one thread of this view;
@@ -37,6 +38,7 @@ from .schema import descriptor_of
 __all__ = ["FoxgloveView"]
 
 _FIX_KIND = "gps_info"
+_LAST_STAMP = (1 << 32) * 1000  # milliseconds: the first a Timestamp's uint32 seconds cannot hold
 _STATS_SCHEMA = {
     "title": "erc-codec statistics",
     "type": "object",
@@ -58,6 +60,10 @@ _STATS_SCHEMA = {
             "additionalProperties": {"type": "integer"},
         },
         "drop_rate": {"type": "number", "description": "drops per second, last interval"},
+        "view_errors": {
+            "type": "integer",
+            "description": "datagrams this view failed to show (the caller saw them all)",
+        },
     },
 }
 
@@ -97,6 +103,7 @@ class FoxgloveView:
         self._received = 0
         self._counts: dict[str, int] = {}
         self._reasons: dict[str, int] = {}
+        self._view_errors = 0
         self._closing = threading.Event()
         self._publisher = threading.Thread(
             target=self._publish, args=(interval,), name="erc-codec stats", daemon=True
@@ -113,29 +120,39 @@ class FoxgloveView:
         nanoseconds since the epoch; now, if not given)."""
         now = time.time_ns() if log_time is None else log_time
         channel = self._channels[kind]
-        if channel.has_sinks():
-            channel.log(message.SerializeToString(), log_time=now)
         with self._lock:
             self._received += 1
             self._counts[kind] = self._counts.get(kind, 0) + 1
-        if kind == self._fix_kind:
-            self._fix(message, now)
+        try:
+            if channel.has_sinks():
+                channel.log(message.SerializeToString(), log_time=now)
+            if kind == self._fix_kind:
+                self._fix(message, now)
+        except Exception:  # the view never fails its caller (listen's own output): counted
+            self._failed()
 
     def drop(self, drop: Drop, source: str = "", log_time: int | None = None) -> None:
         """Show a datagram that did not decode (a ``Dispatcher``'s ``Drop``), from ``source``."""
         now = time.time_ns() if log_time is None else log_time
-        if self._drops.has_sinks():
-            record = dropped_datagram()(
-                reason=drop.reason,
-                error=" ".join(str(drop.error or "").split()),
-                length=len(drop.data),
-                data=drop.data,
-                source=source,
-            )
-            self._drops.log(record.SerializeToString(), log_time=now)
         with self._lock:
             self._received += 1
             self._reasons[drop.reason] = self._reasons.get(drop.reason, 0) + 1
+        try:
+            if self._drops.has_sinks():
+                record = dropped_datagram()(
+                    reason=drop.reason,
+                    error=" ".join(str(drop.error or "").split()),
+                    length=len(drop.data),
+                    data=drop.data,
+                    source=source,
+                )
+                self._drops.log(record.SerializeToString(), log_time=now)
+        except Exception:  # as in message()
+            self._failed()
+
+    def _failed(self) -> None:
+        with self._lock:
+            self._view_errors += 1
 
     def close(self) -> None:
         """Stop the statistics and the server."""
@@ -153,7 +170,11 @@ class FoxgloveView:
         if getattr(gps, "fix_quality", 1) == 0:  # NO_FIX: the coordinates mean nothing
             return
         stamp = getattr(gps, "utc_timestamp", 0)  # milliseconds since the epoch, 0 unknown
-        seconds, nanos = divmod(stamp * 1_000_000 if stamp > 0 else now, 1_000_000_000)
+        # A Timestamp's seconds are a uint32: a stamp past 2106 (a board's garbage) is no time
+        # the fix was taken, so the arrival time stands in, as for an unknown one.
+        if not 0 < stamp < _LAST_STAMP:
+            stamp = 0
+        seconds, nanos = divmod(stamp * 1_000_000 if stamp else now, 1_000_000_000)
         messages = self._foxglove.messages
         self._fixes.log(
             messages.LocationFix(
@@ -174,6 +195,7 @@ class FoxgloveView:
             now = time.monotonic()
             with self._lock:
                 received, counts, reasons = self._received, dict(self._counts), dict(self._reasons)
+                view_errors = self._view_errors
             elapsed = max(now - last, 1e-9)
             dropped = sum(reasons.values())
             self._stats.log(
@@ -186,6 +208,7 @@ class FoxgloveView:
                     },
                     "drops": reasons,
                     "drop_rate": round((dropped - dropped_before) / elapsed, 3),
+                    "view_errors": view_errors,
                 },
                 log_time=time.time_ns(),
             )

@@ -19,6 +19,7 @@ The file must be seekable (the library goes back to write its indexes).
 
 import os
 import struct
+import zlib
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO, Literal, NamedTuple
@@ -107,7 +108,9 @@ class McapWriter:
             enable_data_crcs=True,
         )
         self._writer.start(profile="", library=f"erc-codec {erc_codec_version()}")
-        self._writer.add_metadata("erc-codec", {**schema_origin(self._codec), "source": source})
+        self._writer.add_metadata(
+            "erc-codec", _texts({**schema_origin(self._codec), "source": source})
+        )
         self._add = self._writer.add_message
         self._channels: dict[str, int] = {}  # kind → channel id
         self._schemas: dict[str, int] = {}  # payload full name → schema id
@@ -193,7 +196,9 @@ class McapWriter:
             return
         self._closed = True
         try:
-            self._writer.add_metadata("erc-codec.summary", {**self._summary(), **(summary or {})})
+            self._writer.add_metadata(
+                "erc-codec.summary", _texts({**self._summary(), **(summary or {})})
+            )
             self._writer.finish()  # type: ignore[no-untyped-call]  # mcap leaves it unannotated
         finally:
             if self._owned:
@@ -231,47 +236,123 @@ class McapWriter:
         return summary
 
 
+def _texts(entries: Mapping[str, str]) -> dict[str, str]:
+    """Metadata as UTF-8 can hold it: a file name that is not UTF-8 (its bytes held as
+    surrogates, as Python reads such names) keeps those bytes backslash-escaped."""
+    return {_text(key): _text(value) for key, value in entries.items()}
+
+
+def _text(text: str) -> str:
+    try:
+        text.encode("utf-8")
+        return text
+    except UnicodeEncodeError:
+        pass
+    try:  # the name's own bytes: the file b"r\xff.pcap" is written r\xff.pcap
+        return text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    except UnicodeEncodeError:  # a surrogate that stands for no byte
+        return text.encode("utf-8", "backslashreplace").decode("utf-8")
+
+
 def read_mcap(path: str | os.PathLike[str]) -> Iterator[Recorded]:
     """Every message of an MCAP file that erc-codec wrote, in log-time order, decoded with the
     schemas the file carries (as Foxglove decodes it, so an old recording reads right whatever
     the tree is now): ``Recorded(log_time, kind, message)``; a drop comes as kind ``None`` with a
     ``DroppedDatagram`` (``reason``, ``error``, ``length``, ``data``, ``source``,
-    ``destination``). Chunk CRCs are checked; a damaged file is a ``CodecError``."""
-    reader_module = _mcap("mcap.reader", "reading MCAP")
-    decoder_module = _mcap("mcap_protobuf.decoder", "reading MCAP")
-    errors = _damage()
-    try:
-        with Path(path).open("rb") as file:
-            reader = reader_module.make_reader(
-                file, validate_crcs=True, decoder_factories=[decoder_module.DecoderFactory()]
-            )
-            for _, channel, message, decoded in reader.iter_decoded_messages():
-                kind = kind_of(channel.topic)
-                if kind is not None or channel.topic == DROPS_TOPIC:
-                    yield Recorded(message.log_time, kind, decoded)
-    except errors as error:
-        raise CodecError(f"{path} is not a readable MCAP recording: {error}") from None
+    ``destination``). Only the ``/erc/<kind>`` and drops channels are read (a file may carry
+    others, such as JSON statistics). Chunk and summary CRCs are checked; a damaged file is a
+    ``CodecError`` naming it."""
+    factory = _mcap("mcap_protobuf.decoder", "reading MCAP").DecoderFactory()
+    decoders: dict[int, Any] = {}
+    for schema, channel, message, kind in _recorded(path):
+        decode = decoders.get(channel.id)
+        if decode is None:
+            try:
+                decode = decoders[channel.id] = factory.decoder_for(
+                    channel.message_encoding, schema
+                )
+            except Exception as error:  # protobuf raises TypeError, KeyError... on a bad set
+                raise CodecError(
+                    f"{path} is not a readable MCAP recording: the schema of {channel.topic} "
+                    f"does not load: {error}"
+                ) from None
+            if decode is None:
+                raise CodecError(
+                    f"{path} is not a readable MCAP recording: {channel.topic} is not protobuf"
+                )
+        try:
+            decoded = decode(message.data)
+        except ProtobufDecodeError as error:
+            raise CodecError(
+                f"{path} is not a readable MCAP recording: a message on {channel.topic} does "
+                f"not parse: {error}"
+            ) from None
+        yield Recorded(message.log_time, kind, decoded)
 
 
 def recorded_payloads(path: str | os.PathLike[str]) -> Iterator[tuple[int, str | None, bytes]]:
     """``(log_time, kind, payload bytes)`` of every member message of an MCAP file, and
     ``(log_time, None, datagram as received)`` of every drop, in log-time order, undecoded."""
+    parse_drop = dropped_datagram().FromString
+    for _, _, message, kind in _recorded(path):
+        if kind is not None:
+            yield message.log_time, kind, message.data
+        else:
+            try:
+                drop: Any = parse_drop(message.data)
+            except ProtobufDecodeError as error:
+                raise CodecError(
+                    f"{path} is not a readable MCAP recording: a drop does not parse: {error}"
+                ) from None
+            yield message.log_time, None, drop.data
+
+
+def _recorded(path: str | os.PathLike[str]) -> Iterator[tuple[Any, Any, Any, str | None]]:
+    """``(schema, channel, message, kind)`` of every message on a member's channel (kind None on
+    the drops channel), in log-time order, every byte read checked by a CRC: the chunks', and
+    the summary's (whose chunk indexes and channels the seeking reader trusts)."""
     reader_module = _mcap("mcap.reader", "reading MCAP")
     errors = _damage()
-    parse_drop = dropped_datagram().FromString
     try:
         with Path(path).open("rb") as file:
-            for _, channel, message in reader_module.make_reader(
-                file, validate_crcs=True
-            ).iter_messages():
+            reader = reader_module.SeekingReader(file, validate_crcs=True)
+            summary = reader.get_summary()
+            if summary is None or not summary.chunk_indexes:  # no index: read it all through
+                file.seek(0)
+                reader = reader_module.NonSeekingReader(file, validate_crcs=True)
+            else:
+                _check_summary(file)
+            for schema, channel, message in reader.iter_messages():
                 kind = kind_of(channel.topic)
-                if kind is not None:
-                    yield message.log_time, kind, message.data
-                elif channel.topic == DROPS_TOPIC:
-                    drop: Any = parse_drop(message.data)
-                    yield message.log_time, None, drop.data
+                if kind is not None or channel.topic == DROPS_TOPIC:
+                    yield schema, channel, message, kind
     except errors as error:
-        raise CodecError(f"{path} is not a readable MCAP recording: {error}") from None
+        why = str(error) or ("it ends early" if isinstance(error, EOFError) else repr(error))
+        raise CodecError(f"{path} is not a readable MCAP recording: {why}") from None
+
+
+_FOOTER = struct.Struct("<BQQQI8s")  # opcode, length, summary start and offset start, CRC, magic
+
+
+def _check_summary(file: BinaryIO) -> None:
+    """The summary section's CRC (the footer's), which the mcap reader does not check: it covers
+    everything from the summary's start to the footer's CRC field."""
+    end = file.seek(0, os.SEEK_END)
+    file.seek(end - _FOOTER.size)
+    _, _, start, _, expected, _ = _FOOTER.unpack(file.read(_FOOTER.size))
+    if not expected:
+        return
+    if not 0 < start <= end - _FOOTER.size:
+        raise ValueError(f"the footer's summary start {start} is outside the file")
+    file.seek(start)
+    remaining, crc = end - 12 - start, 0  # 12: the CRC and the magic after it
+    while remaining:
+        block = file.read(min(remaining, 1 << 20))
+        if not block:
+            break
+        crc, remaining = zlib.crc32(block, crc), remaining - len(block)
+    if crc != expected:
+        raise ValueError(f"the summary's CRC is {crc:#010x}, the footer says {expected:#010x}")
 
 
 def _damage() -> tuple[type[Exception], ...]:
@@ -280,4 +361,16 @@ def _damage() -> tuple[type[Exception], ...]:
     parse."""
     zstd: Any = _mcap("zstandard", "reading MCAP")
     mcap_error = _mcap("mcap.exceptions", "reading MCAP").McapError
-    return (mcap_error, ValueError, struct.error, EOFError, zstd.ZstdError, ProtobufDecodeError)
+    # A flipped length or offset seeks before the file's start (OSError), allocates what it says
+    # (MemoryError), or names a channel or schema that is not there (KeyError).
+    return (
+        mcap_error,
+        ValueError,
+        struct.error,
+        EOFError,
+        zstd.ZstdError,
+        ProtobufDecodeError,
+        OSError,
+        MemoryError,
+        KeyError,
+    )

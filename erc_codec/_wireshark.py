@@ -68,8 +68,10 @@ def wireshark_dissector(codec: Codec | None = None, ports: Iterable[int] = DEFAU
     size = codec.max_size(codec.root)
     origin = schema_origin(codec)
     header = _HEADER.format(
-        origin="\n".join(f"--   {key}: {value}" for key, value in origin.items() if value),
-        root=codec.root,
+        origin="\n".join(
+            f"--   {_comment(key)}: {_comment(value)}" for key, value in origin.items() if value
+        ),
+        root=_comment(codec.root),
         ports=", ".join(map(str, ports)),
     )
     schema = (
@@ -92,8 +94,10 @@ _HEADER = """\
 -- or for good: copy it into Wireshark's personal Lua plugins folder (Help > About > Folders).
 -- It restores stripped trailing zeros and cuts zero padding exactly as `erc-codec decode` does,
 -- refuses a datagram cut short as decode does (erc.reason "truncated", naming the field),
--- names the envelope member, shows every field by name (filter on erc.<Message>.<field>), and
--- marks unknown members and corrupt datagrams with expert info (erc.refused, erc.unknown_member).
+-- names the envelope member and shows every field by name (filter on erc.<Message>.<field>).
+-- A datagram decode refuses is marked erc.refused with decode's reason in erc.reason (one whose
+-- only member is unknown: erc.reason == "unknown_member"); an unknown member beside a known one
+-- is marked erc.unknown_member.
 -- Regenerate it when the schema changes: erc-codec wireshark > erc_envelope.lua
 
 """
@@ -135,3 +139,9 @@ def _lua(text: str) -> str:
     """A Lua string literal (names are identifiers; anything else is escaped anyway)."""
     escaped = "".join(c if c.isalnum() or c in "_.-" else f"\\{ord(c):03d}" for c in text)
     return f'"{escaped}"'
+
+
+def _comment(text: str) -> str:
+    """Text for a Lua line comment: a character that could end the line (a newline in a
+    folder's name, which would start Lua code) or prints as nothing is written escaped."""
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode() for c in text)

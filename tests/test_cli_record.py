@@ -1,7 +1,9 @@
 """erc-codec record and replay, end to end over 127.0.0.1: a recorder process fed by a real socket,
 read back with the mcap library; replays caught by a real socket, bytes and timing measured."""
 
+import contextlib
 import json
+import os
 import signal
 import socket
 import struct
@@ -14,7 +16,7 @@ from typing import Any
 import pytest
 from datagrams import MODES
 from recording_support import frame, need, write_pcap
-from test_mcap import read_back
+from test_mcap import metadata, read_back
 
 import erc_codec
 
@@ -52,7 +54,7 @@ def fleet(codec: erc_codec.Codec) -> list[bytes]:
     ]
 
 
-@pytest.mark.parametrize("stop", ["count", "sigterm", "sigint"])
+@pytest.mark.parametrize("stop", ["count", "sigterm", "sigint", "sighup"])
 def test_record_writes_what_arrives(codec: erc_codec.Codec, tmp_path: Path, stop: str) -> None:
     need("mcap")
     out = tmp_path / "run.mcap"
@@ -68,7 +70,7 @@ def test_record_writes_what_arrives(codec: erc_codec.Codec, tmp_path: Path, stop
             time.sleep(0.002)
         if stop != "count":
             time.sleep(0.3)  # let them be read before the signal
-            recorder.send_signal(signal.SIGTERM if stop == "sigterm" else signal.SIGINT)
+            recorder.send_signal(getattr(signal, stop.upper()))  # SIGHUP: an ssh session drops
         _, err = recorder.communicate(timeout=60)
     after = time.time_ns()
     assert recorder.returncode == 0, err
@@ -132,6 +134,70 @@ def test_record_refuses_to_overwrite_and_to_bind_twice(tmp_path: Path) -> None:
     assert done.returncode == 2
     assert done.stderr.startswith(f"Error: cannot listen on 127.0.0.1:{port}:")
     assert not (tmp_path / "new.mcap").exists()
+
+
+def _children(pid: int) -> list[int]:
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        with contextlib.suppress(OSError):
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+            if int(fields[1]) == pid:
+                found.append(int(stat.parent.name))
+    return found
+
+
+def _running(pid: int) -> bool:
+    """Whether ``pid`` still runs (a zombie nobody reaps has finished)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def test_a_recorder_killed_leaves_its_writer_to_finish_the_file(
+    codec: erc_codec.Codec, tmp_path: Path
+) -> None:
+    need("mcap")
+    out = tmp_path / "run.mcap"
+    sent = fleet(codec)
+    recorder, port = start_recorder(out, "--seconds", "60")
+    (writer,) = _children(recorder.pid)
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
+        for data in sent:
+            sender.sendto(data, ("127.0.0.1", port))
+    time.sleep(0.5)  # read, and handed over (every 0.05 s)
+    recorder.kill()  # SIGKILL: no handler runs in the recorder
+    recorder.wait(timeout=60)
+    deadline = time.monotonic() + 30
+    while _running(writer) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    lingers = _running(writer)
+    if lingers:
+        os.kill(writer, signal.SIGKILL)
+    recorder.communicate(timeout=60)  # the pipes, which the writer held open too
+    assert not lingers, "the writer lingers after its recorder died"
+    assert len(read_back(out)) == len(sent)  # a complete file: indexed, CRCs right
+    ended = metadata(out)["erc-codec.summary"]["ended"]
+    assert ended == "the recording process stopped unannounced"
+
+
+def test_record_never_writes_through_a_name_that_exists(tmp_path: Path) -> None:
+    """The open itself refuses (O_EXCL), so nothing that appears at the name is written over
+    or through: a link planted there, pointing nowhere yet, is no way to write elsewhere."""
+    need("mcap")
+    out, target = tmp_path / "run.mcap", tmp_path / "elsewhere"
+    out.symlink_to(target)  # dangling: a check with exists() sees nothing there
+    recorder = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "record", "127.0.0.1:0", str(out), "--seconds", "1"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert (recorder.returncode, recorder.stderr) == (
+        2,
+        f"Error: {out} exists: remove it or choose another name\n",
+    )
+    assert not target.exists()
 
 
 # -- replay ------------------------------------------------------------------------------------
@@ -278,6 +344,37 @@ def test_replay_a_recording_in_the_form_asked(
     assert got == expected
     assert result["by_kind"]["drops"] == 2
     assert result["skipped"] == {}
+
+
+def test_replay_sends_an_empty_datagram_recorded_as_a_drop(
+    codec: erc_codec.Codec, tmp_path: Path, catcher: Catcher
+) -> None:
+    need("mcap")
+    recording = tmp_path / "run.mcap"
+    with erc_codec.McapWriter(recording, codec) as writer:
+        writer.write(b"", 1_700_000_000_000_000_000)  # an empty UDP payload is a datagram too
+    result = finished(replay(recording, catcher, "--drops", "--as-fast-as-possible"))
+    assert [data for _, data in catcher.take(1)] == [b""]
+    assert (result["by_kind"], result["skipped"]) == ({"drops": 1}, {})
+
+
+def test_replay_of_a_damaged_recording_is_a_read_error_not_a_send_error(
+    codec: erc_codec.Codec, tmp_path: Path, catcher: Catcher
+) -> None:
+    need("mcap")
+    recording = tmp_path / "run.mcap"
+    with erc_codec.McapWriter(recording, codec) as writer:
+        for number, data in enumerate(fleet(codec)):
+            writer.write(data, 1_700_000_000_000_000_000 + number)
+    whole = recording.read_bytes()
+    for cut in (len(whole) // 2, len(whole) - 20, len(whole) - 1):
+        recording.write_bytes(whole[:cut])
+        process = replay(recording, catcher, "--as-fast-as-possible")
+        _, err = process.communicate(timeout=60)
+        assert process.returncode in (1, 2), err
+        assert err.splitlines()[-1].startswith(
+            f"Error: {recording} is not a readable MCAP recording: "
+        ), err
 
 
 def test_replay_only_the_kinds_asked(

@@ -146,11 +146,46 @@ def test_the_view_serves_every_kind_the_fix_drops_and_rates(codec: erc_codec.Cod
     stats_channel = watched["/erc-codec/stats"]
     assert (stats_channel["encoding"], stats_channel["schemaEncoding"]) == ("json", "jsonschema")
     stats = json.loads(got["/erc-codec/stats"][1])
-    assert set(stats) == {"received", "messages", "rates", "drops", "drop_rate"}
+    assert set(stats) == {"received", "messages", "rates", "drops", "drop_rate", "view_errors"}
+    assert stats["view_errors"] == 0
     assert stats["received"] == stats["messages"].get("gps_info", 0) + stats["drops"].get(
         "unknown_member", 0
     )
     assert set(stats["rates"]) <= {"gps_info"}
+
+
+def test_a_fix_whose_time_a_timestamp_cannot_hold_is_shown_at_its_arrival(
+    codec: erc_codec.Codec,
+) -> None:
+    need("foxglove")
+    websockets = need("websockets")
+    view = erc_codec.FoxgloveView(codec, port=0)
+    gps = codec.message_class("SensorBoardGPSInfo")(
+        latitude=45.0, longitude=7.0, fix_quality=1, utc_timestamp=2**62
+    )
+    arrived = 1_700_000_000_123_456_789
+
+    async def watch() -> dict[str, tuple[int, bytes]]:
+        async with websockets.connect(
+            "ws://{}:{}".format(*view.address), subprotocols=[SUBPROTOCOL]
+        ) as ws:
+            client = Client(ws)
+            await client.advertised({"/erc-codec/fix"})
+            watched.update(client.channels)
+            await client.subscribe(["/erc-codec/fix"])
+            return await client.first_of_each(
+                {"/erc-codec/fix"}, lambda: view.message("gps_info", gps, log_time=arrived)
+            )
+
+    watched: dict[str, dict[str, Any]] = {}
+    try:
+        view.message("gps_info", gps, log_time=arrived)  # it raised OverflowError, unsubscribed
+        got = asyncio.run(watch())
+    finally:
+        view.close()
+    fix: Any = message_class(watched["/erc-codec/fix"]).FromString(got["/erc-codec/fix"][1])
+    assert (fix.latitude, fix.longitude) == (45.0, 7.0)
+    assert (fix.timestamp.seconds, fix.timestamp.nanos) == (1_700_000_000, 123_456_789)
 
 
 def test_listen_foxglove_shows_what_arrives(codec: erc_codec.Codec) -> None:

@@ -3,6 +3,8 @@ checks on, payloads decoded by mcap-protobuf-support's decoder factory from the 
 FileDescriptorSet each channel carries (as Foxglove decodes them), never by erc_codec."""
 
 import io
+import os
+import random
 import subprocess
 import sys
 from pathlib import Path
@@ -240,6 +242,14 @@ def test_decode_pcap_mcap_writes_a_capture(codec: erc_codec.Codec, tmp_path: Pat
         f"Error: {out} exists: remove it or choose another name\n",
     )
     assert run("decode", "00", "--mcap", str(tmp_path / "x.mcap")).returncode == 2
+    linked, target = tmp_path / "linked.mcap", tmp_path / "elsewhere"
+    linked.symlink_to(target)  # dangling: exists() sees nothing; the open itself refuses
+    refused = run("decode", "--pcap", str(capture), "--mcap", str(linked))
+    assert (refused.returncode, refused.stderr) == (
+        2,
+        f"Error: {linked} exists: remove it or choose another name\n",
+    )
+    assert not target.exists()
 
 
 def test_without_the_mcap_extra_one_line_names_it(tmp_path: Path) -> None:
@@ -267,6 +277,90 @@ def test_without_the_mcap_extra_one_line_names_it(tmp_path: Path) -> None:
         2,
         "Error: writing MCAP needs the mcap package: pip install 'erc-codec[mcap]'\n",
     )
+    assert not (tmp_path / "x.mcap").exists()  # nothing left to block the retry
+
+
+def test_a_capture_whose_name_is_not_utf8_is_written(
+    codec: erc_codec.Codec, tmp_path: Path
+) -> None:
+    need("dpkt")
+    need("mcap")
+    capture = tmp_path / os.fsdecode(b"r\xff.pcap")
+    out = tmp_path / os.fsdecode(b"o\xff.mcap")
+    write_pcap(capture, [codec.encode(codec.message_class("SensorBoardGPSInfo")(satellites=5))])
+    done = run("decode", "--pcap", str(capture), "--mcap", str(out))
+    assert done.returncode == 0, done.stderr
+    assert len(read_back(out)) == 1
+    assert metadata(out)["erc-codec"]["source"] == "capture r\\xff.pcap"  # its byte, escaped
+
+
+def test_random_damage_is_a_codec_error_or_a_correct_read(
+    codec: erc_codec.Codec, tmp_path: Path
+) -> None:
+    need("mcap")
+    path = tmp_path / "run.mcap"
+    with erc_codec.McapWriter(path, codec, chunk_size=512) as writer:
+        for number, (_, payload) in enumerate(random_payloads(codec, 7, 2)):
+            writer.write(codec.encode(payload), T0 + number)
+        writer.write(bytes.fromhex("6205ff"), T0 + 99)  # a drop
+    whole = path.read_bytes()
+    expected = [
+        (r.log_time, r.kind, r.message.SerializeToString()) for r in erc_codec.read_mcap(path)
+    ]
+    rng = random.Random(20)
+    damaged = [whole[:cut] for cut in sorted(rng.sample(range(len(whole)), 40))]
+    for _ in range(300):
+        flipped = bytearray(whole)
+        flipped[rng.randrange(len(whole))] ^= 1 << rng.randrange(8)
+        damaged.append(bytes(flipped))
+    errors = []
+    for data in damaged:
+        path.write_bytes(data)
+        try:
+            read = [
+                (r.log_time, r.kind, r.message.SerializeToString())
+                for r in erc_codec.read_mcap(path)
+            ]
+        except erc_codec.CodecError as error:  # anything else fails the test
+            errors.append(str(error))
+            continue
+        assert read == expected  # a flip no CRC covers changes nothing read (padding, indexes)
+    assert len(errors) > len(damaged) // 2
+    for text in errors:
+        assert text.startswith(f"{path} is not a readable MCAP recording: "), text
+        assert not text.endswith(": "), text
+
+
+def test_only_the_recordings_channels_are_read(codec: erc_codec.Codec, tmp_path: Path) -> None:
+    need("mcap")
+    reader, writer_module = need("mcap.reader"), need("mcap.writer")
+    recording, mixed = tmp_path / "run.mcap", tmp_path / "mixed.mcap"
+    gps = codec.message_class("SensorBoardGPSInfo")(satellites=5)
+    with erc_codec.McapWriter(recording, codec) as writer:
+        writer.write(codec.encode(gps), T0)
+        writer.write(bytes.fromhex("6205ff"), T0 + 2)
+    with recording.open("rb") as source, mixed.open("wb") as file:
+        copy = writer_module.Writer(file)
+        copy.start()
+        stats = copy.register_schema("stats", "jsonschema", b"{}")
+        json_channel = copy.register_channel("/erc-codec/stats", "json", stats)
+        copy.add_message(json_channel, T0 + 1, b'{"received": 1}', T0 + 1)
+        schemas: dict[int, int] = {}
+        channels: dict[int, int] = {}
+        for schema, channel, message in reader.make_reader(source).iter_messages():
+            if channel.id not in channels:
+                if schema.id not in schemas:
+                    schemas[schema.id] = copy.register_schema(
+                        schema.name, schema.encoding, schema.data
+                    )
+                channels[channel.id] = copy.register_channel(
+                    channel.topic, channel.message_encoding, schemas[schema.id]
+                )
+            copy.add_message(channels[channel.id], message.log_time, message.data, message.log_time)
+        copy.finish()
+    read = list(erc_codec.read_mcap(mixed))
+    assert [(r.log_time, r.kind) for r in read] == [(T0, "gps_info"), (T0 + 2, None)]
+    assert read[0].message.SerializeToString() == gps.SerializeToString()
 
 
 def test_a_damaged_capture_is_written_up_to_the_damage(

@@ -9,6 +9,7 @@ the tests skip, saying why, except under ERC_REQUIRE_INTEROP=1 (CI installs it).
 import base64
 import json
 import math
+import shutil
 import subprocess
 import sys
 import xml.etree.ElementTree as ElementTree
@@ -507,6 +508,24 @@ def test_the_ports_are_the_fleets_unless_told(
         write_pcap(capture, [data], dport=port)
         (layer,) = layers(tshark, lua, capture)
         assert (layer is not None) == dissected, (port, ports)
+
+
+def test_a_folder_name_is_never_lua_code(tshark: str, tmp_path: Path) -> None:
+    tree = tmp_path / 't\nprint("INJECTED")\n--'
+    shutil.copytree(TREE, tree)
+    lua = dissector(tmp_path, "--proto", str(tree), "--root", "Env")
+    assert "--   schema_tree: " + str(tree).replace("\n", "\\n") + "\n" in lua.read_text()
+    codec = erc_codec.Codec.from_path(tree, "Env")
+    capture = tmp_path / "one.pcap"
+    write_pcap(capture, [codec.encode(codec.message_class("Inner")())])
+    done = subprocess.run(
+        [tshark, "-X", f"lua_script:{lua}", "-r", str(capture)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "INJECTED" not in done.stdout + done.stderr
 
 
 def test_a_schema_the_dissector_cannot_read_is_one_line(tmp_path: Path) -> None:

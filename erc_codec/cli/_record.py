@@ -5,10 +5,10 @@
 ``record`` is ``listen`` writing instead of printing: an ``open_udp`` endpoint whose dispatcher
 hands every payload to an ``McapWriter`` and every drop to its drops channel, with each
 datagram's arrival time and sender. It ends as ``listen`` does (``--count``, ``--seconds``,
-Ctrl-C, and SIGTERM too), always with a complete file, and says what it received, what it wrote
-and what the kernel dropped before the socket was read. ``replay`` sends each recorded datagram
-re-encoded in the form asked for, at its recorded time (scaled by ``--speed``), and says what it
-sent, what it did not send and why, and how late it ran.
+Ctrl-C, and SIGTERM and SIGHUP too), always with a complete file, and says what it received,
+what it wrote and what the kernel dropped before the socket was read. ``replay`` sends each
+recorded datagram re-encoded in the form asked for, at its recorded time (scaled by
+``--speed``), and says what it sent, what it did not send and why, and how late it ran.
 """
 
 import contextlib
@@ -21,7 +21,7 @@ import sys
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any, NamedTuple, cast
+from typing import Any, BinaryIO, NamedTuple, cast
 
 import click
 from google.protobuf import json_format
@@ -51,6 +51,7 @@ from ._writer import WriterProcess
 
 __all__ = ["capture_to_mcap", "record", "replay"]
 
+_STOPS = ("SIGINT", "SIGTERM", "SIGHUP")  # what ends a recording (SIGHUP: not on Windows)
 _MCAP_MAGIC = b"\x89MCAP0\r\n"
 _CAPTURE_MAGICS = {
     b"\xd4\xc3\xb2\xa1",  # pcap, microseconds, little-endian
@@ -61,14 +62,13 @@ _CAPTURE_MAGICS = {
 }
 
 
-def _writer(output: Path, codec: Codec, source: str, chunk_size: int) -> McapWriter:
-    """An MCAP writer on a new file: an existing one (last week's run) is never overwritten."""
-    if output.exists():
-        raise Fatal(f"{output} exists: remove it or choose another name")
+def create(output: Path) -> BinaryIO:
+    """A new file: an existing one (last week's run) is never overwritten, even one made
+    between a check and the open (the open itself refuses)."""
     try:
-        return McapWriter(output, codec, source=source, chunk_size=chunk_size)
-    except ImportError as error:
-        raise Fatal(str(error)) from None
+        return output.open("xb")
+    except FileExistsError:
+        raise Fatal(f"{output} exists: remove it or choose another name") from None
     except OSError as error:
         raise Fatal(f"cannot write {output}: {error.strerror or error}") from None
 
@@ -80,17 +80,28 @@ def capture_to_mcap(capture: Capture, codec: Codec, output: Path) -> tuple[int, 
     """Write every UDP datagram of a capture to an MCAP file: the number that did not decode
     (written as drops) and the summary line. A damaged capture is written up to the damage, the
     file finished, the summary printed, then the damage is the command's error (exit 2)."""
-    writer = _writer(output, codec, f"capture {capture.path.name}", 1 << 20)
-    write = writer.write
+    file = create(output)
     try:
-        for at, source, destination, data in capture.datagrams():
-            write(data, nanoseconds(at), source, destination)
-    finally:
-        skipped = capture.skipped
-        extra = {f"capture.skipped.{why}": str(n) for why, n in sorted(skipped.items())}
-        if capture.damage:
-            extra["capture.damage"] = capture.damage
-        writer.close(extra)
+        writer = McapWriter(file, codec, source=f"capture {capture.path.name}")
+        write = writer.write
+        try:
+            for at, source, destination, data in capture.datagrams():
+                write(data, nanoseconds(at), source, destination)
+        finally:
+            skipped = capture.skipped
+            extra = {f"capture.skipped.{why}": str(n) for why, n in sorted(skipped.items())}
+            if capture.damage:
+                extra["capture.damage"] = capture.damage
+            writer.close(extra)
+    except BaseException as error:  # no half-written file to block the retry
+        file.close()
+        output.unlink()
+        if isinstance(error, ImportError):  # it names the extra to install
+            raise Fatal(str(error)) from None
+        if isinstance(error, OSError):
+            raise Fatal(f"cannot write {output}: {error.strerror or error}") from None
+        raise
+    file.close()
     stats = writer.stats()
     messages, failed = sum(stats.messages.values()), sum(stats.drops.values())
     reasons = ", ".join(f"{count} {why}" for why, count in sorted(skipped.items()))
@@ -135,9 +146,10 @@ def record(
     /erc-codec/drops with its bytes, reason and sender; log time is the
     arrival time. The file opens in Foxglove and reads with any MCAP reader
     (erc_codec.read_mcap in Python). It stops after --count datagrams,
-    --seconds, Ctrl-C or SIGTERM, always with a complete file; the first
-    line on stderr is the address bound, the last what was received,
-    written and dropped (by the kernel, before it was read: on Linux).
+    --seconds, Ctrl-C, SIGTERM or SIGHUP (a dropped ssh session), always
+    with a complete file; the first line on stderr is the address bound,
+    the last what was received, written and dropped (by the kernel, before
+    it was read: on Linux).
 
     \b
     Exit status: 0 recorded; 2 usage error, an address that cannot be
@@ -222,7 +234,8 @@ class _Recording:
             endpoint.close()
             raise
         click.echo(f"recording on {shown(bound)} to {self._output}", err=True)
-        signals = (signal.SIGINT, signal.SIGTERM)
+        # SIGHUP: an ssh session drops, which would kill the recorder before its file is done.
+        signals = [getattr(signal, name) for name in _STOPS if hasattr(signal, name)]
         for signum in signals:
             with contextlib.suppress(NotImplementedError, RuntimeError):  # not on this platform
                 loop.add_signal_handler(signum, stop)
@@ -315,7 +328,7 @@ class _Entry(NamedTuple):
     time: int | None  # nanoseconds since the epoch; None where the source has no time
     kind: str | None  # the envelope member; None for a datagram that did not decode
     message: Message | None  # the payload (kind given)
-    data: bytes  # a drop's bytes as received (b"" where the source did not keep them)
+    data: bytes | None  # a drop's bytes as received (None where the source did not keep them)
 
 
 @click.command()
@@ -390,11 +403,21 @@ def replay(
     player = _Player(codec, cast(Mode, mode), set(kinds), with_drops, 0.0 if flat_out else speed)
     entries = _entries(source, codec, player.skip)
     with socket.socket(family, socket.SOCK_DGRAM) as sock:
+
+        def send(data: bytes) -> None:
+            try:
+                sock.sendto(data, address)
+            except OSError as error:  # a send's error, never the file's
+                raise Fatal(f"cannot send to {shown(address)}: {error}") from None
+
         try:
-            player.play(entries, lambda data: sock.sendto(data, address))
-        except OSError as error:
+            player.play(entries, send)
+        except Fatal:
             click.echo(f"replayed: {json.dumps(player.summary())}", err=True)
-            raise Fatal(f"cannot send to {shown(address)}: {error}") from None
+            raise
+        except OSError as error:  # reading the file
+            click.echo(f"replayed: {json.dumps(player.summary())}", err=True)
+            raise Fatal(f"cannot read {source}: {error.strerror or error}") from None
         except CodecError as error:
             click.echo(f"replayed: {json.dumps(player.summary())}", err=True)
             raise click.ClickException(one_line(str(error))) from None
@@ -454,7 +477,7 @@ class _Player:
             if not self._with_drops:
                 self.skip("drops")
                 return None
-            if not entry.data:
+            if entry.data is None:  # an empty datagram was received too: it is sent
                 self.skip("drops_without_bytes")
                 return None
             self.sent["drops"] = self.sent.get("drops", 0) + 1
@@ -559,7 +582,7 @@ def _from_json_lines(path: Path, codec: Codec, skip: Callable[[str], None]) -> I
             )
             kind = record.get("kind") if isinstance(record, dict) else None
             if kind is None and isinstance(record, dict) and "error" in record:
-                yield _Entry(at, None, None, b"")
+                yield _Entry(at, None, None, None)
                 continue
             if not isinstance(kind, str) or kind not in kinds:
                 skip("not_valid")

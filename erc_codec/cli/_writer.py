@@ -11,9 +11,10 @@ Guarantees: the child is ready (its schema loaded, the mcap library imported) be
 bound, and the file is created only once the socket is; every item handed over is written, in
 order; a child that cannot write says why and the recording stops with that error; a parent that
 dies leaves the child to finish the file (it reads the end of the pipe as the end of the
-recording). The child ignores Ctrl-C, which the terminal sends to both: the parent decides when to
-stop. Memory is bounded by one batch and the pipe's buffer, whatever the rate: a child that falls
-behind blocks the parent, and the kernel's drop counter says what that cost.
+recording: the child closes its inherited copy of the parent's end first). The child ignores
+Ctrl-C and SIGHUP, which the terminal sends to both: the parent decides when to stop. Memory is
+bounded by one batch and the pipe's buffer, whatever the rate: a child that falls behind blocks
+the parent, and the kernel's drop counter says what that cost.
 """
 
 import contextlib
@@ -43,10 +44,14 @@ class WriterProcess:
         # fork hands the loaded schema over as it is; spawn (other systems) loads it again.
         context: Any = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
         self._conn, child = context.Pipe()
-        inherited = codec if "fork" in methods else None
+        forked = "fork" in methods
+        inherited = codec if forked else None
+        # A forked child holds a copy of the parent's end too: it closes it first thing, or it
+        # would never read the end of the pipe when the parent dies.
+        parents = self._conn if forked else None
         tree, root = codec.schema.tree, codec.root
         self._process = context.Process(
-            target=_serve, args=(child, inherited, tree, root), name="erc-codec writer"
+            target=_serve, args=(child, parents, inherited, tree, root), name="erc-codec writer"
         )
         self._process.start()
         child.close()
@@ -126,9 +131,15 @@ class WriterProcess:
         return f"exit status {self._process.exitcode}"
 
 
-def _serve(conn: Connection, codec: Codec | None, tree: Path, root: str) -> None:
+def _serve(
+    conn: Connection, parents: Connection | None, codec: Codec | None, tree: Path, root: str
+) -> None:
     """The child: load the schema, then write what arrives until told to close."""
+    if parents is not None:
+        parents.close()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "SIGHUP"):  # a dropped ssh session: as Ctrl-C
+        signal.signal(signal.SIGHUP, signal.SIG_IGN)
     try:
         codec = codec or Codec.from_path(tree, root)
         require("mcap.writer", "mcap", "mcap", "writing MCAP")  # before the socket is bound
@@ -146,15 +157,18 @@ def _serve(conn: Connection, codec: Codec | None, tree: Path, root: str) -> None
                 command = ("close", {"ended": "the recording process stopped unannounced"})
             if command[0] == "open":
                 _, output, source = command
-                if Path(output).exists():
+                try:
+                    file = Path(output).open("xb")  # noqa: SIM115 (closed after the writer)
+                except FileExistsError:  # never over an existing file, however new
                     conn.send(("error", f"{output} exists: remove it or choose another name"))
                     return
-                writer = McapWriter(output, codec, source=source, chunk_size=_CHUNK)
+                writer = McapWriter(file, codec, source=source, chunk_size=_CHUNK)
                 conn.send(("opened",))
             elif command[0] == "batch" and writer is not None:
                 _write(writer, command[1])
             elif command[0] == "close" and writer is not None:
                 writer.close(command[1])
+                file.close()
                 conn.send(("closed", writer.stats(), Path(output).stat().st_size))
                 return
             else:  # quit
