@@ -8,10 +8,10 @@ from hypothesis import settings
 
 import erc_codec
 
-# CI shares two cores with everything else: no per-example deadline there, and print the blob
-# that reproduces a failure.
+# CI shares two cores with everything else (and `.ci/run` sets ERC_REQUIRE_INTEROP): no
+# per-example deadline there, and print the blob that reproduces a failure.
 settings.register_profile("ci", deadline=None, print_blob=True)
-if os.environ.get("CI"):
+if os.environ.get("CI") or os.environ.get("ERC_REQUIRE_INTEROP"):
     settings.load_profile("ci")
 
 REPO = Path(__file__).resolve().parent.parent

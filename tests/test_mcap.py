@@ -22,7 +22,7 @@ T0 = 1_700_000_000_000_000_000
 GARBAGE = [
     (bytes.fromhex("b20100"), "unknown_member"),  # member 22: a newer schema's
     (bytes.fromhex("6205ff"), "corrupt"),
-    (bytes(256), "too_long"),
+    (bytes(erc_codec.Codec.default().max_size("PBEnvelope") + 1), "too_long"),
     (b"\0\0", "no_payload"),
     (b"", "empty"),
 ]

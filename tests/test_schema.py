@@ -124,7 +124,7 @@ def test_a_payload_of_the_real_tree_is_a_plain_message_root(root: str) -> None:
     codec = Codec.from_path(PROTO, root=root)
     assert isinstance(codec, MessageCodec)
     assert (codec.root, codec.kinds(), codec.members()) == (root, {}, ())
-    with pytest.raises(SchemaError, match=rf"\b{root}\b.*must consist of exactly one oneof"):
+    with pytest.raises(SchemaError, match=rf"\b{root}\b.*must have exactly one oneof"):
         Codec(codec.schema)  # the envelope codec itself still wants an envelope
 
 

@@ -42,7 +42,7 @@ _T = FieldDescriptor
 GARBAGE = [
     bytes.fromhex("b20100"),  # member 22, unknown to this schema
     bytes.fromhex("6205ff"),  # gps_info, its payload a wire type 7
-    bytes(256),  # longer than PBEnvelope_size
+    bytes(erc_codec.Codec.default().max_size("PBEnvelope") + 1),  # longer than PBEnvelope_size
     b"\0\0\0",  # zeros only
     bytes.fromhex("6005"),  # gps_info's number on wire type VARINT
     bytes.fromhex("620b") + bytes(9) + b"\x01",  # non-zero after the padding
