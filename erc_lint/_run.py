@@ -110,6 +110,7 @@ class LedgerUpdate(NamedTuple):
     added: "list[Entry]"
     source: str  # what was added: a folder, or "N revisions"
     failed: list[str]  # files (of the last revision) that did not compile: nothing recorded
+    collided: list[str]  # names (of the last revision) two files define: none of their numbers
 
 
 def update_ledger(
@@ -117,12 +118,13 @@ def update_ledger(
     path: Path | None,
     history: bool,
     includes: Sequence[Path],
-    exclude: Callable[[Path | None], Sequence[str]],
+    settings: Callable[[Path | None], Config],
 ) -> LedgerUpdate:
     """Add every number of ``tree`` (a folder or a git revision; with ``history``, every revision
     reachable from its ref) to the ledger at ``path``, else the one beside the tree's protos.
-    ``exclude`` gives the configuration's exclude patterns for the folder holding the tree."""
-    from ._history import History, keys
+    ``settings`` gives the configuration for the folder holding the tree (its ``exclude``, and
+    the leftovers ``ignore_only`` names for NAME_COLLISION, whose definitions do not count)."""
+    from ._history import History, recorded
     from ._ledger import Ledger
 
     spec = parse_tree_spec(tree)
@@ -139,10 +141,13 @@ def update_ledger(
             if not repository.files(commits[-1], inside):
                 why = missing_in_git(repository, commits[-1], inside)
                 raise LintError(f"{tree}: no .proto file: {why}")
-            walker = History(repository, spec, includes, exclude(shown))
+            config = settings(shown)
+            leftovers = config.ignore_only.get("NAME_COLLISION", ())
+            walker = History(repository, spec, includes, config.exclude, leftovers)
             added = walker.update(book, commits)
         source = f"{len(commits)} revision{'s' * (len(commits) != 1)}"
-        return LedgerUpdate(book, target, added, source, sorted(walker.failed))
+        failed, collided = sorted(walker.failed), sorted(walker.collided)
+        return LedgerUpdate(book, target, added, source, failed, collided)
     if history:
         raise LintError(f"{tree}: --history needs a git input, GITDIR#ref=REF[,subdir=PATH]")
     problem = missing_folder(spec)
@@ -150,9 +155,13 @@ def update_ledger(
         raise LintError(f"{tree}: {problem} in TREE (a wrong path would pass every check)")
     target = path or spec / LEDGER
     book = Ledger.read(target) if _exists(target) else Ledger(str(target))
-    loaded = load_tree(spec, list(includes), exclude(spec))
-    added = book.add(keys(loaded.files.values()), "-")
-    return LedgerUpdate(book, target, added, str(spec), sorted(loaded.failed))
+    config = settings(spec)
+    loaded = load_tree(spec, list(includes), config.exclude)
+    found, collided = recorded(
+        loaded.files.values(), lambda path: config.ignored_at("NAME_COLLISION", path)
+    )
+    added = book.add(found, "-")
+    return LedgerUpdate(book, target, added, str(spec), sorted(loaded.failed), sorted(collided))
 
 
 def missing_in_git(repository: Repository, commit: str, inside: str) -> str:
