@@ -133,6 +133,25 @@ def test_suppression_comments_end_to_end(pair: Path) -> None:
     assert rules == ["SUPPRESSION_INVALID", "FIELD_TYPE_CHANGED"]  # no reason: not honoured
 
 
+@pytest.mark.parametrize(
+    ("where", "old", "new"),
+    [("", "old", "new"), ("new", "../old", "."), ("new", "../old", "./"), ("", "old", "./new/")],
+)
+def test_suppressions_hold_however_new_is_spelled(
+    pair: Path, where: str, old: str, new: str
+) -> None:
+    (pair / "new" / "arm.proto").write_text(
+        'syntax = "proto3";\n'
+        "message Arm {  // erc-lint:ignore FIELD_DELETED wrist retired with board v1\n"
+        "  float shoulder = 1;\n"
+        "  string elbow = 2;  // erc-lint:ignore FIELD_TYPE_CHANGED boards updated\n"
+        "}\n"
+    )
+    done = erc_lint_cli(old, new, "--severity", "error", cwd=pair / where)
+    assert (done.returncode, done.stdout) == (0, ""), done.stdout
+    assert done.stderr.startswith("0 errors, 1 warning"), done.stderr  # OLD's gone.proto
+
+
 def test_ignore_only_per_rule_and_path(pair: Path) -> None:
     (pair / "new" / "pyproject.toml").write_text(
         '[tool.erc-lint]\nignore_only = { FIELD_TYPE_CHANGED = ["arm*"] }\n'
