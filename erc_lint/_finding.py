@@ -12,6 +12,7 @@ Severity = Literal["error", "warning"]
 
 # A place inside a message (``file.proto:12:3``, ``erc-lint.lock:7``): what a line move changes.
 _PLACE = re.compile(r":\d+(?::\d+)?\b")
+_FIX = " Fix: "  # how a finding's short fix starts (rules/_registry)
 
 
 class Finding(NamedTuple):
@@ -49,6 +50,8 @@ class Finding(NamedTuple):
 
 
 def stable_text(finding: Finding, path: str) -> str:
-    """``RULE path message`` with every ``:line[:column]`` left out of the message: the same
-    element's finding after lines moved, named by ``path`` (as the caller wants it shown)."""
-    return f"{finding.rule} {path} {_PLACE.sub('', finding.message)}"
+    """``RULE path message`` with every ``:line[:column]`` and the closing ``Fix: ...`` (which
+    may name the next free number) left out of the message: the same element's finding after
+    lines moved or numbers were added, named by ``path`` (as the caller wants it shown)."""
+    message = finding.message.rsplit(_FIX, 1)[0] if _FIX in finding.message else finding.message
+    return f"{finding.rule} {path} {_PLACE.sub('', message)}"

@@ -7,6 +7,7 @@ annotation or an editor opens the same file a plain folder would have named.
 """
 
 import os
+import re
 from collections.abc import Sequence
 from contextlib import AbstractContextManager
 from pathlib import Path
@@ -14,10 +15,11 @@ from pathlib import Path
 from erc_codec.schema import TreeSource, open_tree, proto_files
 
 from ._config import CONFIG, CONFIG_LIMIT, LEDGER, LEDGER_LIMIT
-from ._finding import Finding
+from ._finding import Finding, stable_text
+from ._loader import relative
 from ._suggest import did_you_mean
 
-__all__ = ["missing_folder", "open_input", "relocate"]
+__all__ = ["baseline_key", "missing_folder", "open_input", "relocate"]
 
 
 def open_input(text: str) -> AbstractContextManager[TreeSource]:
@@ -38,7 +40,8 @@ def missing_folder(folder: Path) -> str:
 
 
 def relocate(findings: Sequence[Finding], sources: Sequence[TreeSource]) -> list[Finding]:
-    """The findings with every scratch folder's path replaced by the name its tree is shown as."""
+    """The findings with every scratch folder's path replaced by the name its tree is shown as
+    (in ``path``, ``message`` and ``in_new``)."""
     moves = [
         (str(source.folder) + os.sep, "" if str(source.shown) == "." else f"{source.shown}{os.sep}")
         for source in sources
@@ -46,11 +49,50 @@ def relocate(findings: Sequence[Finding], sources: Sequence[TreeSource]) -> list
     ]
     if not moves:
         return list(findings)
-    moved = []
-    for finding in findings:
-        path, message = finding.path, finding.message
+
+    def moved(path: str) -> str:
         for scratch, shown in moves:
-            path = shown + path.removeprefix(scratch) if path.startswith(scratch) else path
+            if path.startswith(scratch):
+                return shown + path.removeprefix(scratch)
+        return path
+
+    out = []
+    for finding in findings:
+        message = finding.message
+        for scratch, shown in moves:
             message = message.replace(scratch, shown)
-        moved.append(finding._replace(path=path, message=message))
-    return moved
+        where = finding.in_new
+        out.append(
+            finding._replace(
+                path=moved(finding.path),
+                message=message,
+                in_new=where._replace(path=moved(where.path)) if where else None,
+            )
+        )
+    return out
+
+
+def baseline_key(
+    finding: Finding, old: TreeSource, new: TreeSource, sources: Sequence[TreeSource]
+) -> str:
+    """The finding's baseline key: its file relative to its tree's root (OLD's for a finding in
+    OLD), and every path of a tree in its message made relative too (a git input's scratch
+    folder, a folder as the user spelled it, the ledger beside the protos): the same finding
+    has the same key however the trees were read."""
+    root = old if finding.in_old else new
+    prefixes = sorted(
+        {
+            f"{folder}{os.sep}"
+            for source in sources
+            for folder in (source.folder, source.shown)
+            if str(folder) != "."
+        },
+        key=len,
+        reverse=True,
+    )
+    message = finding.message
+    if prefixes:
+        # A path starts a word: after the start, a space, a quote or a parenthesis.
+        spelled = "|".join(re.escape(prefix) for prefix in prefixes)
+        message = re.sub(f"(?<![^\\s\"'(])(?:{spelled})", "", message)
+    return stable_text(finding._replace(message=message), relative(root.folder, finding.path))

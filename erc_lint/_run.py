@@ -10,9 +10,9 @@ from erc_codec.schema import GitSpec, Repository, TreeSource, file_exists, parse
 
 from ._config import LEDGER, Config
 from ._errors import LintError
-from ._finding import Finding, stable_text
-from ._inputs import missing_folder, open_input, relocate
-from ._loader import LoadedTree, load_tree, relative
+from ._finding import Finding
+from ._inputs import baseline_key, missing_folder, open_input, relocate
+from ._loader import LoadedTree, load_tree
 from ._model import build
 from ._pairing import Change
 from .rules import run
@@ -78,12 +78,9 @@ def compare(
         before = build(load_tree(old.folder, roots, config.exclude))
     change = Change(before, after, config, find_ledger(new, ledger))
     found = run(change)
-    keys = [
-        stable_text(f, relative((old or new).folder if f.in_old else new.folder, f.path))
-        for f in found
-    ]
-    kept = [f for f, key in zip(found, keys, strict=True) if key not in baseline]
     sources = [new] if old is None else [old, new]
+    keys = [baseline_key(f, old or new, new, sources) for f in found]
+    kept = [f for f, key in zip(found, keys, strict=True) if key not in baseline]
     files = len(loaded.texts.keys() | loaded.failed)
     return Outcome(relocate(kept, sources), len(found) - len(kept), files, keys)
 

@@ -12,6 +12,7 @@ import jsonschema  # type: ignore[import-untyped]
 import junitparser
 import pytest
 import xmlschema
+from git_support import Repo
 from lint_support import erc_lint_cli, tree
 
 FORMATS = Path(__file__).resolve().parent / "formats"
@@ -213,3 +214,44 @@ def test_a_closed_pipe_exits_0_quietly(pair: Path) -> None:
     assert "Traceback" not in done.stderr
     assert "BrokenPipe" not in done.stderr
     assert done.returncode == 1  # the findings' status (errors), never a pipe failure's 2 or 120
+
+
+def test_a_baseline_holds_however_the_tree_is_read(tmp_path: Path) -> None:
+    # NAME_COLLISION names both files in its message: a git input's scratch folder, or the
+    # folder as spelled, must not reach the key.
+    repo = Repo(tmp_path / "r")
+    repo.commit("two", a="message GPS { double lat = 1; }\n", b="message GPS { double x = 1; }\n")
+    written = erc_lint_cli("baseline", repo.spec("HEAD"), "-o", "bl", cwd=tmp_path)
+    assert written.returncode == 0, written.stderr
+    assert "message at a.proto and message at b.proto." in (tmp_path / "bl").read_text()
+    for cwd, given in [
+        (tmp_path, repo.spec("HEAD")),
+        (tmp_path, "r/proto"),
+        (tmp_path, "./r/proto/"),
+        (tmp_path / "r" / "proto", "."),
+    ]:
+        done = erc_lint_cli("check", given, "--baseline", str(tmp_path / "bl"), cwd=cwd)
+        assert (done.returncode, done.stdout) == (0, ""), (given, done.stdout)
+
+
+def test_a_baseline_key_leaves_out_the_fix_and_its_next_free_number(tmp_path: Path) -> None:
+    root = tree(tmp_path / "p", {"a.proto": "message GPS { double lat = 1; double lon = 2; }\n"})
+    assert erc_lint_cli("ledger", "update", "p", cwd=tmp_path).returncode == 0
+    tree(root, {"a.proto": "message GPS { double lat = 1; string name = 2; }\n"})
+    assert erc_lint_cli("baseline", "p", cwd=tmp_path).returncode == 0
+    assert "Fix:" not in (tmp_path / "erc-lint.baseline").read_text()
+    tree(root, {"a.proto": "message GPS { double lat = 1; string name = 2; double alt = 3; }\n"})
+    done = erc_lint_cli("check", "p", cwd=tmp_path)
+    assert (done.returncode, done.stdout) == (0, ""), done.stdout
+
+
+def test_a_git_new_points_ci_formats_at_the_repository_not_a_scratch_folder(
+    tmp_path: Path,
+) -> None:
+    repo = Repo(tmp_path / "r")
+    repo.commit("one", a="message A { float x = 1; float y = 2; }\n")
+    repo.commit("two", a="message A { float x = 1; }\n")
+    done = erc_lint_cli(repo.spec("HEAD~1"), repo.spec("HEAD"), "--format", "json")
+    (line,) = done.stdout.splitlines()
+    found = json.loads(line)
+    assert found["path"] == found["in_new"]["path"] == f"{repo.root}/proto/a.proto"
