@@ -12,7 +12,7 @@ deduplicates sees a moved finding as the same one.
 
 from collections.abc import Iterable
 
-from ._finding import Finding
+from ._finding import Finding, printable_finding
 
 __all__ = ["FORMATS", "render"]
 
@@ -36,6 +36,7 @@ def _line(finding: Finding, output: str) -> str:
     if output == "json":
         import json
 
+        finding = printable_finding(finding)  # valid UTF-8: a name's odd bytes as \\xff
         return json.dumps(
             {
                 "rule": finding.rule,

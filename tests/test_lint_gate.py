@@ -3,6 +3,7 @@ published schema (``tests/formats``, sources named in its README), the summary l
 baselines, suppression comments, ignore_only, no silent pass, explanations, a closed pipe."""
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -255,3 +256,50 @@ def test_a_git_new_points_ci_formats_at_the_repository_not_a_scratch_folder(
     (line,) = done.stdout.splitlines()
     found = json.loads(line)
     assert found["path"] == found["in_new"]["path"] == f"{repo.root}/proto/a.proto"
+
+
+@pytest.mark.parametrize("output", ["sarif", "junit", "json", "gitlab"])
+def test_a_file_name_that_is_not_utf8_keeps_every_document_valid(
+    tmp_path: Path, output: str
+) -> None:
+    name = b"b\xff\x01.proto"
+    for side, kind in (("old", "float"), ("new", "string")):
+        (tmp_path / side).mkdir()
+        text = f'syntax = "proto3";\nmessage A {{ {kind} x = 1; }}\n'
+        (tmp_path / side / os.fsdecode(name)).write_text(text)
+    done = subprocess.run(
+        [sys.executable, "-m", "erc_lint", "old", "new", "--format", output],
+        capture_output=True,
+        cwd=tmp_path,
+    )
+    assert done.returncode == 0, done.stderr  # one COMPILE warning: protoc cannot read it
+    text = done.stdout.decode("utf-8")  # valid UTF-8, not the name's raw bytes
+    assert "\\udcff" not in text and "\udcff" not in text
+    if output == "sarif":
+        (result,) = json.loads(text)["runs"][0]["results"]
+        uri = result["locations"][0]["physicalLocation"]["artifactLocation"]["uri"]
+        assert uri == "new/b%FF%01.proto"  # the file's own bytes, percent-escaped
+    elif output == "junit":
+        xmlschema.XMLSchema(FORMATS / "junit-10.xsd").validate(text)
+        (suite,) = junitparser.JUnitXml.fromstring(text)
+        assert suite.name == "new/b\\xff\\x01.proto"
+    else:
+        (found,) = (
+            [json.loads(line) for line in text.splitlines()]
+            if output == "json"
+            else (json.loads(text))
+        )
+        path = found["path"] if output == "json" else found["location"]["path"]
+        assert path == "new/b\\xff\x01.proto"
+
+
+def test_a_closed_standard_output_is_one_line_and_exit_2(pair: Path) -> None:
+    done = subprocess.run(
+        f"{sys.executable} -m erc_lint old new >&-",
+        shell=True,
+        capture_output=True,
+        text=True,
+        cwd=pair,
+    )
+    assert done.returncode == 2, done.stderr
+    assert done.stderr == "Error: standard output is closed: nowhere to write the findings\n"

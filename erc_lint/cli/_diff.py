@@ -58,7 +58,7 @@ def diff(
             outcome = compare(
                 before, after, settings(config, after.folder), includes, ledger, accepted
             )
-    report(outcome, output, severity, given)
+        report(outcome, output, severity, given)
 
 
 @click.command()
@@ -85,7 +85,7 @@ def check(
             outcome = compare(
                 None, source, settings(config, source.folder), includes, ledger, accepted
             )
-    report(outcome, output, severity, given)
+        report(outcome, output, severity, given)
 
 
 @click.command(name="baseline")

@@ -162,7 +162,10 @@ def report(
     """Print the findings (``severity`` error: errors only), then the summary line on stderr;
     exit 1 when an error was found. A file name that is not UTF-8 is printed as the bytes it is
     (as ``ls`` prints it), whatever the locale's encoding. A reader that stops early (``| head``)
-    ends the run quietly with the status the findings give, as ``git log | head`` does."""
+    ends the run quietly with the status the findings give, as ``git log | head`` does. Run it
+    inside ``guard``: a failure to render is one line, exit 2."""
+    if sys.stdout is None:  # started with stdout closed (`>&-`)
+        raise Failure("standard output is closed: nowhere to write the findings")
     findings = outcome.findings
     shown = [f for f in findings if severity == "warning" or f.severity == "error"]
     failed = any(finding.severity == "error" for finding in findings)
