@@ -303,3 +303,16 @@ def test_a_closed_standard_output_is_one_line_and_exit_2(pair: Path) -> None:
     )
     assert done.returncode == 2, done.stderr
     assert done.stderr == "Error: standard output is closed: nowhere to write the findings\n"
+
+
+def test_only_what_is_gone_from_new_is_called_gone(tmp_path: Path) -> None:
+    tree(
+        tmp_path / "old",
+        {"a.proto": "message A { float x = 1 }\n", "c.proto": "message C { float y = 1; }\n"},
+    )
+    tree(tmp_path / "new", {"a.proto": "message A { float x = 1; }\n", "c.proto": "message C {}\n"})
+    done = erc_lint_cli("old", "new", "--format", "github", cwd=tmp_path)
+    compiled, deleted = done.stdout.splitlines()
+    assert "COMPILE OLD's a.proto does not compile" in compiled
+    assert compiled.endswith("(OLD had it at old/a.proto:1)")
+    assert "FIELD_DELETED" in deleted and "(gone from NEW; OLD had it at old/c.proto:2)" in deleted
