@@ -106,10 +106,8 @@ def junit(findings: list[Finding]) -> str:
             place = finding.shown_at
             name = _attribute(f"{finding.rule} {place.path}:{place.line}:{place.column}")
             if finding.severity == "error":
-                body = (
-                    f"<failure type={_attribute(finding.rule)} message={_attribute(finding.message)}>"
-                    f"{_text(finding.message)}</failure>"
-                )
+                kind, message = _attribute(finding.rule), _attribute(finding.message)
+                body = f"<failure type={kind} message={message}>{_text(finding.message)}</failure>"
             else:
                 body = f"<system-out>{_text('warning: ' + finding.message)}</system-out>"
             cases.append(

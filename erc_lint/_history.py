@@ -42,14 +42,18 @@ _FileProto = descriptor_pb2.FileDescriptorProto
 _Definitions = frozenset[tuple[object, ...]]  # the symbols a file and its imports define
 
 
-def keys(files: Iterable[_FileProto], leftover: Callable[[str], bool] = lambda path: False) -> set[Key]:
+def _never(path: str) -> bool:
+    return False
+
+
+def keys(files: Iterable[_FileProto], leftover: Callable[[str], bool] = _never) -> set[Key]:
     """What the ledger records of compiled files: every field and enum value number (see
     ``recorded``)."""
     return recorded(files, leftover)[0]
 
 
 def recorded(
-    files: Iterable[_FileProto], leftover: Callable[[str], bool] = lambda path: False
+    files: Iterable[_FileProto], leftover: Callable[[str], bool] = _never
 ) -> tuple[set[Key], set[str]]:
     """What the ledger records of compiled files, and the names it records nothing of: a
     message or enum that two files of the revision define (a NAME_COLLISION: which one a build

@@ -8,23 +8,60 @@ annotation or an editor opens the same file a plain folder would have named.
 
 import os
 import re
-from collections.abc import Sequence
-from contextlib import AbstractContextManager
+from collections.abc import Iterator, Sequence
+from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 
-from erc_codec.schema import TreeSource, open_tree, proto_files
+from erc_codec.schema import (
+    GitSpec,
+    Repository,
+    TreeSource,
+    open_tree,
+    parse_tree_spec,
+    proto_files,
+)
 
 from ._config import CONFIG, CONFIG_LIMIT, LEDGER, LEDGER_LIMIT
+from ._errors import LintError
 from ._finding import Finding, stable_text
 from ._loader import relative
 from ._suggest import did_you_mean
 
-__all__ = ["baseline_key", "missing_folder", "open_input", "relocate"]
+__all__ = [
+    "baseline_key",
+    "missing_folder",
+    "missing_in_git",
+    "open_input",
+    "opened",
+    "relocate",
+]
 
 
 def open_input(text: str) -> AbstractContextManager[TreeSource]:
     """The tree ``text`` names, as a folder, for the duration of the ``with`` block."""
     return open_tree(text, {CONFIG: CONFIG_LIMIT, LEDGER: LEDGER_LIMIT})
+
+
+@contextmanager
+def opened(text: str, role: str, allow_empty: bool = False) -> Iterator[TreeSource]:
+    """The tree ``text`` names, for ``role`` (OLD, NEW or TREE): a wrong path, a subdir a
+    revision lacks, or a tree with no .proto is a ``LintError`` rather than an empty tree that
+    passes every check (for the commands and the API alike). An empty OLD passes only before a
+    repository's first commit (``HEAD`` unborn) or with ``allow_empty``."""
+    spec = parse_tree_spec(text)
+    if isinstance(spec, Path):
+        problem = missing_folder(spec)
+        if problem and not (allow_empty and spec.is_dir()):
+            raise LintError(f"{text}: {problem} in {role} (a wrong path would pass every check)")
+    with open_input(text) as source:
+        if isinstance(spec, GitSpec) and not proto_files(source.folder):
+            unborn = source.revision is None
+            if not (allow_empty or (unborn and role == "OLD")):
+                with Repository(spec.folder) as repository:
+                    inside = repository.where(spec.subdir)[0]
+                    why = missing_in_git(repository, source.revision or "", inside)
+                    raise LintError(f"{text}: no .proto file in {role}: {why}")
+        yield source
 
 
 def missing_folder(folder: Path) -> str:
@@ -37,6 +74,15 @@ def missing_folder(folder: Path) -> str:
     if not proto_files(folder):
         return "no .proto file"
     return ""
+
+
+def missing_in_git(repository: Repository, commit: str, inside: str) -> str:
+    """Where a git input found no .proto, with the closest folder that has some."""
+    folders = {
+        str(Path(name).parent) for name in repository.files(commit) if name.endswith(".proto")
+    }
+    where = f"subdir {inside!r}" if inside else "the repository"
+    return f"none in {where} at {commit[:12]}" + did_you_mean(inside, folders)
 
 
 def relocate(findings: Sequence[Finding], sources: Sequence[TreeSource]) -> list[Finding]:

@@ -11,7 +11,7 @@ from erc_codec.schema import GitSpec, Repository, TreeSource, file_exists, parse
 from ._config import LEDGER, Config
 from ._errors import LintError
 from ._finding import Finding
-from ._inputs import baseline_key, missing_folder, open_input, relocate
+from ._inputs import baseline_key, missing_folder, missing_in_git, opened, relocate
 from ._loader import LoadedTree, load_tree
 from ._model import build
 from ._pairing import Change
@@ -42,8 +42,11 @@ def lint(
 ) -> list[Finding]:
     """Compare two revisions of a proto tree, each a folder or ``GITDIR#ref=REF[,subdir=PATH]``;
     every finding of every rule ``config`` does not ignore. The ledger is ``ledger``, else the
-    ``erc-lint.lock`` beside NEW's protos, if there is one."""
-    with open_input(str(old)) as before, open_input(str(new)) as after:
+    ``erc-lint.lock`` beside NEW's protos, if there is one. A wrong path, a subdir a revision
+    lacks, or a tree with no .proto is a ``LintError`` (an empty OLD passes only before a
+    repository's first commit: a first version is ``check``'s), never an empty tree that
+    passes every check."""
+    with opened(str(old), "OLD") as before, opened(str(new), "NEW") as after:
         return compare(before, after, config or Config(), includes, ledger).findings
 
 
@@ -54,8 +57,9 @@ def check(
     ledger: str | Path | None = None,
 ) -> list[Finding]:
     """Lint one tree on its own: the rules over one revision (compile errors, name collisions,
-    what embedded roots reach, the ledger), every finding an error."""
-    with open_input(str(tree)) as source:
+    what embedded roots reach, the ledger), every finding an error. A tree that is not there
+    is a ``LintError``, as for ``lint``."""
+    with opened(str(tree), "TREE") as source:
         return compare(None, source, config or Config(), includes, ledger).findings
 
 
@@ -143,8 +147,9 @@ def update_ledger(
             walker = History(repository, spec, includes, config.exclude, leftovers)
             added = walker.update(book, commits)
         source = f"{len(commits)} revision{'s' * (len(commits) != 1)}"
-        failed, collided = sorted(walker.failed), sorted(walker.collided)
-        return LedgerUpdate(book, target, added, source, failed, collided)
+        return LedgerUpdate(
+            book, target, added, source, sorted(walker.failed), sorted(walker.collided)
+        )
     if history:
         raise LintError(f"{tree}: --history needs a git input, GITDIR#ref=REF[,subdir=PATH]")
     problem = missing_folder(spec)
@@ -159,17 +164,6 @@ def update_ledger(
     )
     added = book.add(found, "-")
     return LedgerUpdate(book, target, added, str(spec), sorted(loaded.failed), sorted(collided))
-
-
-def missing_in_git(repository: Repository, commit: str, inside: str) -> str:
-    """Where a git input found no .proto, with the closest folder that has some."""
-    from ._suggest import did_you_mean
-
-    folders = {
-        str(Path(name).parent) for name in repository.files(commit) if name.endswith(".proto")
-    }
-    where = f"subdir {inside!r}" if inside else "the repository"
-    return f"none in {where} at {commit[:12]}" + did_you_mean(inside, folders)
 
 
 def _exists(target: Path) -> bool:

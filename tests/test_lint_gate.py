@@ -274,7 +274,8 @@ def test_a_file_name_that_is_not_utf8_keeps_every_document_valid(
     )
     assert done.returncode == 0, done.stderr  # one COMPILE warning: protoc cannot read it
     text = done.stdout.decode("utf-8")  # valid UTF-8, not the name's raw bytes
-    assert "\\udcff" not in text and "\udcff" not in text
+    assert "\\udcff" not in text
+    assert "\udcff" not in text
     if output == "sarif":
         (result,) = json.loads(text)["runs"][0]["results"]
         uri = result["locations"][0]["physicalLocation"]["artifactLocation"]["uri"]
@@ -315,4 +316,22 @@ def test_only_what_is_gone_from_new_is_called_gone(tmp_path: Path) -> None:
     compiled, deleted = done.stdout.splitlines()
     assert "COMPILE OLD's a.proto does not compile" in compiled
     assert compiled.endswith("(OLD had it at old/a.proto:1)")
-    assert "FIELD_DELETED" in deleted and "(gone from NEW; OLD had it at old/c.proto:2)" in deleted
+    assert "FIELD_DELETED" in deleted
+    assert "(gone from NEW; OLD had it at old/c.proto:2)" in deleted
+
+
+def test_the_api_refuses_a_tree_that_is_not_there_as_the_cli_does(pair: Path) -> None:
+    import erc_lint
+
+    with pytest.raises(erc_lint.LintError, match="no such folder in OLD"):
+        erc_lint.lint(pair / "nonexistent", pair / "new")
+    with pytest.raises(erc_lint.LintError, match="no such folder .* in NEW"):
+        erc_lint.lint(pair / "old", pair / "nwe")
+    (pair / "empty").mkdir()
+    with pytest.raises(erc_lint.LintError, match="no .proto file in TREE"):
+        erc_lint.check(pair / "empty")
+    repo = Repo(pair / "r")
+    repo.commit("one", a="message A { float x = 1; }\n")
+    with pytest.raises(erc_lint.LintError, match="no .proto file in NEW: none in subdir"):
+        erc_lint.lint(repo.spec("HEAD"), f"{repo.root}#ref=HEAD,subdir=protos")
+    assert erc_lint.lint(pair / "old", pair / "new")  # the same call on real trees finds

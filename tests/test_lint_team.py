@@ -69,7 +69,8 @@ def test_a_leftover_ignore_only_names_keeps_the_ledger_on_for_the_real_definitio
     tree(root, {"gps.proto": "message GPS { double lat = 1; string name = 2; }\n"})
     checked = erc_lint_cli("check", str(root))
     assert checked.returncode == 1, checked.stderr
-    assert "gps.proto:2:31: LEDGER_NUMBER_REUSED" in checked.stdout and "LEDGER_NUMBER_REUSED" in checked.stdout
+    assert "gps.proto:2:31: LEDGER_NUMBER_REUSED" in checked.stdout
+    assert "LEDGER_NUMBER_REUSED" in checked.stdout
     # The ledger records the real body, not the leftover's: name = 2 is missing from it.
     pending = erc_lint_cli("ledger", "update", str(root), "--check")
     assert pending.returncode == 1
@@ -83,7 +84,7 @@ def test_an_unresolved_collision_is_checked_in_every_definition_and_not_recorded
     assert erc_lint_cli("ledger", "update", str(root)).returncode == 0
     tree(root, {"b.proto": "message GPS { string name = 1; }\n"})
     checked = erc_lint_cli("check", str(root))
-    assert "b.proto:2:" in checked.stdout and "LEDGER_NUMBER_REUSED" in checked.stdout
+    assert "b.proto:2:31: LEDGER_NUMBER_REUSED" in checked.stdout
     fresh = tree(
         tmp_path / "fresh",
         {
@@ -98,7 +99,8 @@ def test_an_unresolved_collision_is_checked_in_every_definition_and_not_recorded
     )
     update = erc_lint_cli("ledger", "update", str(fresh))
     assert update.returncode == 0
-    assert "0 entries added" in update.stdout and "none of its numbers recorded" in update.stderr
+    assert "0 entries added" in update.stdout
+    assert "none of its numbers recorded" in update.stderr
 
 
 def test_the_ledger_sees_a_renamed_type_and_duplicates_as_what_they_are(tmp_path: Path) -> None:
