@@ -84,7 +84,7 @@ def test_an_unresolved_collision_is_checked_in_every_definition_and_not_recorded
     assert erc_lint_cli("ledger", "update", str(root)).returncode == 0
     tree(root, {"b.proto": "message GPS { string name = 1; }\n"})
     checked = erc_lint_cli("check", str(root))
-    assert "b.proto:2:31: LEDGER_NUMBER_REUSED" in checked.stdout
+    assert "b.proto:2:15: LEDGER_NUMBER_REUSED" in checked.stdout
     fresh = tree(
         tmp_path / "fresh",
         {
