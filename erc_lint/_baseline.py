@@ -5,7 +5,7 @@ what is new. A text file, ``erc-lint.baseline``, one finding a line, sorted, mad
 
 Each line is the rule, the file relative to its tree's root and the message with every
 ``:line:column`` and the closing ``Fix: ...`` left out and every path in it relative to its
-tree's root too (``erc_lint._inputs.baseline_key``): keyed by rule and element, a finding stays
+tree's root too (``erc_lint._inputs.baseline_keys``): keyed by rule and element, a finding stays
 baselined when lines move, a fix's "next free number" changes, or the tree is read from another
 folder (however spelled) or from a git revision.
 Lines starting with ``#`` are comments. A baseline over ``BASELINE_LIMIT`` is refused.

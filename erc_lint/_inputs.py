@@ -28,7 +28,7 @@ from ._loader import relative
 from ._suggest import did_you_mean
 
 __all__ = [
-    "baseline_key",
+    "baseline_keys",
     "missing_folder",
     "missing_in_git",
     "open_input",
@@ -118,14 +118,13 @@ def relocate(findings: Sequence[Finding], sources: Sequence[TreeSource]) -> list
     return out
 
 
-def baseline_key(
-    finding: Finding, old: TreeSource, new: TreeSource, sources: Sequence[TreeSource]
-) -> str:
-    """The finding's baseline key: its file relative to its tree's root (OLD's for a finding in
+def baseline_keys(
+    findings: Sequence[Finding], old: TreeSource, new: TreeSource, sources: Sequence[TreeSource]
+) -> list[str]:
+    """Each finding's baseline key: its file relative to its tree's root (OLD's for a finding in
     OLD), and every path of a tree in its message made relative too (a git input's scratch
     folder, a folder as the user spelled it, the ledger beside the protos): the same finding
     has the same key however the trees were read."""
-    root = old if finding.in_old else new
     prefixes = sorted(
         {
             f"{folder}{os.sep}"
@@ -136,9 +135,13 @@ def baseline_key(
         key=len,
         reverse=True,
     )
-    message = finding.message
-    if prefixes:
-        # A path starts a word: after the start, a space, a quote or a parenthesis.
-        spelled = "|".join(re.escape(prefix) for prefix in prefixes)
-        message = re.sub(f"(?<![^\\s\"'(])(?:{spelled})", "", message)
-    return stable_text(finding._replace(message=message), relative(root.folder, finding.path))
+    # A path starts a word: after the start, a space, a quote or a parenthesis.
+    spelled = "|".join(re.escape(prefix) for prefix in prefixes)
+    paths = re.compile(f"(?<![^\\s\"'(])(?:{spelled})") if prefixes else None
+    keys = []
+    for finding in findings:
+        root = old if finding.in_old else new
+        message = paths.sub("", finding.message) if paths else finding.message
+        path = relative(root.folder, finding.path)
+        keys.append(stable_text(finding._replace(message=message), path))
+    return keys

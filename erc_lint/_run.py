@@ -11,7 +11,7 @@ from erc_codec.schema import GitSpec, Repository, TreeSource, file_exists, parse
 from ._config import LEDGER, Config
 from ._errors import LintError
 from ._finding import Finding
-from ._inputs import baseline_key, missing_folder, missing_in_git, opened, relocate
+from ._inputs import baseline_keys, missing_folder, missing_in_git, opened, relocate
 from ._loader import LoadedTree, load_tree
 from ._model import build
 from ._pairing import Change
@@ -83,7 +83,7 @@ def compare(
     change = Change(before, after, config, find_ledger(new, ledger))
     found = run(change)
     sources = [new] if old is None else [old, new]
-    keys = [baseline_key(f, old or new, new, sources) for f in found]
+    keys = baseline_keys(found, old or new, new, sources)
     kept = [f for f, key in zip(found, keys, strict=True) if key not in baseline]
     files = len(loaded.texts.keys() | loaded.failed)
     return Outcome(relocate(kept, sources), len(found) - len(kept), files, keys)
