@@ -335,3 +335,19 @@ def test_the_api_refuses_a_tree_that_is_not_there_as_the_cli_does(pair: Path) ->
     with pytest.raises(erc_lint.LintError, match="no .proto file in NEW: none in subdir"):
         erc_lint.lint(repo.spec("HEAD"), f"{repo.root}#ref=HEAD,subdir=protos")
     assert erc_lint.lint(pair / "old", pair / "new")  # the same call on real trees finds
+
+
+def test_ignore_only_silences_suppression_unused_and_one_finding_is_singular(
+    pair: Path,
+) -> None:
+    (pair / "new" / "note.proto").write_text(
+        'syntax = "proto3";\nmessage Note { float y = 1; }  // erc-lint:ignore FIELD_DELETED old\n'
+    )
+    assert "SUPPRESSION_UNUSED" in run(pair).stdout
+    (pair / "new" / "pyproject.toml").write_text(
+        '[tool.erc-lint]\nignore_only = { SUPPRESSION_UNUSED = ["note.proto"] }\n'
+    )
+    assert "SUPPRESSION_UNUSED" not in run(pair).stdout
+    tree(pair / "single", {"a.proto": "message A {}\n", "b.proto": "message A {}\n"})
+    written = erc_lint_cli("baseline", "single", cwd=pair)
+    assert written.stderr == "erc-lint.baseline: 1 finding baselined\n", written.stderr

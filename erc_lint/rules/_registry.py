@@ -286,7 +286,9 @@ def run(change: Change) -> list[Finding]:
         severity = selected.get(rule.id)
         if severity is not None and rule.pairs == "findings":
             for report in rule.check(Found(given, used), change):
-                found.append(_finding(report, rule.id, severity))
+                finding = _finding(report, rule.id, severity)
+                if not _ignored_path(change, finding):
+                    found.append(finding)
     return sorted(set(found), key=lambda f: f[:7])
 
 
