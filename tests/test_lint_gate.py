@@ -325,14 +325,14 @@ def test_the_api_refuses_a_tree_that_is_not_there_as_the_cli_does(pair: Path) ->
 
     with pytest.raises(erc_lint.LintError, match="no such folder in OLD"):
         erc_lint.lint(pair / "nonexistent", pair / "new")
-    with pytest.raises(erc_lint.LintError, match="no such folder .* in NEW"):
+    with pytest.raises(erc_lint.LintError, match=r"no such folder .* in NEW"):
         erc_lint.lint(pair / "old", pair / "nwe")
     (pair / "empty").mkdir()
-    with pytest.raises(erc_lint.LintError, match="no .proto file in TREE"):
+    with pytest.raises(erc_lint.LintError, match=r"no \.proto file in TREE"):
         erc_lint.check(pair / "empty")
     repo = Repo(pair / "r")
     repo.commit("one", a="message A { float x = 1; }\n")
-    with pytest.raises(erc_lint.LintError, match="no .proto file in NEW: none in subdir"):
+    with pytest.raises(erc_lint.LintError, match=r"no \.proto file in NEW: none in subdir"):
         erc_lint.lint(repo.spec("HEAD"), f"{repo.root}#ref=HEAD,subdir=protos")
     assert erc_lint.lint(pair / "old", pair / "new")  # the same call on real trees finds
 
