@@ -4,8 +4,10 @@ what is new. A text file, ``erc-lint.baseline``, one finding a line, sorted, mad
     FIELD_DELETED gps.proto Previously present field "3" with name "altitude" on message ...
 
 Each line is the rule, the file relative to its tree's root and the message with every
-``:line:column`` left out (``erc_lint._finding.stable_text``): keyed by rule and element, a
-finding stays baselined when lines move or the tree is read from another folder or revision.
+``:line:column`` and the closing ``Fix: ...`` left out and every path in it relative to its
+tree's root too (``erc_lint._inputs.baseline_keys``): keyed by rule and element, a finding stays
+baselined when lines move, a fix's "next free number" changes, or the tree is read from another
+folder (however spelled) or from a git revision.
 Lines starting with ``#`` are comments. A baseline over ``BASELINE_LIMIT`` is refused.
 """
 

@@ -2,10 +2,11 @@
 
 import inspect
 import json
+import re
 from importlib.metadata import version
 from xml.sax.saxutils import quoteattr
 
-from ._finding import Finding, stable_text
+from ._finding import Finding, printable, stable_text
 from .rules import RULES
 
 __all__ = ["gitlab", "junit", "sarif"]
@@ -43,7 +44,7 @@ def sarif(findings: list[Finding]) -> str:
             "ruleId": finding.rule,
             "ruleIndex": index.get(finding.rule, -1),
             "level": finding.severity,
-            "message": {"text": finding.message},
+            "message": {"text": printable(finding.message)},
             "locations": [location],
             "partialFingerprints": {"ercLintFinding/v1": fingerprint(finding)},
         }
@@ -78,11 +79,14 @@ def gitlab(findings: list[Finding]) -> str:
     """GitLab Code Quality: an array of issues (errors ``major``, warnings ``minor``)."""
     issues = [
         {
-            "description": f"{finding.rule}: {finding.message}",
+            "description": f"{finding.rule}: {printable(finding.message)}",
             "check_name": finding.rule,
             "fingerprint": fingerprint(finding),
             "severity": "major" if finding.severity == "error" else "minor",
-            "location": {"path": finding.shown_at.path, "lines": {"begin": finding.shown_at.line}},
+            "location": {
+                "path": printable(finding.shown_at.path),
+                "lines": {"begin": finding.shown_at.line},
+            },
         }
         for finding in findings
     ]
@@ -100,20 +104,18 @@ def junit(findings: list[Finding]) -> str:
         cases = []
         for finding in found:
             place = finding.shown_at
-            name = quoteattr(f"{finding.rule} {place.path}:{place.line}:{place.column}")
+            name = _attribute(f"{finding.rule} {place.path}:{place.line}:{place.column}")
             if finding.severity == "error":
-                body = (
-                    f"<failure type={quoteattr(finding.rule)} message={quoteattr(finding.message)}>"
-                    f"{_text(finding.message)}</failure>"
-                )
+                kind, message = _attribute(finding.rule), _attribute(finding.message)
+                body = f"<failure type={kind} message={message}>{_text(finding.message)}</failure>"
             else:
                 body = f"<system-out>{_text('warning: ' + finding.message)}</system-out>"
             cases.append(
-                f"    <testcase name={name} classname={quoteattr(path)}>{body}</testcase>\n"
+                f"    <testcase name={name} classname={_attribute(path)}>{body}</testcase>\n"
             )
         failures = sum(f.severity == "error" for f in found)
         suites.append(
-            f'  <testsuite name={quoteattr(path)} tests="{len(found)}" failures="{failures}" '
+            f'  <testsuite name={_attribute(path)} tests="{len(found)}" failures="{failures}" '
             f'errors="0">\n{"".join(cases)}  </testsuite>\n'
         )
     if not suites:
@@ -137,12 +139,26 @@ def fingerprint(finding: Finding) -> str:
     return hashlib.sha256(stable_text(finding, finding.path).encode("utf-8", "replace")).hexdigest()
 
 
+# What XML 1.0 cannot hold, even escaped: control characters but tab, newline and return.
+_NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ufffe\uffff]")
+
+
+def _xml(text: str) -> str:
+    """``text`` with what XML cannot hold written as ``\\x01``."""
+    return _NOT_XML.sub(lambda match: f"\\x{ord(match[0]):02x}", text)
+
+
+def _attribute(text: str) -> str:
+    return quoteattr(_xml(printable(text)))
+
+
 def _text(text: str) -> str:
-    return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    return _xml(printable(text)).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
 
 
 def _uri(path: str) -> str:
-    """A relative URI reference for a path (spaces and ``%`` escaped, ``/`` kept)."""
+    """A relative URI reference for a path (spaces, ``%`` and a name's bytes that are not
+    UTF-8 percent-escaped, ``/`` kept): the URI of the file as it is named on disk."""
     from urllib.parse import quote
 
-    return quote(path.replace("\\", "/"), safe="/")
+    return quote(path.replace("\\", "/").encode("utf-8", "surrogateescape"), safe="/")

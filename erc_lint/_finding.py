@@ -6,12 +6,13 @@ from typing import Literal, NamedTuple
 
 from erc_codec.schema import Location
 
-__all__ = ["Finding", "Severity", "stable_text"]
+__all__ = ["Finding", "Severity", "printable", "printable_finding", "stable_text"]
 
 Severity = Literal["error", "warning"]
 
 # A place inside a message (``file.proto:12:3``, ``erc-lint.lock:7``): what a line move changes.
 _PLACE = re.compile(r":\d+(?::\d+)?\b")
+_FIX = " Fix: "  # how a finding's short fix starts (rules/_registry)
 
 
 class Finding(NamedTuple):
@@ -49,6 +50,27 @@ class Finding(NamedTuple):
 
 
 def stable_text(finding: Finding, path: str) -> str:
-    """``RULE path message`` with every ``:line[:column]`` left out of the message: the same
-    element's finding after lines moved, named by ``path`` (as the caller wants it shown)."""
-    return f"{finding.rule} {path} {_PLACE.sub('', finding.message)}"
+    """``RULE path message`` with every ``:line[:column]`` and the closing ``Fix: ...`` (which
+    may name the next free number) left out of the message: the same element's finding after
+    lines moved or numbers were added, named by ``path`` (as the caller wants it shown)."""
+    message = finding.message.rsplit(_FIX, 1)[0] if _FIX in finding.message else finding.message
+    return f"{finding.rule} {path} {_PLACE.sub('', message)}"
+
+
+def printable(text: str) -> str:
+    """``text`` as valid Unicode: a file name's bytes that are not UTF-8 (held as lone
+    surrogates, ``os.fsdecode``'s ``surrogateescape``) written as ``\\xff``, for the formats
+    that must be valid UTF-8 (JSON, SARIF, GitLab, JUnit)."""
+    if text.isascii() or not any("\udc80" <= char <= "\udcff" for char in text):
+        return text
+    return text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+
+
+def printable_finding(finding: Finding) -> Finding:
+    """The finding with its paths and message ``printable``."""
+    where = finding.in_new
+    return finding._replace(
+        path=printable(finding.path),
+        message=printable(finding.message),
+        in_new=where._replace(path=printable(where.path)) if where else None,
+    )

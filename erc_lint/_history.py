@@ -15,7 +15,7 @@ Guarantees:
 """
 
 import tempfile
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
 from pathlib import Path
@@ -36,32 +36,48 @@ from ._ledger import Entry, Key, Ledger
 from ._loader import by_basename, matches, respell, utf8_name
 from ._model import type_of
 
-__all__ = ["History", "keys"]
+__all__ = ["History", "keys", "recorded"]
 
 _FileProto = descriptor_pb2.FileDescriptorProto
 _Definitions = frozenset[tuple[object, ...]]  # the symbols a file and its imports define
 
 
-def keys(files: Iterable[_FileProto]) -> set[Key]:
-    """What the ledger records of compiled files: every field and enum value number, save those
-    of a message or enum that two files of the revision define (a NAME_COLLISION: which one a
-    build means is unknown, so neither body is recorded as the name's)."""
+def _never(path: str) -> bool:
+    return False
+
+
+def keys(files: Iterable[_FileProto], leftover: Callable[[str], bool] = _never) -> set[Key]:
+    """What the ledger records of compiled files: every field and enum value number (see
+    ``recorded``)."""
+    return recorded(files, leftover)[0]
+
+
+def recorded(
+    files: Iterable[_FileProto], leftover: Callable[[str], bool] = _never
+) -> tuple[set[Key], set[str]]:
+    """What the ledger records of compiled files, and the names it records nothing of: a
+    message or enum that two files of the revision define (a NAME_COLLISION: which one a build
+    means is unknown) has no body recorded, unless all but one of them are in ``leftover``
+    files (those ``ignore_only`` names for NAME_COLLISION)."""
     found: set[Key] = set()
-    declared_in: dict[str, list[Declaration]] = {}
+    declared_in: dict[str, list[tuple[str, Declaration]]] = {}
     for file in files:
         for declared in declarations(file):
-            declared_in.setdefault(declared.name, []).append(declared)
+            declared_in.setdefault(declared.name, []).append((file.name, declared))
+    collided = set()
     for name, alike in declared_in.items():
-        if len(alike) > 1:
+        counted = [d for path, d in alike if not leftover(path)] or [d for _, d in alike]
+        if len(counted) > 1:
+            collided.add(name)
             continue
-        element = alike[0].proto
+        element = counted[0].proto
         if isinstance(element, descriptor_pb2.DescriptorProto):
             found.update(
                 Key("message", name, f.number, f.name, type_of(f)[0]) for f in element.field
             )
         else:
             found.update(Key("enum", name, v.number, v.name, "-") for v in element.value)
-    return found
+    return found, collided
 
 
 @dataclass(frozen=True)
@@ -84,8 +100,10 @@ class History:
     spec: GitSpec
     includes: Sequence[Path] = ()
     exclude: Sequence[str] = ()
+    leftovers: Sequence[str] = ()  # ignore_only's patterns for NAME_COLLISION: see ``recorded``
     compiled: int = 0  # files compiled so far, for the benchmark's report
     failed: set[str] = field(default_factory=set)  # files of the last revision that did not compile
+    collided: set[str] = field(default_factory=set)  # names of the last revision not recorded
     _cache: dict[tuple[object, ...], _Result] = field(default_factory=dict)
     _imports: dict[str, list[tuple[int, int, str]]] = field(default_factory=dict)  # by blob
 
@@ -121,15 +139,26 @@ class History:
                 self._cache[key] = result
             results[path] = result
         self.failed = {path for path in protos if results.get(path, _FAILED).proto is None}
-        found: set[Key] = set()
         owners: dict[str, set[str]] = {}  # container → the files defining it
         for path, result in results.items():
             for found_key in result.keys:
                 owners.setdefault(found_key.container, set()).add(path)
-            if not any(fnmatchcase(path, pattern) for pattern in self.exclude):
-                found |= result.keys
+        counted = {
+            container: {p for p in paths if not self._leftover(p)} or paths
+            for container, paths in owners.items()
+        }
         # Two files of the revision define one name (a NAME_COLLISION): neither body is its.
-        return {key for key in found if len(owners[key.container]) == 1}
+        self.collided = {container for container, paths in counted.items() if len(paths) > 1}
+        return {
+            key
+            for path, result in results.items()
+            if not any(fnmatchcase(path, pattern) for pattern in self.exclude)
+            for key in result.keys
+            if counted[key.container] == {path}
+        }
+
+    def _leftover(self, path: str) -> bool:
+        return any(fnmatchcase(path, pattern) for pattern in self.leftovers)
 
     def _targets(self, protos: dict[str, str]) -> dict[str, list[tuple[str, str]]]:
         """Each file's imports as ``(spelling, what it names)``: a tree path when it resolves to

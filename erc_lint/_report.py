@@ -12,7 +12,7 @@ deduplicates sees a moved finding as the same one.
 
 from collections.abc import Iterable
 
-from ._finding import Finding
+from ._finding import Finding, printable_finding
 
 __all__ = ["FORMATS", "render"]
 
@@ -36,6 +36,7 @@ def _line(finding: Finding, output: str) -> str:
     if output == "json":
         import json
 
+        finding = printable_finding(finding)  # valid UTF-8: a name's odd bytes as \\xff
         return json.dumps(
             {
                 "rule": finding.rule,
@@ -50,7 +51,9 @@ def _line(finding: Finding, output: str) -> str:
         )
     place = finding.shown_at
     if finding.in_new is not None and output != "text":  # at NEW's container: where OLD had it
-        note = f" (gone from NEW; OLD had it at {finding.path}:{finding.line})"
+        # OLD's file that does not compile (COMPILE's warning) is no element gone from NEW.
+        gone = "" if finding.rule == "COMPILE" else "gone from NEW; "
+        note = f" ({gone}OLD had it at {finding.path}:{finding.line})"
     if output == "github":
         text = _escape(f"{finding.rule} {finding.message}{note}")
         if finding.in_old and finding.in_new is None:  # no file of NEW to point at

@@ -10,9 +10,9 @@ from erc_codec.schema import GitSpec, Repository, TreeSource, file_exists, parse
 
 from ._config import LEDGER, Config
 from ._errors import LintError
-from ._finding import Finding, stable_text
-from ._inputs import missing_folder, open_input, relocate
-from ._loader import LoadedTree, load_tree, relative
+from ._finding import Finding
+from ._inputs import baseline_keys, missing_folder, missing_in_git, opened, relocate
+from ._loader import LoadedTree, load_tree
 from ._model import build
 from ._pairing import Change
 from .rules import run
@@ -42,8 +42,11 @@ def lint(
 ) -> list[Finding]:
     """Compare two revisions of a proto tree, each a folder or ``GITDIR#ref=REF[,subdir=PATH]``;
     every finding of every rule ``config`` does not ignore. The ledger is ``ledger``, else the
-    ``erc-lint.lock`` beside NEW's protos, if there is one."""
-    with open_input(str(old)) as before, open_input(str(new)) as after:
+    ``erc-lint.lock`` beside NEW's protos, if there is one. A wrong path, a subdir a revision
+    lacks, or a tree with no .proto is a ``LintError`` (an empty OLD passes only before a
+    repository's first commit: a first version is ``check``'s), never an empty tree that
+    passes every check."""
+    with opened(str(old), "OLD") as before, opened(str(new), "NEW") as after:
         return compare(before, after, config or Config(), includes, ledger).findings
 
 
@@ -54,8 +57,9 @@ def check(
     ledger: str | Path | None = None,
 ) -> list[Finding]:
     """Lint one tree on its own: the rules over one revision (compile errors, name collisions,
-    what embedded roots reach, the ledger), every finding an error."""
-    with open_input(str(tree)) as source:
+    what embedded roots reach, the ledger), every finding an error. A tree that is not there
+    is a ``LintError``, as for ``lint``."""
+    with opened(str(tree), "TREE") as source:
         return compare(None, source, config or Config(), includes, ledger).findings
 
 
@@ -78,12 +82,9 @@ def compare(
         before = build(load_tree(old.folder, roots, config.exclude))
     change = Change(before, after, config, find_ledger(new, ledger))
     found = run(change)
-    keys = [
-        stable_text(f, relative((old or new).folder if f.in_old else new.folder, f.path))
-        for f in found
-    ]
-    kept = [f for f, key in zip(found, keys, strict=True) if key not in baseline]
     sources = [new] if old is None else [old, new]
+    keys = baseline_keys(found, old or new, new, sources)
+    kept = [f for f, key in zip(found, keys, strict=True) if key not in baseline]
     files = len(loaded.texts.keys() | loaded.failed)
     return Outcome(relocate(kept, sources), len(found) - len(kept), files, keys)
 
@@ -110,6 +111,7 @@ class LedgerUpdate(NamedTuple):
     added: "list[Entry]"
     source: str  # what was added: a folder, or "N revisions"
     failed: list[str]  # files (of the last revision) that did not compile: nothing recorded
+    collided: list[str]  # names (of the last revision) two files define: none of their numbers
 
 
 def update_ledger(
@@ -117,12 +119,13 @@ def update_ledger(
     path: Path | None,
     history: bool,
     includes: Sequence[Path],
-    exclude: Callable[[Path | None], Sequence[str]],
+    settings: Callable[[Path | None], Config],
 ) -> LedgerUpdate:
     """Add every number of ``tree`` (a folder or a git revision; with ``history``, every revision
     reachable from its ref) to the ledger at ``path``, else the one beside the tree's protos.
-    ``exclude`` gives the configuration's exclude patterns for the folder holding the tree."""
-    from ._history import History, keys
+    ``settings`` gives the configuration for the folder holding the tree (its ``exclude``, and
+    the leftovers ``ignore_only`` names for NAME_COLLISION, whose definitions do not count)."""
+    from ._history import History, recorded
     from ._ledger import Ledger
 
     spec = parse_tree_spec(tree)
@@ -139,10 +142,14 @@ def update_ledger(
             if not repository.files(commits[-1], inside):
                 why = missing_in_git(repository, commits[-1], inside)
                 raise LintError(f"{tree}: no .proto file: {why}")
-            walker = History(repository, spec, includes, exclude(shown))
+            config = settings(shown)
+            leftovers = config.ignore_only.get("NAME_COLLISION", ())
+            walker = History(repository, spec, includes, config.exclude, leftovers)
             added = walker.update(book, commits)
         source = f"{len(commits)} revision{'s' * (len(commits) != 1)}"
-        return LedgerUpdate(book, target, added, source, sorted(walker.failed))
+        return LedgerUpdate(
+            book, target, added, source, sorted(walker.failed), sorted(walker.collided)
+        )
     if history:
         raise LintError(f"{tree}: --history needs a git input, GITDIR#ref=REF[,subdir=PATH]")
     problem = missing_folder(spec)
@@ -150,20 +157,13 @@ def update_ledger(
         raise LintError(f"{tree}: {problem} in TREE (a wrong path would pass every check)")
     target = path or spec / LEDGER
     book = Ledger.read(target) if _exists(target) else Ledger(str(target))
-    loaded = load_tree(spec, list(includes), exclude(spec))
-    added = book.add(keys(loaded.files.values()), "-")
-    return LedgerUpdate(book, target, added, str(spec), sorted(loaded.failed))
-
-
-def missing_in_git(repository: Repository, commit: str, inside: str) -> str:
-    """Where a git input found no .proto, with the closest folder that has some."""
-    from ._suggest import did_you_mean
-
-    folders = {
-        str(Path(name).parent) for name in repository.files(commit) if name.endswith(".proto")
-    }
-    where = f"subdir {inside!r}" if inside else "the repository"
-    return f"none in {where} at {commit[:12]}" + did_you_mean(inside, folders)
+    config = settings(spec)
+    loaded = load_tree(spec, list(includes), config.exclude)
+    found, collided = recorded(
+        loaded.files.values(), lambda path: config.ignored_at("NAME_COLLISION", path)
+    )
+    added = book.add(found, "-")
+    return LedgerUpdate(book, target, added, str(spec), sorted(loaded.failed), sorted(collided))
 
 
 def _exists(target: Path) -> bool:

@@ -15,6 +15,7 @@ Guarantees:
 
 import re
 from collections.abc import Iterable, Mapping
+from pathlib import Path
 from typing import NamedTuple
 
 from erc_codec.schema import Location
@@ -62,7 +63,8 @@ def suppressions(texts: Mapping[str, str], root: str) -> list[Suppression]:
                     ),
                     number + 1,
                 )
-            where = Location(f"{root}/{name}", number, match.start() + 1)
+            # Named as findings name files (``root / name``: no "./" when NEW is spelled ".").
+            where = Location(str(Path(root) / name), number, match.start() + 1)
             found.append(Suppression(where, covers, rules, reason))
     return found
 

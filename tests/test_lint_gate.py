@@ -3,6 +3,7 @@ published schema (``tests/formats``, sources named in its README), the summary l
 baselines, suppression comments, ignore_only, no silent pass, explanations, a closed pipe."""
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -12,6 +13,7 @@ import jsonschema  # type: ignore[import-untyped]
 import junitparser
 import pytest
 import xmlschema
+from git_support import Repo
 from lint_support import erc_lint_cli, tree
 
 FORMATS = Path(__file__).resolve().parent / "formats"
@@ -133,6 +135,25 @@ def test_suppression_comments_end_to_end(pair: Path) -> None:
     assert rules == ["SUPPRESSION_INVALID", "FIELD_TYPE_CHANGED"]  # no reason: not honoured
 
 
+@pytest.mark.parametrize(
+    ("where", "old", "new"),
+    [("", "old", "new"), ("new", "../old", "."), ("new", "../old", "./"), ("", "old", "./new/")],
+)
+def test_suppressions_hold_however_new_is_spelled(
+    pair: Path, where: str, old: str, new: str
+) -> None:
+    (pair / "new" / "arm.proto").write_text(
+        'syntax = "proto3";\n'
+        "message Arm {  // erc-lint:ignore FIELD_DELETED wrist retired with board v1\n"
+        "  float shoulder = 1;\n"
+        "  string elbow = 2;  // erc-lint:ignore FIELD_TYPE_CHANGED boards updated\n"
+        "}\n"
+    )
+    done = erc_lint_cli(old, new, "--severity", "error", cwd=pair / where)
+    assert (done.returncode, done.stdout) == (0, ""), done.stdout
+    assert done.stderr.startswith("0 errors, 1 warning"), done.stderr  # OLD's gone.proto
+
+
 def test_ignore_only_per_rule_and_path(pair: Path) -> None:
     (pair / "new" / "pyproject.toml").write_text(
         '[tool.erc-lint]\nignore_only = { FIELD_TYPE_CHANGED = ["arm*"] }\n'
@@ -194,3 +215,139 @@ def test_a_closed_pipe_exits_0_quietly(pair: Path) -> None:
     assert "Traceback" not in done.stderr
     assert "BrokenPipe" not in done.stderr
     assert done.returncode == 1  # the findings' status (errors), never a pipe failure's 2 or 120
+
+
+def test_a_baseline_holds_however_the_tree_is_read(tmp_path: Path) -> None:
+    # NAME_COLLISION names both files in its message: a git input's scratch folder, or the
+    # folder as spelled, must not reach the key.
+    repo = Repo(tmp_path / "r")
+    repo.commit("two", a="message GPS { double lat = 1; }\n", b="message GPS { double x = 1; }\n")
+    written = erc_lint_cli("baseline", repo.spec("HEAD"), "-o", "bl", cwd=tmp_path)
+    assert written.returncode == 0, written.stderr
+    assert "message at a.proto and message at b.proto." in (tmp_path / "bl").read_text()
+    for cwd, given in [
+        (tmp_path, repo.spec("HEAD")),
+        (tmp_path, "r/proto"),
+        (tmp_path, "./r/proto/"),
+        (tmp_path / "r" / "proto", "."),
+    ]:
+        done = erc_lint_cli("check", given, "--baseline", str(tmp_path / "bl"), cwd=cwd)
+        assert (done.returncode, done.stdout) == (0, ""), (given, done.stdout)
+
+
+def test_a_baseline_key_leaves_out_the_fix_and_its_next_free_number(tmp_path: Path) -> None:
+    root = tree(tmp_path / "p", {"a.proto": "message GPS { double lat = 1; double lon = 2; }\n"})
+    assert erc_lint_cli("ledger", "update", "p", cwd=tmp_path).returncode == 0
+    tree(root, {"a.proto": "message GPS { double lat = 1; string name = 2; }\n"})
+    assert erc_lint_cli("baseline", "p", cwd=tmp_path).returncode == 0
+    assert "Fix:" not in (tmp_path / "erc-lint.baseline").read_text()
+    tree(root, {"a.proto": "message GPS { double lat = 1; string name = 2; double alt = 3; }\n"})
+    done = erc_lint_cli("check", "p", cwd=tmp_path)
+    assert (done.returncode, done.stdout) == (0, ""), done.stdout
+
+
+def test_a_git_new_points_ci_formats_at_the_repository_not_a_scratch_folder(
+    tmp_path: Path,
+) -> None:
+    repo = Repo(tmp_path / "r")
+    repo.commit("one", a="message A { float x = 1; float y = 2; }\n")
+    repo.commit("two", a="message A { float x = 1; }\n")
+    done = erc_lint_cli(repo.spec("HEAD~1"), repo.spec("HEAD"), "--format", "json")
+    (line,) = done.stdout.splitlines()
+    found = json.loads(line)
+    assert found["path"] == found["in_new"]["path"] == f"{repo.root}/proto/a.proto"
+
+
+@pytest.mark.parametrize("output", ["sarif", "junit", "json", "gitlab"])
+def test_a_file_name_that_is_not_utf8_keeps_every_document_valid(
+    tmp_path: Path, output: str
+) -> None:
+    name = b"b\xff\x01.proto"
+    for side, kind in (("old", "float"), ("new", "string")):
+        (tmp_path / side).mkdir()
+        text = f'syntax = "proto3";\nmessage A {{ {kind} x = 1; }}\n'
+        (tmp_path / side / os.fsdecode(name)).write_text(text)
+    done = subprocess.run(
+        [sys.executable, "-m", "erc_lint", "old", "new", "--format", output],
+        capture_output=True,
+        cwd=tmp_path,
+    )
+    assert done.returncode == 0, done.stderr  # one COMPILE warning: protoc cannot read it
+    text = done.stdout.decode("utf-8")  # valid UTF-8, not the name's raw bytes
+    assert "\\udcff" not in text
+    assert "\udcff" not in text
+    if output == "sarif":
+        (result,) = json.loads(text)["runs"][0]["results"]
+        uri = result["locations"][0]["physicalLocation"]["artifactLocation"]["uri"]
+        assert uri == "new/b%FF%01.proto"  # the file's own bytes, percent-escaped
+    elif output == "junit":
+        xmlschema.XMLSchema(FORMATS / "junit-10.xsd").validate(text)
+        (suite,) = junitparser.JUnitXml.fromstring(text)
+        assert suite.name == "new/b\\xff\\x01.proto"
+    else:
+        (found,) = (
+            [json.loads(line) for line in text.splitlines()]
+            if output == "json"
+            else (json.loads(text))
+        )
+        path = found["path"] if output == "json" else found["location"]["path"]
+        assert path == "new/b\\xff\x01.proto"
+
+
+def test_a_closed_standard_output_is_one_line_and_exit_2(pair: Path) -> None:
+    done = subprocess.run(
+        f"{sys.executable} -m erc_lint old new >&-",
+        shell=True,
+        capture_output=True,
+        text=True,
+        cwd=pair,
+    )
+    assert done.returncode == 2, done.stderr
+    assert done.stderr == "Error: standard output is closed: nowhere to write the findings\n"
+
+
+def test_only_what_is_gone_from_new_is_called_gone(tmp_path: Path) -> None:
+    tree(
+        tmp_path / "old",
+        {"a.proto": "message A { float x = 1 }\n", "c.proto": "message C { float y = 1; }\n"},
+    )
+    tree(tmp_path / "new", {"a.proto": "message A { float x = 1; }\n", "c.proto": "message C {}\n"})
+    done = erc_lint_cli("old", "new", "--format", "github", cwd=tmp_path)
+    compiled, deleted = done.stdout.splitlines()
+    assert "COMPILE OLD's a.proto does not compile" in compiled
+    assert compiled.endswith("(OLD had it at old/a.proto:1)")
+    assert "FIELD_DELETED" in deleted
+    assert "(gone from NEW; OLD had it at old/c.proto:2)" in deleted
+
+
+def test_the_api_refuses_a_tree_that_is_not_there_as_the_cli_does(pair: Path) -> None:
+    import erc_lint
+
+    with pytest.raises(erc_lint.LintError, match="no such folder in OLD"):
+        erc_lint.lint(pair / "nonexistent", pair / "new")
+    with pytest.raises(erc_lint.LintError, match=r"no such folder .* in NEW"):
+        erc_lint.lint(pair / "old", pair / "nwe")
+    (pair / "empty").mkdir()
+    with pytest.raises(erc_lint.LintError, match=r"no \.proto file in TREE"):
+        erc_lint.check(pair / "empty")
+    repo = Repo(pair / "r")
+    repo.commit("one", a="message A { float x = 1; }\n")
+    with pytest.raises(erc_lint.LintError, match=r"no \.proto file in NEW: none in subdir"):
+        erc_lint.lint(repo.spec("HEAD"), f"{repo.root}#ref=HEAD,subdir=protos")
+    assert erc_lint.lint(pair / "old", pair / "new")  # the same call on real trees finds
+
+
+def test_ignore_only_silences_suppression_unused_and_one_finding_is_singular(
+    pair: Path,
+) -> None:
+    (pair / "new" / "note.proto").write_text(
+        'syntax = "proto3";\nmessage Note { float y = 1; }  // erc-lint:ignore FIELD_DELETED old\n'
+    )
+    assert "SUPPRESSION_UNUSED" in run(pair).stdout
+    (pair / "new" / "pyproject.toml").write_text(
+        '[tool.erc-lint]\nignore_only = { SUPPRESSION_UNUSED = ["note.proto"] }\n'
+    )
+    assert "SUPPRESSION_UNUSED" not in run(pair).stdout
+    tree(pair / "single", {"a.proto": "message A {}\n", "b.proto": "message A {}\n"})
+    written = erc_lint_cli("baseline", "single", cwd=pair)
+    assert written.stderr == "erc-lint.baseline: 1 finding baselined\n", written.stderr

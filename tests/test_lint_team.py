@@ -5,7 +5,9 @@ same-named messages in one revision, and an OLD that does not compile."""
 from pathlib import Path
 
 from git_support import Repo
-from lint_support import erc_lint_cli
+from lint_support import erc_lint_cli, tree
+
+LEFTOVER = '[tool.erc-lint]\nignore_only = { NAME_COLLISION = ["message_types.proto"] }\n'
 
 
 def test_a_subdir_typo_exits_2_for_diff_and_ledger(tmp_path: Path) -> None:
@@ -33,11 +35,72 @@ def test_a_leftover_colliding_file_is_silenced_by_ignore_only(tmp_path: Path) ->
     assert noisy.returncode == 1
     assert "NAME_COLLISION" in noisy.stdout
     (repo.root / "proto" / "pyproject.toml").write_text(
-        '[tool.erc-lint]\nignore_only = { NAME_COLLISION = ["message_types.proto", "gps.proto"] }\n'
+        '[tool.erc-lint]\nignore_only = { NAME_COLLISION = ["message_types.proto"] }\n'
     )
     repo.commit("ignore the leftover")
     quiet = erc_lint_cli("check", repo.spec("HEAD"))
     assert (quiet.returncode, quiet.stdout) == (0, ""), quiet.stderr
+
+
+def test_ignore_only_silences_a_collision_whichever_file_sorts_last(tmp_path: Path) -> None:
+    # The leftover sorts before and after the real file: ignoring it silences both.
+    for real in ("a_gps.proto", "z_gps.proto"):
+        root = tree(
+            tmp_path / real,
+            {
+                real: "message GPS { double lat = 1; }\n",
+                "message_types.proto": "enum T { GPS = 0; }\n",
+            },
+        )
+        assert erc_lint_cli("check", str(root)).returncode == 1
+        (root / "pyproject.toml").write_text(LEFTOVER)
+        quiet = erc_lint_cli("check", str(root))
+        assert (quiet.returncode, quiet.stdout) == (0, ""), quiet.stderr
+
+
+def test_a_leftover_ignore_only_names_keeps_the_ledger_on_for_the_real_definition(
+    tmp_path: Path,
+) -> None:
+    root = tree(tmp_path / "p", {"gps.proto": "message GPS { double lat = 1; double lon = 2; }\n"})
+    done = erc_lint_cli("ledger", "update", str(root))
+    assert done.returncode == 0, done.stderr
+    tree(root, {"message_types.proto": "message GPS { double lat = 1; }\n"})
+    (root / "pyproject.toml").write_text(LEFTOVER)
+    tree(root, {"gps.proto": "message GPS { double lat = 1; string name = 2; }\n"})
+    checked = erc_lint_cli("check", str(root))
+    assert checked.returncode == 1, checked.stderr
+    assert "gps.proto:2:31: LEDGER_NUMBER_REUSED" in checked.stdout
+    assert "LEDGER_NUMBER_REUSED" in checked.stdout
+    # The ledger records the real body, not the leftover's: name = 2 is missing from it.
+    pending = erc_lint_cli("ledger", "update", str(root), "--check")
+    assert pending.returncode == 1
+    assert "message GPS 2 name string" in pending.stdout
+
+
+def test_an_unresolved_collision_is_checked_in_every_definition_and_not_recorded(
+    tmp_path: Path,
+) -> None:
+    root = tree(tmp_path / "q", {"a.proto": "message GPS { double lat = 1; }\n"})
+    assert erc_lint_cli("ledger", "update", str(root)).returncode == 0
+    tree(root, {"b.proto": "message GPS { string name = 1; }\n"})
+    checked = erc_lint_cli("check", str(root))
+    assert "b.proto:2:15: LEDGER_NUMBER_REUSED" in checked.stdout
+    fresh = tree(
+        tmp_path / "fresh",
+        {
+            "a.proto": "message GPS { double lat = 1; }\n",
+            "b.proto": "message GPS { string name = 1; }\n",
+        },
+    )
+    pending = erc_lint_cli("ledger", "update", str(fresh), "--check")
+    assert pending.returncode == 1
+    assert "GPS is defined more than once (NAME_COLLISION); none of its numbers recorded" in (
+        pending.stderr
+    )
+    update = erc_lint_cli("ledger", "update", str(fresh))
+    assert update.returncode == 0
+    assert "0 entries added" in update.stdout
+    assert "none of its numbers recorded" in update.stderr
 
 
 def test_the_ledger_sees_a_renamed_type_and_duplicates_as_what_they_are(tmp_path: Path) -> None:

@@ -58,7 +58,7 @@ def diff(
             outcome = compare(
                 before, after, settings(config, after.folder), includes, ledger, accepted
             )
-    report(outcome, output, severity, given)
+        report(outcome, output, severity, given)
 
 
 @click.command()
@@ -85,7 +85,7 @@ def check(
             outcome = compare(
                 None, source, settings(config, source.folder), includes, ledger, accepted
             )
-    report(outcome, output, severity, given)
+        report(outcome, output, severity, given)
 
 
 @click.command(name="baseline")
@@ -125,4 +125,5 @@ def baseline(
             ):
                 outcome = compare(before, after, settings(config, after.folder), includes, ledger)
         target.write_text(render_baseline(outcome.keys), encoding="utf-8")
-    click.echo(f"{target}: {len(set(outcome.keys))} findings baselined", err=True)
+    count = len(set(outcome.keys))
+    click.echo(f"{target}: {count} finding{'s' * (count != 1)} baselined", err=True)

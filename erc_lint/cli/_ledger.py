@@ -45,9 +45,15 @@ def update(
 ) -> None:
     """Record every number TREE's messages and enums use (a folder or GITDIR#ref=REF)."""
     with guard():
-        done = update_ledger(tree, path, history, includes, lambda f: settings(config, f).exclude)
+        done = update_ledger(tree, path, history, includes, lambda f: settings(config, f))
         for name in done.failed:
             click.echo(f"{tree}: {name} does not compile; nothing of it recorded", err=True)
+        for name in done.collided:
+            click.echo(
+                f"{tree}: {name} is defined more than once (NAME_COLLISION); none of its numbers "
+                "recorded",
+                err=True,
+            )
         if check:
             _check(done)
             return
@@ -61,7 +67,7 @@ def update(
 
 def _check(done: LedgerUpdate) -> None:
     """Exit 1, saying why, when an update would change the ledger file or could not record a
-    file that does not compile."""
+    file that does not compile or a name two files define."""
     target = done.target
     before = read_file(target, LEDGER_LIMIT) if target.exists() else None
     reordered = before is not None and before.decode("utf-8", "replace") != done.ledger.render()
@@ -69,5 +75,5 @@ def _check(done: LedgerUpdate) -> None:
         click.echo(f"{target}: missing entry: {entry.render().rstrip()}")
     if reordered and not done.added:
         click.echo(f"{target}: not in canonical form (order or spacing): run ledger update")
-    if done.added or reordered or done.failed:
+    if done.added or reordered or done.failed or done.collided:
         raise SystemExit(1)

@@ -11,21 +11,14 @@ from typing import Any, TypeVar
 import click
 
 from erc_codec import CodecError
-from erc_codec.schema import (
-    GitSpec,
-    Repository,
-    TreeSource,
-    file_exists,
-    parse_tree_spec,
-    proto_files,
-)
+from erc_codec.schema import file_exists
 
 from .._baseline import BASELINE, read_baseline
 from .._config import Config, find_config, read_config
 from .._errors import LintError
-from .._inputs import missing_folder, open_input
+from .._inputs import opened
 from .._report import FORMATS, render
-from .._run import Outcome, missing_in_git
+from .._run import Outcome
 from ..rules import CATEGORIES, RULES
 
 __all__ = [
@@ -38,7 +31,7 @@ __all__ = [
     "baseline_keys",
     "common_options",
     "guard",
-    "opened",
+    "opened",  # erc_lint._inputs's, for the commands
     "report",
     "settings",
     "summary",
@@ -91,27 +84,6 @@ FORMAT_OPTION = click.option(
 )
 
 
-@contextmanager
-def opened(text: str, role: str, allow_empty: bool = False) -> Iterator[TreeSource]:
-    """The tree ``text`` names: a wrong path, a subdir a revision lacks, or a tree with no .proto
-    is an error rather than an empty tree that passes every check. An empty OLD passes only
-    before a repository's first commit (``HEAD`` unborn) or with ``allow_empty``."""
-    spec = parse_tree_spec(text)
-    if isinstance(spec, Path):
-        problem = missing_folder(spec)
-        if problem and not (allow_empty and spec.is_dir()):
-            raise Failure(f"{text}: {problem} in {role} (a wrong path would pass every check)")
-    with open_input(text) as source:
-        if isinstance(spec, GitSpec) and not proto_files(source.folder):
-            unborn = source.revision is None
-            if not (allow_empty or (unborn and role == "OLD")):
-                with Repository(spec.folder) as repository:
-                    inside = repository.where(spec.subdir)[0]
-                    why = missing_in_git(repository, source.revision or "", inside)
-                    raise Failure(f"{text}: no .proto file in {role}: {why}")
-        yield source
-
-
 def settings(config: Path | None, folder: Path | None) -> Config:
     """``--config``, else the configuration in the tree's folder (if it has one), else here."""
     folders = [folder] if folder is not None and folder.is_dir() else []
@@ -162,7 +134,10 @@ def report(
     """Print the findings (``severity`` error: errors only), then the summary line on stderr;
     exit 1 when an error was found. A file name that is not UTF-8 is printed as the bytes it is
     (as ``ls`` prints it), whatever the locale's encoding. A reader that stops early (``| head``)
-    ends the run quietly with the status the findings give, as ``git log | head`` does."""
+    ends the run quietly with the status the findings give, as ``git log | head`` does. Run it
+    inside ``guard``: a failure to render is one line, exit 2."""
+    if sys.stdout is None:  # started with stdout closed (`>&-`)
+        raise Failure("standard output is closed: nowhere to write the findings")
     findings = outcome.findings
     shown = [f for f in findings if severity == "warning" or f.severity == "error"]
     failed = any(finding.severity == "error" for finding in findings)

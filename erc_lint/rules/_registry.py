@@ -282,12 +282,21 @@ def run(change: Change) -> list[Finding]:
     found = [f for f in found if not _ignored_path(change, f)]
     given = suppressions(change.new.tree.texts, str(change.new.root))
     found, used = apply(found, given)
+    found += _on_findings(change, selected, Found(given, used))
+    return sorted(set(found), key=lambda f: f[:7])
+
+
+def _on_findings(change: Change, selected: dict[str, Severity], found: Found) -> list[Finding]:
+    """What the ``findings_rule``s say, less what ``ignore_only`` names for its path."""
+    said = []
     for rule in RULES.values():
         severity = selected.get(rule.id)
         if severity is not None and rule.pairs == "findings":
-            for report in rule.check(Found(given, used), change):
-                found.append(_finding(report, rule.id, severity))
-    return sorted(set(found), key=lambda f: f[:7])
+            for report in rule.check(found, change):
+                finding = _finding(report, rule.id, severity)
+                if not _ignored_path(change, finding):
+                    said.append(finding)
+    return said
 
 
 def _finding(report: Report, rule: str, severity: Severity) -> Finding:

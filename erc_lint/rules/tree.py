@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING
 
 from erc_codec.schema import Location
 
-from .._model import EnumValue, Field, Revision
+from .._model import Definition, Enum, EnumValue, Field, Message, Revision
 from .._pairing import Change, wire_compatible
 from ._registry import Report, Reports, field_prefix, tree_rule
 
@@ -108,8 +108,8 @@ def name_collision(revision: Revision, change: Change) -> Reports:
     """
     other = change.old if revision is change.new else change.new
     for name, definitions in sorted(revision.definitions.items()):
-        if len(definitions) < 2:
-            continue
+        if len(definitions) < 2 or len(_counted(revision, change, definitions)) < 2:
+            continue  # no collision, or only with files ignore_only calls leftovers
         places = sorted(((d.kind, d.location) for d in definitions), key=lambda p: p[1])
         listed = " and ".join(f"{kind} at {where}" for kind, where in places)
         # Point at a definition the other revision lacks, if any: that is the one to look at.
@@ -120,6 +120,18 @@ def name_collision(revision: Revision, change: Change) -> Reports:
             f'Name "{name}" is defined {len(places)} times: {listed}.',
             key=name,
         )
+
+
+def _counted(revision: Revision, change: Change, definitions: list[Definition]) -> list[Definition]:
+    """The definitions of one name that count: those outside the files ``ignore_only`` names
+    for NAME_COLLISION (leftovers), but every one when all are there."""
+    config = change.config
+    kept = [d for d in definitions if not config.ignored_at("NAME_COLLISION", _file(revision, d))]
+    return kept or definitions
+
+
+def _file(revision: Revision, definition: Definition) -> str:
+    return revision.place(definition.location)[0]
 
 
 @tree_rule(
@@ -308,20 +320,22 @@ def ledger_number_reused(revision: Revision, change: Change) -> Reports:
     ledger = change.ledger
     if ledger is None:
         return
-    for message in revision.messages.values():
-        if len(revision.definitions.get(message.name, ())) > 1:
-            continue  # two messages of one name: NAME_COLLISION's, not a reuse
-        for field in message.fields.values():
-            yield from _field_reuse(revision, change, ledger, field)
-    for enum in revision.enums.values():
-        if len(revision.definitions.get(enum.name, ())) > 1:
-            continue
-        for value in enum.values.values():
-            names = sorted(enum.names(value.number))
-            yield from _value_reuse(revision, change, ledger, value, names)
+    # A name two files define (NAME_COLLISION) is checked in every definition that counts
+    # (not in a leftover ignore_only names): a build may compile any of them.
+    for definitions in revision.definitions.values():
+        for definition in _counted(revision, change, definitions):
+            if isinstance(definition, Message):
+                for field in definition.fields.values():
+                    yield from _field_reuse(revision, change, ledger, field, definition)
+            elif isinstance(definition, Enum):
+                for value in definition.values.values():
+                    names = sorted(definition.names(value.number))
+                    yield from _value_reuse(revision, change, ledger, value, names, definition)
 
 
-def _field_reuse(revision: Revision, change: Change, ledger: "Ledger", field: Field) -> Reports:
+def _field_reuse(
+    revision: Revision, change: Change, ledger: "Ledger", field: Field, message: Message
+) -> Reports:
     # Loaded already (the ledger was read): linting without a ledger does not import it, for
     # bench_lint's 30-file ratio (its dataclasses cost about 9 ms of start-up).
     from .._ledger import Key
@@ -334,7 +348,7 @@ def _field_reuse(revision: Revision, change: Change, ledger: "Ledger", field: Fi
         or not _same_kind(revision, change, ledger, past.key.type, field.type)
     ]
     if clashes and not _acknowledged(revision, change, ledger, key):
-        names = {f.name for f in revision.messages[field.owner].fields.values()}
+        names = {f.name for f in message.fields.values()}
         renamed = all(
             p.key.name not in names and _same_kind(revision, change, ledger, p.key.type, field.type)
             for p in clashes
@@ -346,13 +360,18 @@ def _field_reuse(revision: Revision, change: Change, ledger: "Ledger", field: Fi
             key=_id(key),
             fix="restore the old name"
             if renamed
-            else f"use {_free(ledger, revision, field.owner)} and reserve {field.number}",
+            else f"use {_free(ledger, message)} and reserve {field.number}",
             like="FIELD_RENAMED" if renamed else "",
         )
 
 
 def _value_reuse(
-    revision: Revision, change: Change, ledger: "Ledger", value: EnumValue, live: list[str]
+    revision: Revision,
+    change: Change,
+    ledger: "Ledger",
+    value: EnumValue,
+    live: list[str],
+    enum: Enum,
 ) -> Reports:
     """``value``, the first name of its number, with ``live``, every name of the number. On the
     wire an enum value is its number: another name for it is a rename, graded as diff grades
@@ -365,7 +384,7 @@ def _value_reuse(
     ]
     if clashes and not any(_acknowledged(revision, change, ledger, key) for key in keys):
         # a pure rename, unless an old name of the number lives on under another number
-        renamed = not any(p.key.name in revision.enums[value.owner].by_name for p in clashes)
+        renamed = not any(p.key.name in enum.by_name for p in clashes)
         yield Report(
             value.location,
             f'Enum value "{value.number}" with name "{value.name}" on enum "{value.owner}" '
@@ -373,7 +392,7 @@ def _value_reuse(
             key=_id(keys[0]),
             fix="restore the old name, or add it as an alias"
             if renamed
-            else f"use {_free_value(ledger, revision, value.owner)} and reserve {value.number}",
+            else f"use {_free_value(ledger, enum)} and reserve {value.number}",
             like="ENUM_VALUE_RENAMED" if renamed else "",
         )
 
@@ -407,20 +426,18 @@ def _acknowledged(revision: Revision, change: Change, ledger: "Ledger", key: "Ke
     )
 
 
-def _free_value(ledger: "Ledger", revision: Revision, owner: str) -> str:
+def _free_value(ledger: "Ledger", enum: Enum) -> str:
     """The next enum number neither the ledger nor NEW's enum has used, nor reserved."""
-    enum = revision.enums[owner]
-    used = {number for number, _, _ in ledger.body("enum", owner)} | set(enum.values)
+    used = {number for number, _, _ in ledger.body("enum", enum.name)} | set(enum.values)
     number = max(used, default=0) + 1
     while enum.reserved.covers(number):
         number += 1
     return f"number {number} (the next free one)"
 
 
-def _free(ledger: "Ledger", revision: Revision, owner: str) -> str:
+def _free(ledger: "Ledger", message: Message) -> str:
     """The next number neither the ledger nor NEW's message has used, nor reserved."""
-    message = revision.messages[owner]
-    used = {number for number, _, _ in ledger.body("message", owner)} | set(message.fields)
+    used = {number for number, _, _ in ledger.body("message", message.name)} | set(message.fields)
     number = max(used, default=0) + 1
     while message.reserved.covers(number):
         number += 1
