@@ -163,6 +163,24 @@ def test_a_folder_inside_the_import_root_is_a_one_line_hint(tmp_path: Path) -> N
     )
 
 
+def test_a_folder_above_the_import_root_is_a_one_line_hint(tmp_path: Path) -> None:
+    """--proto X, the tree in X/vendor/ERC-Protobufs importing ERC-Protobufs/...: protoc's lines."""
+    tree = tmp_path / "X" / "vendor" / "ERC-Protobufs"
+    tree.mkdir(parents=True)
+    (tree / "b.proto").write_text('syntax = "proto3";\nmessage Ping { uint32 s = 1; }\n')
+    (tree / "a.proto").write_text(
+        'syntax = "proto3";\nimport "ERC-Protobufs/b.proto";\n'
+        "message Env { oneof payload { Ping ping = 1; } }\n"
+    )
+    done = run("sizes", "--proto", "X", "--root", "Env", cwd=tmp_path)
+    assert done.returncode == 2
+    assert done.stderr == (
+        "Error: X: its files import each other as ERC-Protobufs/..., so the import root is the "
+        f"folder above {Path('vendor', 'ERC-Protobufs')}: give {Path('X', 'vendor')} (root Env)\n"
+    )
+    assert run("sizes", "--proto", "X/vendor", "--root", "Env", cwd=tmp_path).returncode == 0
+
+
 def test_include_folders_from_the_configuration_are_searched(tmp_path: Path) -> None:
     (tmp_path / "tree").mkdir()
     (tmp_path / "shared").mkdir()
