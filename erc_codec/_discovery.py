@@ -171,6 +171,7 @@ def _hint(folder: Path, shown: Path, root: str, error: SchemaError) -> str:
     files = proto_files(folder)
     if not files:
         return ""
+    folders = {Path(file).parent for file in files}
     for file in files:
         for line in read_text(folder / file, errors="replace").splitlines():
             stripped = line.strip()
@@ -180,4 +181,14 @@ def _hint(folder: Path, shown: Path, root: str, error: SchemaError) -> str:
                     f"is the folder above it: give {shown.parent if str(shown.parent) else '.'} "
                     f"(root {root})"
                 )
+            first = stripped.partition('"')[2].partition("/")
+            if stripped.startswith("import") and first[1]:
+                # a tree below a subfolder (X/vendor/ERC-Protobufs imported as ERC-Protobufs/...)
+                for below in sorted(folders, key=lambda path: len(path.parts)):
+                    if below.name == first[0] and below.parent != Path("."):
+                        return (
+                            f"{shown}: its files import each other as {first[0]}/..., so the "
+                            f"import root is the folder above {below}: give "
+                            f"{shown / below.parent} (root {root})"
+                        )
     return ""

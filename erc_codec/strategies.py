@@ -126,7 +126,8 @@ class _Builder:
             return st.binary(max_size=_UNBOUNDED_TEXT if limit is None else limit)
         if kind == _T.TYPE_STRING:
             room = _UNBOUNDED_TEXT if limit is None else limit
-            text = st.text(st.characters(exclude_characters="\0"), max_size=room)
+            # codec="utf-8" leaves out the surrogates (category Cs): str, but no UTF-8
+            text = st.text(st.characters(codec="utf-8", exclude_characters="\0"), max_size=room)
             return text.map(lambda value: _fit_utf8(value, room))
         raise SchemaError(f"{field.full_name}: a group, which nanopb does not support")
 

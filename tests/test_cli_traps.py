@@ -101,10 +101,31 @@ def test_pcap_port_and_kind_filters(codec: erc_codec.Codec, tmp_path: Path) -> N
     ]
     kinds = run("decode", "--pcap", str(capture), "--port", "6006", "--kind", "ph_info")
     assert [r["kind"] for r in records(kinds.out)] == ["ph_info"]
+    assert kinds.err == (
+        "2 datagrams, 0 undecodable, 1 datagram of other kinds not shown, "
+        "2 packets skipped (2 other port)\n"
+    )
     unknown = run("decode", "--pcap", str(capture), "--kind", "nope")
     assert unknown.code == 2
     assert unknown.err.startswith("Error: unknown kind 'nope': PBEnvelope")
     assert run("decode", "--port", "5", "00").code == 2  # --port is for a capture
+
+
+def test_kind_counts_what_it_leaves_out(codec: erc_codec.Codec) -> None:
+    """--kind dropped the other datagrams and counted them nowhere."""
+    gps = codec.encode(codec.message_class("gps_info")(satellites=4))
+    ph = codec.encode(codec.message_class("ph_info")(ph_value=7.0))
+    lines = run(
+        "decode", "--kind", "ph_info", stdin=f"{gps.hex()}\n{ph.hex()}\n{gps.hex()}\n".encode()
+    )
+    assert lines.code == 0, lines.err
+    assert [r["kind"] for r in records(lines.out)] == ["ph_info"]
+    assert lines.err == "2 datagrams of other kinds not shown\n"
+    framed = (erc_codec.frame(gps) + erc_codec.frame(ph)).hex()
+    stream = run("decode", "--framed", "--kind", "ph_info", framed)
+    assert [r["kind"] for r in records(stream.out)] == ["ph_info"]
+    assert stream.err == "2 frames, 0 undecodable, 1 datagram of other kinds not shown\n"
+    assert run("decode", "--kind", "gps_info", gps.hex()).err == ""  # nothing left out
 
 
 def test_decode_into_a_closed_pipe_ends_quietly() -> None:

@@ -81,3 +81,23 @@ def test_presence_is_drawn_and_survives_every_form(name: str, data: st.DataObjec
 )
 def test_presence_corners_are_drawn(name: str, condition: Callable[[Any], bool]) -> None:
     find(strategies.messages(PRESENCE, name), condition, settings=QUICK)
+
+
+MAPPING = erc_codec.Codec.from_path(Path(__file__).parent / "json_tree", root="JsonEnvelope")
+MANY = settings(max_examples=3000, phases=[Phase.generate], database=None, deadline=None)
+
+
+@pytest.mark.parametrize("name", ["JsonScalars", "JsonLists", "JsonMaps"])
+def test_every_string_drawn_is_utf8(name: str) -> None:
+    # A surrogate (category Cs) is a str but no UTF-8: drawing one once raised UnicodeEncodeError.
+    @MANY
+    @given(strategies.messages(MAPPING, name))
+    def check(message: Any) -> None:
+        texts = [message.a_string] if name == "JsonScalars" else []
+        texts += list(message.words) if name == "JsonLists" else []
+        texts += list(message.by_string) if name == "JsonMaps" else []
+        for text in texts:
+            text.encode("utf-8")
+        MAPPING.encode(message)
+
+    check()

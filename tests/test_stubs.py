@@ -80,4 +80,87 @@ def test_a_script_using_the_messages_rightly_passes_mypy_strict(tmp_path: Path) 
     done = stubs_and_mypy(tmp_path, RIGHT)
     assert done.returncode == 0, done.stdout
     stub = (tmp_path / "stubs" / "erc_messages.pyi").read_text()
-    assert "class GPSFixQuality(int):\n    NO_FIX: ClassVar[int]" in stub
+    assert "class GPSFixQuality(builtins.int):\n    NO_FIX: ClassVar[builtins.int]" in stub
+
+
+AWKWARD = """\
+syntax = "proto3";
+
+import "nanopb.proto";
+
+message Awkward {
+  int32 self = 1;
+  int32 int = 2;
+  float float = 3;
+  bool bool = 4;
+  string str = 5 [(nanopb).max_size = 8];
+  bytes bytes = 6 [(nanopb).max_size = 8];
+  int32 Message = 7;
+}
+
+message Env {
+  oneof payload {
+    Awkward awkward = 1;
+  }
+}
+"""
+
+AWKWARD_SCRIPT = """\
+from pathlib import Path
+from typing import TYPE_CHECKING, cast
+
+import erc_codec
+
+if TYPE_CHECKING:
+    from erc_messages import TypedCodec
+
+codec = cast("TypedCodec", erc_codec.Codec.from_path(Path("tree"), root="Env"))
+Awkward = codec.message_class("awkward")
+a = Awkward(self=1, int=2, float=1.5, bool=True, str="s", bytes=b"b", Message=3)
+number: int = a.int + a.self + a.Message
+real: float = a.float
+flag: bool = a.bool
+text: str = a.str
+data: bytes = a.bytes
+wrong: str = a.int
+"""
+
+
+def test_fields_named_like_builtins_or_the_receiver_type_check(tmp_path: Path) -> None:
+    """A field ``self``, ``int``, ``float``, ``bool``, ``str``, ``bytes`` or ``Message`` broke
+    the stub: a duplicate argument, or a name shadowing the type of the fields after it."""
+    tree = tmp_path / "tree"
+    tree.mkdir()
+    (tree / "awkward.proto").write_text(AWKWARD)
+    out = tmp_path / "stubs"
+    written = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "erc_codec",
+            "stubs",
+            str(out),
+            "--proto",
+            str(tree),
+            "--root",
+            "Env",
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert written.returncode == 0, written.stderr
+    (tmp_path / "tool.py").write_text(AWKWARD_SCRIPT)
+    done = subprocess.run(
+        [sys.executable, "-m", "mypy", "--strict", "--no-incremental", "tool.py"],
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd=tmp_path,
+        env={"MYPYPATH": str(out), "PATH": "/usr/bin:/bin"},
+    )
+    # the one error is the one the script makes: the stub itself is sound
+    assert done.stdout.count("error:") == 1, done.stdout
+    assert 'tool.py:17: error: Incompatible types in assignment (expression has type "int"' in (
+        done.stdout
+    )

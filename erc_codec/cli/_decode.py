@@ -24,7 +24,6 @@ class _Decoder(Printer):
         self._decode = codec.decode
         self._strict = strict
         self._kinds = kinds
-        self.other_kinds = 0
 
     def datagram(self, data: bytes, where: dict[str, object] | None = None) -> None:
         self.datagrams += 1
@@ -97,7 +96,8 @@ def decode(
                   --port (repeatable) only those from or to these ports
     With --framed, HEX or standard input (hex lines, or --raw bytes) is a
     serial stream of Proton frames. --kind (repeatable) prints only the
-    datagrams of these kinds (the others are counted, not shown).
+    datagrams of these kinds (the others are counted in the summary line on
+    stderr, not shown).
 
     \b
     Output, one line per datagram (Decoded.to_dict() with its length):
@@ -116,7 +116,8 @@ def decode(
     --pcap every object starts with "time", "src" and "dst" (address:port);
     --pcap and --framed end with a summary line on stderr (packets skipped
     and why; frames rejected and why, bytes discarded between frames), and
-    standard input with lines that are not hex with their count.
+    standard input with lines that are not hex with their count; any input
+    does when --kind left datagrams out (their count).
 
     The message shows every field, defaults included: on the wire a zero is
     indistinguishable from a field the sender never set, and when debugging

@@ -35,6 +35,7 @@ class Printer:
         self.datagrams = 0  # handed to ``datagram`` or ``payload``
         self.failed = 0  # of those, did not decode
         self.bad_lines = 0  # lines of standard input that are not hex
+        self.other_kinds = 0  # of those, decoded but of a kind not asked for (--kind)
 
     def datagram(self, data: bytes, where: dict[str, object] | None = None) -> None:
         raise NotImplementedError
@@ -141,13 +142,21 @@ def _each(printer: Printer, chunks: Iterator[bytes], raw: bool) -> str:
     else:
         for datagram in chunks:
             printer.datagram(datagram)
+    parts = _not_shown(printer)
     if printer.bad_lines:
-        return (
+        parts.append(
             f"{plural(printer.bad_lines, 'line')} not hex (raw bytes on standard input need --raw)"
         )
-    if not printer.datagrams:
+    if not printer.datagrams and not parts:
         return "standard input holds no datagram: it is empty or only whitespace"
-    return ""
+    return ", ".join(parts)
+
+
+def _not_shown(printer: Printer) -> list[str]:
+    """The summary's part for the datagrams --kind left out, if any were."""
+    if not printer.other_kinds:
+        return []
+    return [f"{plural(printer.other_kinds, 'datagram')} of other kinds not shown"]
 
 
 def _given(data: tuple[str, ...], raw: bool, printer: Printer) -> Iterator[bytes]:
@@ -170,7 +179,7 @@ def _deframe(printer: Printer, chunks: Iterable[bytes], deframer: Deframer) -> s
         for payload in deframer.feed(chunk):
             printer.payload(payload)
     stats = deframer.stats()  # before flush: what the stream itself threw away
-    parts = [plural(stats.frames, "frame"), f"{printer.failed} undecodable"]
+    parts = [plural(stats.frames, "frame"), f"{printer.failed} undecodable", *_not_shown(printer)]
     if stats.rejected:
         reasons = ", ".join(f"{reason} {count}" for reason, count in sorted(stats.rejected.items()))
         parts.append(f"{plural(sum(stats.rejected.values()), 'frame')} rejected ({reasons})")
@@ -196,10 +205,12 @@ def _from_capture(printer: Printer, capture: Capture) -> str:
         printer.datagram(datagram.data, where)
     skipped = capture.skipped
     reasons = ", ".join(f"{count} {why}" for why, count in sorted(skipped.items()))
-    summary = (
-        f"{plural(printer.datagrams, 'datagram')}, {printer.failed} undecodable, "
+    parts = [plural(printer.datagrams, "datagram"), f"{printer.failed} undecodable"]
+    parts += _not_shown(printer)
+    parts.append(
         f"{plural(sum(skipped.values()), 'packet')} skipped" + (f" ({reasons})" if reasons else "")
     )
+    summary = ", ".join(parts)
     if capture.damage:
         click.echo(summary, err=True)
         raise Fatal(one_line(capture.damage))

@@ -27,14 +27,15 @@ from ._shared import Fatal, load, schema_options
 __all__ = ["render_stubs", "stubs"]
 
 _T = FieldDescriptor
+# Qualified: a field named ``int`` would shadow the builtin in the annotations after it.
 _SCALARS = {
-    _T.CPPTYPE_INT32: "int",
-    _T.CPPTYPE_INT64: "int",
-    _T.CPPTYPE_UINT32: "int",
-    _T.CPPTYPE_UINT64: "int",
-    _T.CPPTYPE_DOUBLE: "float",
-    _T.CPPTYPE_FLOAT: "float",
-    _T.CPPTYPE_BOOL: "bool",
+    _T.CPPTYPE_INT32: "builtins.int",
+    _T.CPPTYPE_INT64: "builtins.int",
+    _T.CPPTYPE_UINT32: "builtins.int",
+    _T.CPPTYPE_UINT64: "builtins.int",
+    _T.CPPTYPE_DOUBLE: "builtins.float",
+    _T.CPPTYPE_FLOAT: "builtins.float",
+    _T.CPPTYPE_BOOL: "builtins.bool",
 }
 
 
@@ -46,14 +47,14 @@ def _value(field: FieldDescriptor) -> tuple[str, str]:
     """A field's type as an attribute, and what its constructor argument takes."""
     if field.message_type is not None:
         name = _name(field.message_type)
-        return name, f"{name} | Mapping[str, Any]"
+        return name, f"{name} | Mapping[builtins.str, Any]"
     if field.enum_type is not None:
-        return "int", "int | str"
+        return "builtins.int", "builtins.int | builtins.str"
     if field.cpp_type == _T.CPPTYPE_STRING:
-        kind = "bytes" if field.type == _T.TYPE_BYTES else "str"
+        kind = "builtins.bytes" if field.type == _T.TYPE_BYTES else "builtins.str"
         return kind, kind
     kind = _SCALARS[field.cpp_type]
-    return kind, "float" if kind == "float" else kind
+    return kind, kind
 
 
 def _field(field: FieldDescriptor) -> tuple[str, str]:
@@ -76,13 +77,17 @@ def _message(descriptor: Descriptor) -> list[str]:
     for field in fields:
         lines.append(f"    {field.name}: {_field(field)[0]}")
     arguments = ", ".join(f"{f.name}: {_field(f)[1]} = ..." for f in fields)
-    lines.append(f"    def __init__(self{', *, ' + arguments if arguments else ''}) -> None: ...")
+    receiver = "self"  # positional-only, and named apart from every field (one may be ``self``)
+    while receiver in descriptor.fields_by_name:
+        receiver += "_"
+    keywords = ", *, " + arguments if arguments else ""
+    lines.append(f"    def __init__({receiver}, /{keywords}) -> None: ...")
     return lines
 
 
 def _enum(descriptor: EnumDescriptor) -> list[str]:
-    lines = [f"class {_name(descriptor)}(int):"]
-    lines += [f"    {value.name}: ClassVar[int]" for value in descriptor.values]
+    lines = [f"class {_name(descriptor)}(builtins.int):"]
+    lines += [f"    {value.name}: ClassVar[builtins.int]" for value in descriptor.values]
     return lines or ["    pass"]
 
 
@@ -116,6 +121,7 @@ def render_stubs(codec: Codec) -> str:
     out = [
         f"# Typing stubs for the messages of {codec.root}'s schema, by erc-codec stubs: for",
         "# mypy only (see erc_codec.cli._stubs); write them again when the schema changes.",
+        "import builtins",
         "from collections.abc import Iterable, Mapping, MutableMapping",
         "from typing import Any, ClassVar, Literal, overload",
         "",
