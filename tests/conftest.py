@@ -1,6 +1,7 @@
 """Fixtures shared by the test modules: the packaged codec and the repository's folders."""
 
 import os
+import shutil
 from pathlib import Path
 
 import pytest
@@ -22,3 +23,15 @@ PROTO = REPO / "proto"
 def codec() -> erc_codec.Codec:
     """The codec of the packaged rover schema."""
     return erc_codec.Codec.default()
+
+
+@pytest.fixture(scope="session")
+def fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A stand-in for the fleet's tree (RoboTeamTwente/ERC-Protobufs, whose files are not ours
+    to commit): the packaged tree with ``tests/fleet_tree``'s files over it, an envelope of 26
+    members in the fleet's names and PBEnvelope_size 305, in a folder named as the fleet's."""
+    tree = tmp_path_factory.mktemp("fleet") / "ERC-Protobufs"
+    shutil.copytree(PROTO / "components", tree / "components")
+    (tree / "components" / "common" / "envelope.options").unlink()  # the timeout's, not theirs
+    shutil.copytree(REPO / "tests" / "fleet_tree" / "ERC-Protobufs", tree, dirs_exist_ok=True)
+    return tree

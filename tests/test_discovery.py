@@ -10,13 +10,11 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import PROTO, REPO
+from conftest import PROTO
 from git_support import Repo
 
 import erc_codec
 from erc_codec._discovery import ENVIRONMENT, SchemaSource, find_schema, packaged_tree
-
-FLEET = REPO / "tests" / "fleet_tree" / "ERC-Protobufs"  # a stand-in for the fleet's tree
 
 
 def run(
@@ -101,8 +99,8 @@ def test_a_bad_configuration_is_a_schema_error_naming_the_file(
     assert problem in done.stderr
 
 
-def test_sizes_reports_305_with_the_fleet_tree_in_pyproject(tmp_path: Path) -> None:
-    shutil.copytree(FLEET, tmp_path / "ERC-Protobufs")
+def test_sizes_reports_305_with_the_fleet_tree_in_pyproject(tmp_path: Path, fleet: Path) -> None:
+    shutil.copytree(fleet, tmp_path / "ERC-Protobufs")
     configured(tmp_path, 'proto = "ERC-Protobufs"')
     (tmp_path / "tools").mkdir()
     done = run("sizes", cwd=tmp_path / "tools")
@@ -120,16 +118,16 @@ def test_sizes_reports_305_with_the_fleet_tree_in_pyproject(tmp_path: Path) -> N
     assert expected in run("sizes", cwd=tmp_path.parent).stdout
 
 
-def test_the_environment_variable_names_the_tree(tmp_path: Path) -> None:
-    done = run("sizes", cwd=tmp_path, env={ENVIRONMENT: str(FLEET)})
+def test_the_environment_variable_names_the_tree(tmp_path: Path, fleet: Path) -> None:
+    done = run("sizes", cwd=tmp_path, env={ENVIRONMENT: str(fleet)})
     assert "PBEnvelope_size 305" in done.stdout
-    text = run("schema", cwd=tmp_path, env={ENVIRONMENT: str(FLEET)}).stdout
+    text = run("schema", cwd=tmp_path, env={ENVIRONMENT: str(fleet)}).stdout
     assert f"from the environment variable {ENVIRONMENT}" in text
     assert "26 members, PBEnvelope_size 305" in text
 
 
-def test_codec_default_finds_the_configured_schema(tmp_path: Path) -> None:
-    configured(tmp_path, f'proto = "{FLEET}"')
+def test_codec_default_finds_the_configured_schema(tmp_path: Path, fleet: Path) -> None:
+    configured(tmp_path, f'proto = "{fleet}"')
     script = "import erc_codec; c = erc_codec.Codec.default(); print(c.max_size(c.root))"
     done = subprocess.run(
         [sys.executable, "-c", script], capture_output=True, text=True, cwd=tmp_path, check=True

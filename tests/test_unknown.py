@@ -5,6 +5,7 @@ schema is an ``EncodeError`` saying so, and arguments of the wrong type a ``Type
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 from conftest import REPO
@@ -12,7 +13,6 @@ from conftest import REPO
 import erc_codec
 from erc_codec import Codec, DecodeError, EncodeError
 
-FLEET = REPO / "tests" / "fleet_tree" / "ERC-Protobufs"
 # gps_info (12), its payload holding field 13 as a varint: a number SensorBoardGPSInfo lacks.
 UNKNOWN = bytes.fromhex("62026805")
 
@@ -84,14 +84,14 @@ def test_decoded_turns_into_the_cli_json_object(codec: Codec) -> None:
     assert json.loads(codec.decode(datagram).to_json()) == line
 
 
-def test_a_message_class_of_another_schema_is_an_encode_error(codec: Codec) -> None:
+def test_a_message_class_of_another_schema_is_an_encode_error(codec: Codec, fleet: Path) -> None:
     """The fleet's envelope given to the packaged codec encoded into whatever member it named."""
-    fleet = Codec.from_path(FLEET)
-    envelope = fleet.from_dict("PBEnvelope", {"gps_info": {"satellites": 3}})
+    fleet_codec = Codec.from_path(fleet)
+    envelope = fleet_codec.from_dict("PBEnvelope", {"gps_info": {"satellites": 3}})
     with pytest.raises(EncodeError, match="PBEnvelope is a message class of another schema"):
         codec.encode(envelope)
     with pytest.raises(EncodeError, match="not a payload type of PBEnvelope"):
-        codec.encode(fleet.message_class("manual_arm_velocity")())
+        codec.encode(fleet_codec.message_class("manual_arm_velocity")())
     # the same declaration in another pool (as generated code of the same .proto has) is fine
     same = Codec.from_path(REPO / "proto").message_class("gps_info")(satellites=3)
     assert codec.decode(codec.encode(same)).message == codec.from_dict(
