@@ -8,7 +8,7 @@ from .._codec import Codec
 from .._discovery import ENVIRONMENT, load_source
 from .._errors import CodecError
 from ..schema import TreeSource, load_schema
-from ._shared import Fatal, one_line, schema_options, source
+from ._shared import Fatal, one_line, schema_options, source, text_or_json
 
 __all__ = ["schema"]
 
@@ -22,13 +22,7 @@ _ORIGINS = {
 
 @click.command()
 @schema_options
-@click.option(
-    "--format",
-    "output",
-    type=click.Choice(["text", "json"]),
-    default="text",
-    show_default=True,
-)
+@text_or_json
 def schema(tree: str | None, root: str | None, output: str) -> None:
     """Print which schema the commands use and where that was said.
 

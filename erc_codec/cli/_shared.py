@@ -31,6 +31,7 @@ __all__ = [
     "schema_options",
     "shown",
     "source",
+    "text_or_json",
     "to_dict",
     "unhex",
 ]
@@ -225,3 +226,14 @@ def shown(address: tuple[Any, ...]) -> str:
     """``host:port``, with an IPv6 host in brackets so the port stays readable."""
     host, port = address[0], address[1]
     return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
+
+
+# ``--format text|json``: a command's output for people or for programs (sizes, schema).
+text_or_json = click.option(
+    "--format",
+    "output",
+    type=click.Choice(["text", "json"]),
+    default="text",
+    show_default=True,
+    help="text for people, json for programs.",
+)

@@ -4,20 +4,14 @@ import json
 
 import click
 
-from ._shared import load, schema_options
+from ._shared import load, schema_options, text_or_json
 
 __all__ = ["sizes"]
 
 
 @click.command()
 @schema_options
-@click.option(
-    "--format",
-    "output",
-    type=click.Choice(["text", "json"]),
-    default="text",
-    show_default=True,
-)
+@text_or_json
 def sizes(tree: str | None, root: str | None, output: str) -> None:
     """Print every message's nanopb maximum size and the envelope's members."""
     codec = load(tree, root)
