@@ -5,13 +5,16 @@ import shutil
 from pathlib import Path
 
 import pytest
-from hypothesis import settings
+from hypothesis import HealthCheck, settings
 
 import erc_codec
 
 # CI shares two cores with everything else (and `.ci/run` sets ERC_REQUIRE_INTEROP): no
-# per-example deadline there, and print the blob that reproduces a failure.
-settings.register_profile("ci", deadline=None, print_blob=True)
+# per-example deadline there, no complaint that drawing is slow (the oldest Python, loaded, draws
+# a nested message in seconds), and print the blob that reproduces a failure.
+settings.register_profile(
+    "ci", deadline=None, print_blob=True, suppress_health_check=[HealthCheck.too_slow]
+)
 if os.environ.get("CI") or os.environ.get("ERC_REQUIRE_INTEROP"):
     settings.load_profile("ci")
 
