@@ -214,4 +214,5 @@ def test_editions_compile_up_to_what_the_bundled_protoc_supports(tmp_path: Path)
             "supported edition 2023."
         )
     # UNSTABLE: "later than ... 2024" from 1.81 on; "Unknown edition" before (the floor's 1.74)
-    assert texts[-1].startswith("unstable.proto:") and "UNSTABLE" in texts[-1], texts
+    assert texts[-1].startswith("unstable.proto:"), texts
+    assert "UNSTABLE" in texts[-1], texts
