@@ -22,7 +22,7 @@ gets its missing zeros appended and a padded one is cut, by arithmetic, before t
 only a datagram whose zeros were restored has its parse serialized again, and only when that
 differs from the restored bytes is the payload walked for a cut field. Datagrams of any other
 shape (several top-level fields, unknown members, corruption) take the general path: the repair
-walk over the whole envelope, then the envelope parse.
+walk over the whole envelope, then the envelope parse, as ``_forms`` does them for any root.
 
 Metadata: fields an envelope declares beside its oneof (the rover's ``timeout``) are encoded on
 request (``encode(message, timeout=300)``) and returned on ``Decoded.metadata``. A datagram
@@ -33,7 +33,7 @@ datagram without metadata (the usual one) decodes exactly as before.
 
 from collections.abc import Callable, Mapping
 from types import MappingProxyType
-from typing import Any, Literal, NamedTuple
+from typing import Any, NamedTuple
 
 from google.protobuf.descriptor import Descriptor, OneofDescriptor
 from google.protobuf.message import DecodeError as ProtobufDecodeError
@@ -42,24 +42,20 @@ from google.protobuf.message import Message
 
 from ._contract import Contract
 from ._errors import DecodeError, EncodeError, SchemaError
+from ._forms import Forms, Mode, as_bytes, cut_short, strict_error
 from ._truncation import Table, cut_reason, presence_table
 from ._unknown import UnknownField, unknown_fields
 from .schema import (
-    EGROUP,
     LEN,
-    SGROUP,
-    WireError,
     descriptor_of,
     encode_varint,
     message_of,
-    next_field,
     read_varint,
     varint_size,
 )
 
 __all__ = ["Decoded", "Envelope", "Mode", "is_envelope"]
 
-Mode = Literal["strip", "exact", "pad"]
 _Tag = tuple[str, Callable[[bytes], Message], int]
 _Member = tuple[
     list[bytes],
@@ -183,10 +179,14 @@ class Envelope:
         self._tags: dict[int, _Tag] = {}
         self._first: list[_Tag | None] = [None] * 256
         self._payloads: dict[str, type[Message]] = {}  # kind → payload class
-        # What judging restored zeros takes: the envelope's presence table (general path), and
-        # per kind the payload's serializer and table (fast path).
+        # What judging restored zeros takes: the envelope's forms (general path: restoring,
+        # parsing and the cut check, shared with plain roots), and per kind the payload's
+        # serializer and presence table (fast path), all tables built once.
         tables: dict[str, Table] = {}
-        self._table = presence_table(descriptor, tables)
+        self._forms = Forms(
+            envelope, max_size, "the envelope's", groups=False, inside=True, tables=tables
+        )
+        self._in_form = self._forms.in_form  # an exact datagram in transmission form ``mode``
         self._restoring: dict[str, tuple[Callable[[Message], bytes], Table]] = {}
         for field in members:
             payload = field.message_type
@@ -265,16 +265,6 @@ class Envelope:
         if mode == "exact":
             return header + body
         return self._in_form(header + body, mode)
-
-    def _in_form(self, data: bytes, mode: Mode) -> bytes:
-        """An exact datagram in transmission form ``mode``."""
-        if mode == "strip":
-            return data.rstrip(b"\0")
-        if mode == "exact":
-            return data
-        if mode == "pad":
-            return data + bytes(self._max_size - len(data))
-        raise EncodeError(f"unknown mode {mode!r}: use 'strip', 'exact' or 'pad'")
 
     def _encode_other(self, message: Message, mode: Mode) -> bytes:
         """An envelope, a payload of a class built elsewhere (generated code of the same
@@ -363,10 +353,7 @@ class Envelope:
         for a whole envelope)."""
         tag = max(len(headers[0]) - 1, 0)
         length = tag + (varint_size(len(body)) if tag else 0) + len(body)
-        return EncodeError(
-            f"{message.DESCRIPTOR.full_name}: the datagram would be {length} bytes, more than the "
-            f"{self._max_size} a fixed-size receiver accepts (unknown fields from a newer sender?)"
-        )
+        return self._forms.oversize(message.DESCRIPTOR.full_name, length)
 
     # -- decoding ------------------------------------------------------------------------------
 
@@ -377,7 +364,7 @@ class Envelope:
         only the general decoder can judge, and for a cut one (see ``decode``). Only a datagram
         whose zeros were restored has its payload parsed, to tell stripped from cut."""
         if type(data) is not bytes:
-            data = _as_bytes(data)
+            data = as_bytes(data)
         size = len(data)
         if not 0 < size <= self._max_size:
             return None
@@ -431,7 +418,7 @@ class Envelope:
         # most 1.25x the bare runtime's time) has no tenth to spare. tests/test_envelope_decode.py
         # holds decode equal to peek and a parse, on every form and on hostile bytes.
         if type(data) is not bytes:
-            data = _as_bytes(data)
+            data = as_bytes(data)
         size = len(data)
         if not 0 < size <= self._max_size:
             return self._decode_envelope(data)  # raises the right error
@@ -470,22 +457,12 @@ class Envelope:
             raise self._invalid(data, kind, payload, error) from None
 
     def _decode_strict(self, data: bytes) -> Decoded:
+        if type(data) is not bytes:
+            data = as_bytes(data)
         decoded = self.decode(data)
-        unknown = decoded.unknown_fields
-        if unknown:
-            listed = ", ".join(
-                f"{field.number} (wire type {field.wire_type}"
-                + (f", in {field.path})" if field.path else ")")
-                for field in unknown
-            )
-            raise DecodeError(
-                f"datagram of {len(data)} bytes: its {decoded.kind} payload holds fields "
-                f"{decoded.message.DESCRIPTOR.full_name} does not know: {listed} (another schema?)",
-                "unknown_fields",
-            )
-        why = self._refusal(decoded.message) if self._refusal is not None else None
-        if why is not None:
-            raise DecodeError(f"nanopb's decoder refuses the {decoded.kind} payload: {why}")
+        error = strict_error(len(data), decoded.message, f"{decoded.kind} payload", self._refusal)
+        if error is not None:
+            raise error
         return decoded
 
     def _decode_stripped(
@@ -500,7 +477,7 @@ class Envelope:
             raise self._invalid(data, kind, payload, error) from None
         cut = self._restored_cut(kind, payload, message, len(data) - start)
         if cut:
-            raise _cut_short(data, cut)
+            raise cut_short(data, cut)
         return _decoded(Decoded, (kind, message))
 
     def _restored_cut(self, kind: str, payload: bytes, message: Message, boundary: int) -> str:
@@ -543,64 +520,10 @@ class Envelope:
     def _parse_restored(self, data: bytes) -> Message:
         if not data:
             raise DecodeError("empty datagram", "empty")
-        if len(data) > self._max_size:
-            raise DecodeError(
-                f"datagram of {len(data)} bytes is longer than the envelope's maximum of "
-                f"{self._max_size}: a fixed-size receiver drops it",
-                "too_long",
-            )
-        data = bytes(data)
-        exact = self._restore(data)
-        try:
-            envelope = self._from_string(exact)
-        except ProtobufDecodeError as error:
-            form = "" if exact == data else " (after restoring its trailing zeros)"
-            raise DecodeError(
-                f"datagram of {len(data)} bytes is not a valid {self._name}{form}: {error}"
-            ) from None
-        if len(exact) > len(data):
-            canonical = envelope.SerializePartialToString() == exact  # see _restoring
-            cut = cut_reason(self._table, exact, envelope, len(data), canonical, inside=True)
-            if cut:
-                raise _cut_short(data, cut)
-        return envelope
-
-    def _restore(self, data: bytes) -> bytes:
-        """The exact encoding of a datagram sent exact, stripped or zero-padded."""
-        pos, end = 0, len(data)
-        try:
-            while pos < end:
-                if data[pos] == 0:
-                    return self._unpad(data, pos)
-                field = next_field(data, pos, zeros_past_end=True)
-                if field.wire_type in (SGROUP, EGROUP):
-                    raise DecodeError(
-                        f"field {field.number} uses wire type {field.wire_type} (a group), "
-                        "which a proto3 envelope never contains"
-                    )
-                pos = field.end
-        except WireError as error:
-            raise DecodeError(f"truncated or corrupt datagram: {error}") from None
-        if pos > self._max_size:
-            raise DecodeError(
-                f"restoring its stripped zeros makes the datagram {pos} bytes long, more than "
-                f"the envelope's maximum of {self._max_size}"
-            )
-        return data + bytes(pos - end)
-
-    def _unpad(self, data: bytes, pos: int) -> bytes:
-        """Cut zero padding that starts at ``pos``; anything non-zero after it is corruption."""
-        stray = len(data.rstrip(b"\0"))
-        if stray > pos:
-            first = next(i for i in range(pos, stray) if data[i])
-            raise DecodeError(
-                f"zero byte at offset {pos} ends the message, "
-                f"but a non-zero byte follows at offset {first}"
-            )
-        return data[:pos]
+        return self._forms.parse(data)
 
     def _no_payload(self, data: bytes) -> DecodeError:
-        exact = self._restore(bytes(data))
+        exact = self._forms.restore(data)
         if not exact:
             return DecodeError("datagram holds no payload (only zero bytes)", "no_payload")
         key, _ = read_varint(exact, 0)
@@ -644,23 +567,6 @@ def _shape(descriptor: Any) -> list[bytes]:
         for field in getattr(current, "fields", ()):
             pending.extend(kind for kind in (field.message_type, field.enum_type) if kind)
     return sorted(shapes)
-
-
-def _cut_short(data: bytes, why: str) -> DecodeError:
-    """The error for a datagram whose restored zeros make what no encoder sends."""
-    return DecodeError(f"datagram of {len(data)} bytes was cut short: {why}", "truncated")
-
-
-def _as_bytes(data: object) -> bytes:
-    """The bytes of a bytes-like object; ``TypeError`` for anything else."""
-    if isinstance(data, str):
-        raise TypeError("a datagram is bytes (or bytearray, memoryview), not str")
-    try:
-        return memoryview(data).tobytes()  # type: ignore[arg-type]
-    except TypeError:
-        raise TypeError(
-            f"a datagram is bytes (or bytearray, memoryview), not {type(data).__name__}"
-        ) from None
 
 
 def is_envelope(descriptor: Descriptor) -> bool:
