@@ -7,8 +7,10 @@ checks, which it shares with ``_envelope``):
   receiver would drop. A plain root has no metadata to set.
 - ``decode`` returns the same message for the exact, the stripped and the zero-padded form; an
   empty datagram is the message with every field at its default. A cut datagram is reason
-  ``"truncated"``; with ``strict``, what nanopb's decoder refuses is an error too.
-- Every failure is a ``DecodeError``/``EncodeError`` saying what and where.
+  ``"truncated"``; with ``strict``, unknown fields (reason ``"unknown_fields"``) and what nanopb's
+  decoder refuses are errors too, as for envelopes, in the same words.
+- Every failure is a ``DecodeError``/``EncodeError`` saying what and where; what is no message
+  or no datagram a ``TypeError``.
 """
 
 from collections.abc import Callable
@@ -18,8 +20,8 @@ from google.protobuf.message import Message
 
 from ._contract import Contract
 from ._envelope import Decoded
-from ._errors import DecodeError, EncodeError, SchemaError
-from ._forms import Forms, Mode
+from ._errors import EncodeError, SchemaError
+from ._forms import Forms, Mode, as_bytes, strict_error
 from .schema import descriptor_of
 
 __all__ = ["Plain"]
@@ -47,6 +49,10 @@ class Plain:
         """A plain message has no envelope members: ``{}``."""
         return {}
 
+    def metadata_fields(self) -> dict[int, str]:
+        """A plain message has no envelope metadata fields: ``{}``."""
+        return {}
+
     def payload_class(self, kind: str) -> type[Message]:
         """The root's class, for ``kind`` its full name (what a decode returns as the kind)."""
         if kind != self._name:
@@ -56,6 +62,10 @@ class Plain:
     def encode(self, message: Message, mode: Mode = "strip", /, **metadata: object) -> bytes:
         """The datagram carrying ``message`` (an instance of the root message) in ``mode``; a
         plain root has no envelope, so no metadata to set."""
+        if not isinstance(message, Message):
+            raise TypeError(
+                f"encode takes a protobuf message (a {self._name}), not {type(message).__name__}"
+            )
         if metadata:
             raise EncodeError(
                 f"{self._name} is no envelope: it has no metadata fields to set "
@@ -74,22 +84,18 @@ class Plain:
 
     def peek(self, data: bytes) -> tuple[str, bytes] | None:
         """The kind and exact bytes of a datagram in exact, stripped or padded form; ``None``
-        where only ``decode`` can say what is wrong with it."""
-        try:
-            return self._name, self._forms.restore(bytes(data))
-        except DecodeError:
-            return None
+        where only ``decode`` can say what is wrong with it (a cut datagram among them)."""
+        exact = self._forms.peek(as_bytes(data))
+        return None if exact is None else (self._name, exact)
 
     def decode(self, data: bytes, strict: bool = False) -> Decoded:
         """The message of a datagram in exact, stripped or zero-padded form (bytes or any
-        bytes-like object); with ``strict``, a ``DecodeError`` too for what nanopb's decoder
-        refuses (as ``Envelope.decode``)."""
-        if isinstance(data, str):
-            raise TypeError("a datagram is bytes (or bytearray, memoryview), not str")
-        received = bytes(data)
+        bytes-like object); with ``strict``, a ``DecodeError`` too for fields the schema does not
+        know and for what nanopb's decoder refuses (as ``Envelope.decode``)."""
+        received = as_bytes(data)
         message = self._forms.parse(received)
-        if strict and self._refusal is not None:
-            refused = self._refusal(message)
-            if refused is not None:
-                raise DecodeError(f"nanopb's decoder refuses the {self._name}: {refused}")
+        if strict:
+            error = strict_error(len(received), message, self._name, self._refusal)
+            if error is not None:
+                raise error
         return Decoded(self._name, message)
