@@ -42,6 +42,7 @@ from google.protobuf.message import Message
 
 from ._contract import Contract
 from ._errors import DecodeError, EncodeError, SchemaError
+from ._foreign import Foreign
 from ._forms import Forms, Mode, as_bytes, cut_short, strict_error
 from ._truncation import Table, cut_reason, presence_table
 from ._unknown import UnknownField, unknown_fields
@@ -216,11 +217,8 @@ class Envelope:
             if len(tag) == 1:
                 self._first[tag[0]] = self._tags[tag[0]]
         self._by_name = {cls.DESCRIPTOR.full_name: member for cls, member in self._members.items()}
-        # Full name → this schema's descriptor, for the classes built elsewhere that encode is
-        # given; and the verdict on each such class, once.
-        self._own = {name: cls.DESCRIPTOR for name, cls in [(self._name, envelope)]}
-        self._own.update((cls.DESCRIPTOR.full_name, cls.DESCRIPTOR) for cls in self._members)
-        self._foreign: dict[type[Message], bool] = {}
+        # The verdicts on classes built elsewhere that encode is given.
+        self._foreign = Foreign([envelope, *self._members])
 
     def kinds(self) -> dict[int, str]:
         """The envelope's payload members: field number → member name (a decoded ``kind``)."""
@@ -275,12 +273,9 @@ class Envelope:
                 f"{type(message).__name__}"
             )
         name = message.DESCRIPTOR.full_name
-        if name in self._own and not self._same_schema(type(message)):
-            raise EncodeError(
-                f"{name} is a message class of another schema: it is not this schema's {name} "
-                "(its fields or those of a message it holds differ); build the message with "
-                "this codec (message_class, from_dict)"
-            )
+        refused = self._foreign.refusal(type(message))
+        if refused is not None:
+            raise refused
         if name == self._name:
             kind = message.WhichOneof(self._oneof)
             if kind is None:
@@ -336,17 +331,6 @@ class Envelope:
         if len(data) > self._max_size:
             raise self._too_long(envelope, [b""], data)
         return data
-
-    def _same_schema(self, cls: type[Message]) -> bool:
-        """Whether ``cls`` (not one of this schema's classes) is of a message this schema has
-        as it is: the same declaration, and the same declarations of every message and enum it
-        reaches, as generated code of the same .proto files has."""
-        same = self._foreign.get(cls)
-        if same is None:
-            same = self._foreign[cls] = _shape(cls.DESCRIPTOR) == _shape(
-                self._own[cls.DESCRIPTOR.full_name]
-            )
-        return same
 
     def _too_long(self, message: Message, headers: list[bytes], body: bytes) -> EncodeError:
         """The error for a ``body`` too long to fit, ``headers`` being its member's (or ``[b""]``
@@ -543,30 +527,6 @@ class Envelope:
             "(sent by a newer schema?)",
             "unknown_member",
         )
-
-
-def _shape(descriptor: Any) -> list[bytes]:
-    """The declarations of a message and of every message and enum it reaches, serialized."""
-    from google.protobuf import descriptor_pb2
-
-    shapes: list[bytes] = []
-    seen: set[str] = set()
-    pending = [descriptor]
-    while pending:
-        current = pending.pop()
-        if current.full_name in seen:
-            continue
-        seen.add(current.full_name)
-        proto: Any = (
-            descriptor_pb2.DescriptorProto()
-            if hasattr(current, "fields")
-            else descriptor_pb2.EnumDescriptorProto()
-        )
-        current.CopyToProto(proto)
-        shapes.append(current.full_name.encode() + proto.SerializeToString(deterministic=True))
-        for field in getattr(current, "fields", ()):
-            pending.extend(kind for kind in (field.message_type, field.enum_type) if kind)
-    return sorted(shapes)
 
 
 def is_envelope(descriptor: Descriptor) -> bool:
