@@ -4,7 +4,8 @@ What this module guarantees, beside ``_forms`` (the forms, restoring, cut detect
 checks, which it shares with ``_envelope``):
 - ``encode`` produces exactly the bytes protobuf (and nanopb) would for the message, after the
   fixed-size contract's checks, in the form asked for; it never lets through what a fixed-size
-  receiver would drop. A plain root has no metadata to set.
+  receiver would drop, nor a class of another schema named as the root (``_foreign``). A plain
+  root has no metadata to set.
 - ``decode`` returns the same message for the exact, the stripped and the zero-padded form; an
   empty datagram is the message with every field at its default. A cut datagram is reason
   ``"truncated"``; with ``strict``, unknown fields (reason ``"unknown_fields"``) and what nanopb's
@@ -21,6 +22,7 @@ from google.protobuf.message import Message
 from ._contract import Contract
 from ._envelope import Decoded
 from ._errors import EncodeError, SchemaError
+from ._foreign import Foreign
 from ._forms import Forms, Mode, as_bytes, strict_error
 from .schema import descriptor_of
 
@@ -42,6 +44,7 @@ class Plain:
         self._name = descriptor.full_name
         self._class = cls
         self._forms = Forms(cls, max_size, f"{self._name}'s", groups=True, inside=False)
+        self._foreign = Foreign([cls])  # classes built elsewhere: of this schema's root, or not
         rules = contract(descriptor)
         self._check = rules.check if rules is not None else None
 
@@ -75,6 +78,10 @@ class Plain:
             raise EncodeError(
                 f"{message.DESCRIPTOR.full_name} is not {self._name}, the message this codec sends"
             )
+        if type(message) is not self._class:
+            refused = self._foreign.refusal(type(message))
+            if refused is not None:
+                raise refused
         if self._check is not None:
             self._check(message)
         data = message.SerializePartialToString()  # unset required fields: the check's to name

@@ -171,6 +171,26 @@ def test_a_plain_root_takes_only_bytes_like_datagrams(plain: MessageCodec, value
         plain.peek(value)  # type: ignore[arg-type]
 
 
+def test_a_plain_root_refuses_a_class_of_another_schema(tmp_path: Path) -> None:
+    """Their ``R`` sent as ours would be read as ``a: 1`` (sint32 -1, zigzag) beside an unknown
+    field; a class of the same declaration (generated code of the same .proto) is taken."""
+    trees = {
+        "ours": "uint32 a = 1;",
+        "theirs": "sint32 a = 1; uint32 b = 2;",
+        "twin": "uint32 a = 1;",
+    }
+    for folder, fields in trees.items():
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "r.proto").write_text(
+            f'syntax = "proto3";\nmessage R {{ {fields} }}\n'
+        )
+    ours, theirs, twin = (Codec.from_path(tmp_path / folder, "R") for folder in trees)
+    with pytest.raises(EncodeError, match=r"^R is a message class of another schema"):
+        ours.encode(theirs.message_class("R")(a=-1, b=3))
+    sent = ours.encode(twin.message_class("R")(a=5))
+    assert ours.decode(sent) == ("R", ours.message_class("R")(a=5))
+
+
 def test_a_plain_root_encodes_only_messages(plain: MessageCodec) -> None:
     with pytest.raises(TypeError, match=r"encode takes a protobuf message \(a Probe\), not bytes"):
         plain.encode(b"\x0a\x00")  # type: ignore[arg-type]
