@@ -187,7 +187,6 @@ class Envelope:
         self._forms = Forms(
             envelope, max_size, "the envelope's", groups=False, inside=True, tables=tables
         )
-        self._in_form = self._forms.in_form  # an exact datagram in transmission form ``mode``
         self._restoring: dict[str, tuple[Callable[[Message], bytes], Table]] = {}
         for field in members:
             payload = field.message_type
@@ -241,7 +240,8 @@ class Envelope:
         """The datagram carrying ``message`` (a payload, or a whole envelope) in ``mode``, with
         the envelope metadata fields named (``timeout=300``) set to their values."""
         if metadata:
-            return self._in_form(self._with_metadata(self.encode(message, "exact"), metadata), mode)
+            exact = self._with_metadata(self.encode(message, "exact"), metadata)
+            return self._forms.in_form(exact, mode)
         member = self._members.get(type(message))
         if member is None:
             return self._encode_other(message, mode)
@@ -262,7 +262,7 @@ class Envelope:
             return header + body.rstrip(b"\0") if body else header.rstrip(b"\0")
         if mode == "exact":
             return header + body
-        return self._in_form(header + body, mode)
+        return self._forms.in_form(header + body, mode)
 
     def _encode_other(self, message: Message, mode: Mode) -> bytes:
         """An envelope, a payload of a class built elsewhere (generated code of the same
@@ -286,7 +286,7 @@ class Envelope:
             data = message.SerializeToString()
             if len(data) > self._max_size:
                 raise self._too_long(message, [b""], data)
-            datagram = self._in_form(data, mode)
+            datagram = self._forms.in_form(data, mode)
             # An envelope parsed from bytes keeps the fields this schema does not know, and some
             # (a group at the top level) are what decode refuses: never send those.
             try:
@@ -311,7 +311,7 @@ class Envelope:
         body = message.SerializeToString()
         if len(body) >= len(headers):
             raise self._too_long(message, headers, body)
-        return self._in_form(headers[len(body)] + body, mode)
+        return self._forms.in_form(headers[len(body)] + body, mode)
 
     def _with_metadata(self, exact: bytes, metadata: Mapping[str, object]) -> bytes:
         """The exact datagram ``exact`` with ``metadata`` set: protobuf writes every field in
