@@ -329,7 +329,7 @@ class Router:
         self._started = True
 
     def _form(self, exact: bytes, form: Mode) -> bytes:
-        """``Envelope._in_form``'s cut, kept in step with it by test_router's every-kind test."""
+        """``Forms.in_form``'s cut, kept in step with it by test_router's every-kind test."""
         if form == "exact":
             return exact
         if form == "strip":  # every trailing zero of an exact encoding is its last field's

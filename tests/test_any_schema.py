@@ -149,7 +149,7 @@ def test_a_plain_root_in_the_three_forms(plain: MessageCodec) -> None:
         assert plain.decode(plain.encode(probe, mode)) == ("Probe", probe)
     assert plain.peek(plain.encode(probe)) == ("Probe", exact)
     assert plain.payload_class("Probe") is plain.message_class("Probe")
-    assert (plain.kinds(), plain.members()) == ({}, ())
+    assert (plain.kinds(), plain.members(), plain.metadata_fields()) == ({}, (), {})
 
 
 def test_a_plain_root_refuses_what_it_does_not_send(plain: MessageCodec) -> None:
@@ -159,6 +159,41 @@ def test_a_plain_root_refuses_what_it_does_not_send(plain: MessageCodec) -> None
         plain.encode(plain.message_class("Probe")(key=b"abcd", quad=[1, 2, 3, 4]), "loud")  # type: ignore[arg-type]
     with pytest.raises(SchemaError, match=r"'Inner' is not Probe"):
         plain.payload_class("Inner")
+
+
+@pytest.mark.parametrize("value", [5, [10, 4], "0a04"])
+def test_a_plain_root_takes_only_bytes_like_datagrams(plain: MessageCodec, value: object) -> None:
+    """``bytes(5)`` would be five zeros, which decode to the default message."""
+    pattern = f"a datagram is bytes .*not {type(value).__name__}"
+    with pytest.raises(TypeError, match=pattern):
+        plain.decode(value)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=pattern):
+        plain.peek(value)  # type: ignore[arg-type]
+
+
+def test_a_plain_root_refuses_a_class_of_another_schema(tmp_path: Path) -> None:
+    """Their ``R`` sent as ours would be read as ``a: 1`` (sint32 -1, zigzag) beside an unknown
+    field; a class of the same declaration (generated code of the same .proto) is taken."""
+    trees = {
+        "ours": "uint32 a = 1;",
+        "theirs": "sint32 a = 1; uint32 b = 2;",
+        "twin": "uint32 a = 1;",
+    }
+    for folder, fields in trees.items():
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "r.proto").write_text(
+            f'syntax = "proto3";\nmessage R {{ {fields} }}\n'
+        )
+    ours, theirs, twin = (Codec.from_path(tmp_path / folder, "R") for folder in trees)
+    with pytest.raises(EncodeError, match=r"^R is a message class of another schema"):
+        ours.encode(theirs.message_class("R")(a=-1, b=3))
+    sent = ours.encode(twin.message_class("R")(a=5))
+    assert ours.decode(sent) == ("R", ours.message_class("R")(a=5))
+
+
+def test_a_plain_root_encodes_only_messages(plain: MessageCodec) -> None:
+    with pytest.raises(TypeError, match=r"encode takes a protobuf message \(a Probe\), not bytes"):
+        plain.encode(b"\x0a\x00")  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize(
@@ -201,6 +236,44 @@ def test_strict_decoding_of_an_envelope(tmp_path: Path) -> None:
         with pytest.raises(DecodeError, match=rf"nanopb's decoder refuses the part payload: {why}"):
             codec.decode(data, strict=True)
     assert codec.decode(b"\x0a\x02\x08\x01", strict=True).kind == "part"
+
+
+# A Reading: level {a: 3, and field 15 = 1, which Level lacks}, b: 7, and field 20 = 1, which
+# Reading lacks; sent by itself (a plain root) and as the payload of an envelope.
+_UNKNOWN_PAYLOAD = bytes.fromhex("0a04080378011007a00101")
+
+
+def test_a_plain_root_reports_and_refuses_unknown_fields_as_an_envelope_does(
+    tmp_path: Path,
+) -> None:
+    (tmp_path / "u.proto").write_text(
+        'syntax = "proto3";\n'
+        "message Level { uint32 a = 1; }\n"
+        "message Reading { Level level = 1; uint32 b = 2; }\n"
+        "message Env { oneof payload { Reading reading = 1; } }\n"
+    )
+    plain = Codec.from_path(tmp_path, "Reading")
+    envelope = Codec.from_path(tmp_path, "Env")
+    assert isinstance(plain, MessageCodec)
+    assert not isinstance(envelope, MessageCodec)
+    wrapped = bytes([0x0A, len(_UNKNOWN_PAYLOAD)]) + _UNKNOWN_PAYLOAD
+    expected = (erc_codec.UnknownField("", 20, 0), erc_codec.UnknownField("level", 15, 0))
+    ours, theirs = plain.decode(_UNKNOWN_PAYLOAD), envelope.decode(wrapped)
+    assert ours.unknown_fields == theirs.unknown_fields == expected
+    assert ours.to_dict()["unknown_fields"] == theirs.to_dict()["unknown_fields"]
+    listed = r"Reading does not know: 20 \(wire type 0\), 15 \(wire type 0, in level\)"
+    for codec, data, subject in [
+        (plain, _UNKNOWN_PAYLOAD, "Reading"),
+        (envelope, wrapped, "reading payload"),
+    ]:
+        for form in (data, data + bytes(2)):  # exact and zero-padded
+            pattern = rf"^datagram of {len(form)} bytes: its {subject} holds fields {listed} "
+            pattern += r"\(another schema\?\)$"
+            with pytest.raises(DecodeError, match=pattern) as raised:
+                codec.decode(form, strict=True)
+            assert raised.value.reason == "unknown_fields"
+    known = plain.message_class("Reading")(b=7)
+    assert plain.decode(plain.encode(known), strict=True) == ("Reading", known)
 
 
 # -- what protobuf's Python runtime cannot build --------------------------------------------------
@@ -300,6 +373,7 @@ def test_a_plain_root_tells_a_cut_datagram_from_a_stripped_one(plain: MessageCod
     exact = plain.encode(probe, "exact")
     with pytest.raises(DecodeError, match=r"cut short: .* in Probe\.inner\.a continues a varint"):
         plain.decode(exact[:-1])
+    assert plain.peek(exact[:-1]) is None  # no exact form: its restored zeros were never sent
     assert plain.decode(cast(bytes, memoryview(exact))) == ("Probe", probe)  # any bytes-like
     with pytest.raises(TypeError, match="not str"):
         plain.decode(exact.hex())  # type: ignore[arg-type]
