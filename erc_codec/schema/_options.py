@@ -10,6 +10,12 @@ name); and in-file annotations (``[(nanopb).max_size = 32]``, ``option (nanopb_m
 ``option (nanopb_fileopt)...``). Every message, nested or not, starts from its file's options; a
 field or oneof starts from its message's. At each level matching options lines merge in file
 order, then the annotation, which wins.
+
+A pattern matches the name nanopb gives an element, which its file's ``mangle_names`` and
+``(nanopb_fileopt).package`` change: ``pkg.sub.Outer.Inner`` by default, ``Outer.Inner`` under
+``M_STRIP_PACKAGE``, ``Inner`` under ``M_FLATTEN``, ``ps.Outer.Inner`` under
+``M_PACKAGE_INITIALS``, ``NEW.Outer.Inner`` with ``package:"NEW"`` (mangling wins over it); a field
+or oneof is matched as that name and its own. Options stay keyed by the real full names.
 """
 
 import functools
@@ -30,9 +36,10 @@ from ._files import file_exists, read_text
 from ._protoc import FALLBACK_INCLUDE, compile_files
 from ._wire import LEN, WireError, next_field
 
-__all__ = ["Options", "ResolvedOptions", "options_class", "resolve_options"]
+__all__ = ["Options", "ResolvedOptions", "nanopb_name", "options_class", "resolve_options"]
 
 _EXTENSION = 1010  # (nanopb), (nanopb_msgopt), (nanopb_fileopt) on the descriptor options
+_M_STRIP_PACKAGE, _M_FLATTEN, _M_PACKAGE_INITIALS = 1, 2, 3  # nanopb.proto's TypenameMangling
 _COMMENTS = re.compile(r"/\*.*?\*/|//.*$|#.*$")
 
 # NanoPBOptions is a message class built at run time: its instances are typed Any.
@@ -97,21 +104,42 @@ def resolve_options(
         for declaration in declarations(proto):
             message = declaration.proto
             name = declaration.name
+            seen = nanopb_name(proto.package, base, name)  # what the patterns are matched with
             if not isinstance(message, descriptor_pb2.DescriptorProto):
                 parent = resolved.messages[declaration.parent] if declaration.parent else base
                 annotated = message.options if message.HasField("options") else None
-                resolved.enums[name] = _merge(parent, rules, name, annotated)
+                resolved.enums[name] = _merge(parent, rules, seen, annotated)
                 continue
-            own = resolved.messages[name] = _merge(base, rules, name, message.options)
+            own = resolved.messages[name] = _merge(base, rules, seen, message.options)
             for field in message.field:
                 options = field.options if field.HasField("options") else None
-                dotted = f"{name}.{field.name}"
-                resolved.fields[dotted] = _merge(own, rules, dotted, options)
+                dotted = f"{seen}.{field.name}"
+                resolved.fields[f"{name}.{field.name}"] = _merge(own, rules, dotted, options)
             for oneof in message.oneof_decl:
                 # oneofs carry no (nanopb) annotation: only .options lines reach them
-                dotted = f"{name}.{oneof.name}"
-                resolved.oneofs[dotted] = _merge(own, rules, dotted, None)
+                dotted = f"{seen}.{oneof.name}"
+                resolved.oneofs[f"{name}.{oneof.name}"] = _merge(own, rules, dotted, None)
     return resolved
+
+
+def nanopb_name(package: str, file_options: Options, full_name: str) -> str:
+    """The dotted name nanopb's generator gives the message or enum ``full_name`` of a file in
+    ``package`` with ``file_options`` (its C name with dots for underscores): the name ``.options``
+    patterns are matched against. ``mangle_names`` decides it, else ``(nanopb_fileopt).package``
+    replaces the package."""
+    local = full_name[len(package) + 1 :] if package else full_name
+    mangling = file_options.mangle_names
+    if mangling == _M_STRIP_PACKAGE:
+        return local
+    if mangling == _M_FLATTEN:
+        return local.rpartition(".")[2]
+    if mangling == _M_PACKAGE_INITIALS:
+        prefix = "".join(part[:1] for part in package.split("."))
+    elif file_options.package:
+        prefix = file_options.package
+    else:
+        prefix = package
+    return f"{prefix}.{local}" if prefix else local
 
 
 def _settings(settings: Sequence[str]) -> Options:
