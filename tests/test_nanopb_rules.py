@@ -4,6 +4,15 @@
   (M_STRIP_PACKAGE, M_FLATTEN, M_PACKAGE_INITIALS) or ``(nanopb_fileopt).package``, not its full
   name: tests/nanopb_trees/mangling, one file per rule, checked against PyPI ``nanopb`` 0.4.9.1 (the
   test extra) and against a hand-computed table.
+- ``nanopb_version``: "0.4.9" (every 0.4.x) against each generator installed here, PyPI
+  ``nanopb`` 0.4.9.1, 0.4.9, 0.4.8 and 0.4.7 (the older three pinned in throwaway venvs made once
+  per session, sharing this environment's protobuf and grpcio-tools, so only the generator
+  differs) and Debian's 0.4.7 (``nanopb_generator.py``, with Debian's protoc), on the rule trees
+  of tests/test_sizes.py and tests/nanopb_trees/pointers. "1.0.0-dev" (nanopb's master after
+  0.4.9.1, which sizes FT_POINTER and FT_CALLBACK fields whose bound is known) has no generator on
+  this machine: its expectations are derived by hand from master's generator/nanopb_generator.py
+  (``Field.encoded_size`` returns no size only where ``can_be_static`` is false) and written
+  beside each message in pointers.proto.
 
 Without a generator (no network for pip, no Debian package) a test skips, unless
 ERC_REQUIRE_INTEROP=1 (CI), where it fails.
@@ -11,15 +20,19 @@ ERC_REQUIRE_INTEROP=1 (CI), where it fails.
 
 import os
 import re
+import shutil
 import subprocess
 import sys
-from collections.abc import Sequence
+import sysconfig
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from test_sizes import TREES
 
-from erc_codec.schema import Sizes, load_schema
+import erc_codec
+from erc_codec.schema import NANOPB_VERSIONS, Sizes, load_schema
 
 NANOPB_TREES = Path(__file__).resolve().parent / "nanopb_trees"
 MANGLING = NANOPB_TREES / "mangling"
@@ -65,8 +78,77 @@ class Generator:
         return sizes, ""
 
 
+def _pypi_generator(version: str, folder: Path) -> Generator:
+    """PyPI ``nanopb==version`` in a venv of its own, which sees this environment's protobuf and
+    grpcio-tools (a .pth file) but has its own nanopb and a setuptools with ``pkg_resources``,
+    which generators before 0.4.9 import."""
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(folder)], check=True)
+    python = folder / "bin" / "python"
+    installed = subprocess.run(
+        [
+            *(sys.executable, "-m", "pip", "--python", str(python), "install", "-q"),
+            *("--no-deps", f"nanopb=={version}", "setuptools<81"),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    if installed.returncode != 0:
+        _fail_or_skip(f"pip could not install nanopb=={version}: {installed.stderr[-300:]}")
+    purelib = subprocess.run(
+        [str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.strip()
+    shared = {sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"]}
+    (Path(purelib) / "erc_test_shared.pth").write_text("".join(f"{p}\n" for p in sorted(shared)))
+    return Generator(version, (str(python), "-m", "nanopb.generator.nanopb_generator"))
+
+
+def _debian_generator() -> Generator:
+    program = shutil.which("nanopb_generator.py")
+    if program is None:
+        _fail_or_skip("Debian's nanopb generator (apt-get install nanopb) is not installed")
+    assert program is not None
+    said = subprocess.run([program, "--version"], capture_output=True, text=True, check=False)
+    assert said.stdout.strip() == "nanopb-0.4.7", said.stdout
+    return Generator("0.4.7 (Debian)", (program,))
+
+
+PYPI_OLDER = ("0.4.9", "0.4.8", "0.4.7")
+GENERATORS = ("0.4.9.1", *PYPI_OLDER, "0.4.7 (Debian)")
+
+
+@pytest.fixture(scope="session")
+def generators() -> dict[str, Generator]:
+    """The generators made so far in this session, by version (a venv takes seconds to make)."""
+    return {}
+
+
+def _generator(
+    cache: dict[str, Generator], version: str, factory: pytest.TempPathFactory
+) -> Generator:
+    if version not in cache:
+        if version == "0.4.9.1":
+            pytest.importorskip("nanopb")
+            cache[version] = Generator(
+                version, (sys.executable, "-m", "nanopb.generator.nanopb_generator")
+            )
+        elif version in PYPI_OLDER:
+            cache[version] = _pypi_generator(version, factory.mktemp(f"nanopb-{version}"))
+        else:
+            cache[version] = _debian_generator()
+    return cache[version]
+
+
 def _files(tree: Path) -> list[str]:
     return sorted(path.relative_to(tree).as_posix() for path in tree.rglob("*.proto"))
+
+
+def _c_names(sizes: Sized) -> Sized:
+    """erc_codec's sizes keyed as nanopb's C names of a tree without packages."""
+    return {name.replace(".", "_"): size for name, size in sizes.items()}
 
 
 # -- mangle_names and (nanopb_fileopt).package ---------------------------------------------------
@@ -114,3 +196,114 @@ def test_a_pattern_on_the_full_name_misses_a_stripped_message(tmp_path: Path) ->
     assert Sizes(load_schema(tmp_path, root="p.q.M")).all() == {"p.q.M": None}
     (tmp_path / "s.options").write_text("M.s max_size:5\n")
     assert Sizes(load_schema(tmp_path, root="p.q.M")).all() == {"p.q.M": 6}
+
+
+# -- nanopb_version ------------------------------------------------------------------------------
+
+# pointers.proto by the rules of 0.4.x (every pointer or callback field: no size) and of master
+# after 0.4.9.1 (derived from its generator's source; the sums stand beside each field).
+POINTER_SIZES: dict[str, Sized] = {
+    "0.4.9": {
+        "Leaf": 11,
+        "Pointers": None,
+        "Callbacks": None,
+        "HoldsPointers": None,
+        "PointerInOneof": None,
+        "UnboundedPointer": None,
+        "UnboundedRepeatedPointer": None,
+        "Recursive": None,
+    },
+    "1.0.0-dev": {
+        "Leaf": 11,
+        "Pointers": 85,
+        "Callbacks": 23,
+        "HoldsPointers": 87,
+        "PointerInOneof": 13,
+        "UnboundedPointer": None,
+        "UnboundedRepeatedPointer": None,
+        "Recursive": None,
+    },
+}
+
+# What each generator refuses, and why: options it does not know yet (discard_deprecated and
+# label_override came with 0.4.9), editions (Debian's protoc 3.21 predates them).
+REFUSED = {
+    "0.4.9.1": set(),
+    "0.4.9": set(),
+    "0.4.8": {"options", "overrides", "skipped"},
+    "0.4.7": {"options", "overrides", "skipped"},
+    "0.4.7 (Debian)": {"options", "overrides", "skipped", "editions"},
+}
+
+
+def test_nanopb_versions_are_the_two_rule_sets() -> None:
+    assert NANOPB_VERSIONS == ("0.4.9", "1.0.0-dev")
+    assert tuple(POINTER_SIZES) == NANOPB_VERSIONS
+
+
+@pytest.mark.parametrize("version", NANOPB_VERSIONS)
+def test_pointer_and_callback_fields_by_each_rule_set(version: str) -> None:
+    schema = load_schema(POINTERS, root="Pointers")
+    assert Sizes(schema, nanopb_version=version).all() == POINTER_SIZES[version]
+
+
+def test_the_default_rules_are_0_4_9() -> None:
+    schema = load_schema(POINTERS, root="Pointers")
+    assert Sizes(schema).all() == Sizes(schema, nanopb_version="0.4.9").all()
+
+
+def test_a_codec_takes_the_newer_rules() -> None:
+    """A root with pointer fields has no size by 0.4.x's rules, 85 bytes by master's."""
+    with pytest.raises(erc_codec.SchemaError, match=r"Pointers\.name: nanopb type FT_POINTER"):
+        erc_codec.Codec.from_path(POINTERS, root="Pointers")
+    codec = erc_codec.Codec.from_path(POINTERS, root="Pointers", nanopb_version="1.0.0-dev")
+    assert isinstance(codec, erc_codec.MessageCodec)
+    assert codec.max_size("Pointers") == 85
+    assert codec.nanopb.nanopb_version == "1.0.0-dev"
+    assert erc_codec.Codec.from_path(POINTERS, root="Leaf").nanopb.nanopb_version == "0.4.9"
+
+
+def test_an_unbounded_pointer_still_has_no_size_by_the_newer_rules() -> None:
+    with pytest.raises(erc_codec.SchemaError, match=r"string field without nanopb max_size"):
+        erc_codec.Codec.from_path(POINTERS, root="UnboundedPointer", nanopb_version="1.0.0-dev")
+
+
+def test_an_unknown_nanopb_version_is_a_schema_error() -> None:
+    with pytest.raises(
+        erc_codec.SchemaError, match=r"nanopb_version '0\.5'.*0\.4\.9 and 1\.0\.0-dev"
+    ):
+        Sizes(load_schema(POINTERS, root="Leaf"), nanopb_version="0.5")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("version", GENERATORS)
+def test_every_0_4_generator_sizes_as_the_0_4_9_rules(
+    generators: dict[str, Generator],
+    tmp_path_factory: pytest.TempPathFactory,
+    version: str,
+) -> None:
+    """Each 0.4.x generator gives every message of every rule tree it accepts erc_codec's size
+    by the "0.4.9" rules, the pointer tree included; it refuses exactly the trees listed. (The
+    test extra's 0.4.9.1 meets the rule trees in tests/test_sizes.py already: here it runs on the
+    pointer tree alone.)"""
+    generator = _generator(generators, version, tmp_path_factory)
+    trees = [("pointers", POINTERS, "Pointers")]
+    if version != "0.4.9.1":
+        trees += [(tree.name, tree.path, tree.root) for tree in TREES]
+    refused: dict[str, str] = {}
+    differ: dict[str, Mapping[str, tuple[object, object]]] = {}
+    for name, path, root in trees:
+        theirs, complaint = generator.run(path, _files(path), tmp_path_factory.mktemp(name))
+        if theirs is None:
+            refused[name] = complaint.strip().splitlines()[-1] if complaint.strip() else "?"
+            continue
+        ours = _c_names(Sizes(load_schema(path, root=root), nanopb_version="0.4.9").all())
+        wrong = {
+            c: (ours.get(c, "<missing>"), size)
+            for c, size in theirs.items()
+            if ours.get(c, "<missing>") != size
+        }
+        if wrong:
+            differ[name] = wrong
+    assert differ == {}
+    assert set(refused) == REFUSED[version], refused

@@ -21,8 +21,8 @@ sizes and nanopb limits. Nothing here encodes envelopes or talks to a network.
   folders, and the messages protobuf's Python runtime refuses to build, with why);
 - nanopb: ``resolve_options`` (``.options`` files, found as the generator finds them, its ``-f``
   and ``-s``, and annotations, their patterns matched with ``nanopb_name``, the name under
-  ``mangle_names``) and ``Sizes`` (``<Message>_size`` as the generator computes it, the
-  fixed-size contract's limits);
+  ``mangle_names``) and ``Sizes`` (``<Message>_size`` as the generator computes it, by the rules of
+  one of ``NANOPB_VERSIONS``, the fixed-size contract's limits);
 - the wire: varints, wire types, ``MAX_FIELD_NUMBER`` and ``next_field``, the one tag walker.
 """
 
@@ -41,7 +41,7 @@ from ._git import MAX_DEPTH, MAX_FILES, MAX_LINK_STEPS, MAX_PATH_TEXT, GitError,
 from ._options import Options, ResolvedOptions, nanopb_name, options_class, resolve_options
 from ._protoc import ProtocError, compile_files
 from ._schema import Schema, descriptor_of, enum_of, load_schema, message_of
-from ._sizes import Sizes
+from ._sizes import NANOPB_VERSIONS, Sizes
 from ._text import declared_names, imports
 from ._tree import TREE_LIMIT, GitSpec, TreeSource, open_tree, parse_tree_spec
 from ._wire import (
@@ -71,6 +71,7 @@ __all__ = [
     "MAX_FILES",
     "MAX_LINK_STEPS",
     "MAX_PATH_TEXT",
+    "NANOPB_VERSIONS",
     "SGROUP",
     "SOURCE_LIMIT",
     "TREE_LIMIT",

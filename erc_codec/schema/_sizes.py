@@ -9,6 +9,15 @@ string, bytes or repeated field with no limit, a callback or pointer field, a ty
 itself) has no size, exactly where nanopb writes "depends on runtime parameters". nanopb reads the
 descriptors as written: an editions field with ``message_encoding = DELIMITED`` is sized as the
 message field it is written as, and a proto2 ``group`` has no size (the generator refuses groups).
+
+Generator versions differ in one rule (``NANOPB_VERSIONS``): up to 0.4.9.1 (``"0.4.9"``, the rules
+of every 0.4.x release) a ``FT_CALLBACK`` or ``FT_POINTER`` field has no size; nanopb's master
+after 0.4.9.1 (``"1.0.0-dev"``, as its headers name it; the ERC firmware pins commit d68cd4e) sizes
+every field whose bound is known whatever its allocation (its ``Field.encoded_size`` asks
+``can_be_static``: a ``max_count`` for a repeated field, a ``max_size`` or ``max_length`` for a
+string or bytes), so a callback or pointer field counts as the static field it could have been.
+A type that contains itself still has no size there (master writes an expression naming the
+message's own size, which no compiler can evaluate).
 """
 
 from collections.abc import Sequence
@@ -22,7 +31,10 @@ from ._options import Options, ResolvedOptions, resolve_options
 from ._schema import Schema, enum_of, message_of
 from ._wire import varint_size
 
-__all__ = ["Sizes"]
+__all__ = ["NANOPB_VERSIONS", "Sizes"]
+
+# The generator rules a ``Sizes`` can follow, the default first (see the module's docstring).
+NANOPB_VERSIONS = ("0.4.9", "1.0.0-dev")
 
 _T = FieldDescriptor
 _FT_CALLBACK, _FT_STATIC, _FT_IGNORE, _FT_POINTER = 1, 2, 3, 4
@@ -57,10 +69,20 @@ class Sizes:
         schema: Schema,
         options_file: str = "%s.options",
         settings: Sequence[str] = (),
+        nanopb_version: str = NANOPB_VERSIONS[0],
     ) -> None:
         """nanopb's sizes for ``schema``, its generator run from the tree's root with the
         schema's include folders (``-I``), ``-f options_file`` and ``-s`` for each setting
-        (``"max_size:61"``)."""
+        (``"max_size:61"``), by the rules of generator ``nanopb_version`` (``NANOPB_VERSIONS``;
+        another value is a ``SchemaError``)."""
+        if nanopb_version not in NANOPB_VERSIONS:
+            raise SchemaError(
+                f"nanopb_version {nanopb_version!r}: erc-codec knows the generator rules of "
+                f"{' and '.join(NANOPB_VERSIONS)} (0.4.x up to 0.4.9.1, and master after it)"
+            )
+        self.nanopb_version = nanopb_version
+        # master after 0.4.9.1 sizes callback and pointer fields whose bound is known
+        self._any_allocation = nanopb_version != NANOPB_VERSIONS[0]
         self._schema = schema
         self._options: ResolvedOptions = resolve_options(
             schema.tree, schema.files, schema.include, options_file, settings
@@ -185,8 +207,9 @@ class Sizes:
         if field.full_name in self._proto2_groups:
             return "proto2 group (nanopb's generator refuses groups)"
         options = self.options(field)
-        if options.type in (_FT_CALLBACK, _FT_POINTER):
-            return f"nanopb type {'FT_CALLBACK' if options.type == _FT_CALLBACK else 'FT_POINTER'}"
+        if options.type in (_FT_CALLBACK, _FT_POINTER) and not self._any_allocation:
+            kind = "FT_CALLBACK" if options.type == _FT_CALLBACK else "FT_POINTER"
+            return f"nanopb type {kind} (sized from nanopb_version 1.0.0-dev on, if bounded)"
         if self._repeated(field) and self.max_count(field) is None:
             return "repeated field without nanopb max_count"
         sub = field.message_type
