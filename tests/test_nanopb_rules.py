@@ -3,7 +3,9 @@
 - ``.options`` patterns match the name nanopb gives an element under its file's ``mangle_names``
   (M_STRIP_PACKAGE, M_FLATTEN, M_PACKAGE_INITIALS) or ``(nanopb_fileopt).package``, not its full
   name: tests/nanopb_trees/mangling, one file per rule, checked against PyPI ``nanopb`` 0.4.9.1 (the
-  test extra) and against a hand-computed table.
+  test extra) and against a hand-computed table; and a field's type is looked up by the name the
+  referring file's mangling makes of it, which the declaring file may never have registered
+  (tests/nanopb_trees/crossfile: then no size, or a guessed 10 bytes for an enum).
 - ``nanopb_version``: "0.4.9" (every 0.4.x) against each generator installed here, PyPI
   ``nanopb`` 0.4.9.1, 0.4.9, 0.4.8 and 0.4.7 (the older three pinned in throwaway venvs made once
   per session, sharing this environment's protobuf and grpcio-tools, so only the generator
@@ -196,6 +198,77 @@ def test_a_pattern_on_the_full_name_misses_a_stripped_message(tmp_path: Path) ->
     assert Sizes(load_schema(tmp_path, root="p.q.M")).all() == {"p.q.M": None}
     (tmp_path / "s.options").write_text("M.s max_size:5\n")
     assert Sizes(load_schema(tmp_path, root="p.q.M")).all() == {"p.q.M": 6}
+
+
+CROSSFILE = NANOPB_TREES / "crossfile"
+_GUARDED = re.compile(r"^#if defined\((\w+)_size\)\n#define (\w+)_size\b", re.MULTILINE)
+
+# (root, {full name: (C name, size)}): every message the root's file and imports define. A size
+# nanopb writes under a "#if defined(X_size)" that never holds is no size (X_size is defined in
+# no header).
+CROSSFILE_CASES: dict[str, dict[str, tuple[str, int | None]]] = {
+    "p.UsesSub": {
+        "p.Sub": ("p_Sub", 11),
+        "p.UsesSub": ("UsesSub", None),
+        "p.UsesColor": ("UsesColor", 33),
+    },
+    "q.FlatUses": {"p.Sub": ("p_Sub", 11), "q.FlatUses": ("FlatUses", None)},
+    "p.UsesPart": {"p.Part": ("Part", 11), "p.UsesPart": ("UsesPart", 13)},
+    "r.RefPart": {
+        "p.Part": ("Part", 11),
+        "s.Outer": ("Outer", 13),
+        "s.Outer.Leaf": ("Leaf", 11),
+        "r.RefPart": ("r_RefPart", 13),
+        "r.RefLeaf": ("r_RefLeaf", None),
+    },
+}
+
+
+@pytest.fixture(scope="module")
+def crossfile(tmp_path_factory: pytest.TempPathFactory) -> Sized:
+    pytest.importorskip("nanopb")
+    outdir = tmp_path_factory.mktemp("crossfile")
+    generator = Generator("0.4.9.1", (sys.executable, "-m", "nanopb.generator.nanopb_generator"))
+    sizes, complaint = generator.run(CROSSFILE, _files(CROSSFILE), outdir)
+    assert sizes is not None, complaint
+    for name in _files(CROSSFILE):
+        header = (outdir / name).with_suffix(".pb.h").read_text(encoding="utf-8")
+        for needed, c_name in _GUARDED.findall(header):
+            assert needed not in sizes, (needed, c_name)  # defined nowhere: the guard never holds
+            sizes[c_name] = None
+    return sizes
+
+
+@pytest.mark.parametrize("root", sorted(CROSSFILE_CASES))
+def test_a_type_nanopb_does_not_find_has_no_size(crossfile: Sized, root: str) -> None:
+    """Where the referring and the declaring file mangle names differently, nanopb looks the
+    type up by a name the declaring file never registered: no size for a message type, the guess
+    of 10 bytes for an enum in a oneof or repeated."""
+    case = CROSSFILE_CASES[root]
+    assert {c_name: crossfile[c_name] for c_name, _ in case.values()} == dict(case.values())
+    ours = Sizes(load_schema(CROSSFILE, root=root)).all()
+    assert ours == {name: size for name, (_, size) in case.items()}
+
+
+def test_a_singular_enum_nanopb_does_not_find_stops_it(tmp_path: Path) -> None:
+    """nanopb's generator stops on a singular enum field whose type it does not find ("Could not
+    find enum type"): that message has no size here, said in a SchemaError naming the field."""
+    pytest.importorskip("nanopb")
+    for name in ("base.proto", "stripped.proto"):
+        shutil.copy(CROSSFILE / name, tmp_path / name)
+    (tmp_path / "single.proto").write_text(
+        'syntax = "proto3";\npackage p;\nimport "nanopb.proto";\nimport "base.proto";\n'
+        "option (nanopb_fileopt).mangle_names = M_STRIP_PACKAGE;\n"
+        "message OneColor { Color color = 1; }\n"
+    )
+    generator = Generator("0.4.9.1", (sys.executable, "-m", "nanopb.generator.nanopb_generator"))
+    sizes, complaint = generator.run(tmp_path, ["single.proto"], tmp_path)
+    assert sizes is None
+    assert "Could not find enum type Color" in complaint
+    ours = Sizes(load_schema(tmp_path, root="p.OneColor"))
+    assert ours.all() == {"p.Sub": 11, "p.OneColor": None}
+    with pytest.raises(erc_codec.SchemaError, match=r"p\.OneColor\.color: .*enum type p\.Color"):
+        ours.max_size("p.OneColor")
 
 
 # -- nanopb_version ------------------------------------------------------------------------------

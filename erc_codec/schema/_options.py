@@ -33,13 +33,13 @@ from google.protobuf.message import Message
 from .._errors import SchemaError
 from ._descriptors import declarations
 from ._files import file_exists, read_text
+from ._names import nanopb_name
 from ._protoc import FALLBACK_INCLUDE, compile_files
 from ._wire import LEN, WireError, next_field
 
-__all__ = ["Options", "ResolvedOptions", "nanopb_name", "options_class", "resolve_options"]
+__all__ = ["Options", "ResolvedOptions", "options_class", "resolve_options"]
 
 _EXTENSION = 1010  # (nanopb), (nanopb_msgopt), (nanopb_fileopt) on the descriptor options
-_M_STRIP_PACKAGE, _M_FLATTEN, _M_PACKAGE_INITIALS = 1, 2, 3  # nanopb.proto's TypenameMangling
 _COMMENTS = re.compile(r"/\*.*?\*/|//.*$|#.*$")
 
 # NanoPBOptions is a message class built at run time: its instances are typed Any.
@@ -49,9 +49,11 @@ Rules = list[tuple[str, Options]]
 
 class ResolvedOptions:
     """nanopb options resolved for a schema, by full name: ``messages["Msg"]``,
-    ``fields["Msg.f"]``, ``oneofs["Msg.o"]``, ``enums["Msg.Kind"]``."""
+    ``fields["Msg.f"]``, ``oneofs["Msg.o"]``, ``enums["Msg.Kind"]``, and each file's own by its
+    name, ``files["a/b.proto"]`` (its ``mangle_names`` and ``package`` among them)."""
 
     def __init__(self) -> None:
+        self.files: dict[str, Options] = {}
         self.messages: dict[str, Options] = {}
         self.fields: dict[str, Options] = {}
         self.oneofs: dict[str, Options] = {}
@@ -100,7 +102,7 @@ def resolve_options(
     top = _settings(settings)
     for proto in files:
         rules = _read_rules(_options_path(tree, include, options_file, proto.name))
-        base = _merge(top, rules, proto.name, proto.options)
+        base = resolved.files[proto.name] = _merge(top, rules, proto.name, proto.options)
         for declaration in declarations(proto):
             message = declaration.proto
             name = declaration.name
@@ -120,26 +122,6 @@ def resolve_options(
                 dotted = f"{seen}.{oneof.name}"
                 resolved.oneofs[f"{name}.{oneof.name}"] = _merge(own, rules, dotted, None)
     return resolved
-
-
-def nanopb_name(package: str, file_options: Options, full_name: str) -> str:
-    """The dotted name nanopb's generator gives the message or enum ``full_name`` of a file in
-    ``package`` with ``file_options`` (its C name with dots for underscores): the name ``.options``
-    patterns are matched against. ``mangle_names`` decides it, else ``(nanopb_fileopt).package``
-    replaces the package."""
-    local = full_name[len(package) + 1 :] if package else full_name
-    mangling = file_options.mangle_names
-    if mangling == _M_STRIP_PACKAGE:
-        return local
-    if mangling == _M_FLATTEN:
-        return local.rpartition(".")[2]
-    if mangling == _M_PACKAGE_INITIALS:
-        prefix = "".join(part[:1] for part in package.split("."))
-    elif file_options.package:
-        prefix = file_options.package
-    else:
-        prefix = package
-    return f"{prefix}.{local}" if prefix else local
 
 
 def _settings(settings: Sequence[str]) -> Options:

@@ -27,6 +27,7 @@ from google.protobuf.descriptor import Descriptor, FieldDescriptor, OneofDescrip
 
 from .._errors import SchemaError
 from ._descriptors import declarations
+from ._names import nanopb_finds
 from ._options import Options, ResolvedOptions, resolve_options
 from ._schema import Schema, enum_of, message_of
 from ._wire import varint_size
@@ -100,6 +101,7 @@ class Sizes:
                         if field.type == _T.TYPE_GROUP:
                             self._proto2_groups.add(dotted)
         self._memo: dict[str, int | None] = {}
+        self._lookups: dict[str, bool] = {}  # field -> whether nanopb finds its type
 
     # -- field limits --------------------------------------------------------------------------
 
@@ -216,6 +218,16 @@ class Sizes:
         if sub is not None and not self._generated(sub):
             # the generator writes "#if defined(Sub_size)" around a size that never is defined
             return f"its type {sub.full_name} is not generated (skip_message, or deprecated)"
+        if sub is not None and not self._found(field):
+            return (
+                f"nanopb's generator does not find its type {sub.full_name}: the two files' "
+                "mangle_names or (nanopb_fileopt).package disagree"
+            )
+        if field.enum_type is not None and self._enum_stops_generator(field):
+            return (
+                f"nanopb's generator does not find its enum type {field.enum_type.full_name} (the "
+                "two files' mangle_names or (nanopb_fileopt).package disagree) and stops"
+            )
         if field.type in (_T.TYPE_STRING, _T.TYPE_BYTES) and self.max_bytes(field) is None:
             kind = "string" if field.type == _T.TYPE_STRING else "bytes"
             return f"{kind} field without nanopb max_size"
@@ -307,6 +319,8 @@ class Sizes:
                 else options.max_size
             )
             payload = varint_size(limit) + limit - (1 if kind == _T.TYPE_STRING else 0)
+        elif kind == _T.TYPE_ENUM and not self._found(field):
+            payload = 10  # the generator's guess for an enum it does not find (see _names)
         elif kind == _T.TYPE_ENUM:
             payload = max(varint_size(value.number) for value in enum_of(field).values)
         elif kind in _SIZED_VARINTS:
@@ -320,6 +334,35 @@ class Sizes:
             return tag + payload
         count = int(options.max_count)
         return (tag + payload) * count + (1 if count == 1 else 0)
+
+    def _enum_stops_generator(self, field: FieldDescriptor) -> bool:
+        """Whether an enum field whose type nanopb does not find stops its generator ("Could not
+        find enum type", raised while it writes the defaults of singular static fields); in a
+        oneof, repeated, a callback or a pointer it counts as a guessed 10 bytes instead."""
+        return (
+            not self._found(field)
+            and not self._repeated(field)
+            and field.containing_oneof is None
+            and self.options(field).type not in (_FT_CALLBACK, _FT_POINTER)
+        )
+
+    def _found(self, field: FieldDescriptor) -> bool:
+        """Whether nanopb's generator finds the message or enum type of ``field`` under the
+        mangle_names and package options of the file that refers to it and of the one that
+        declares it (always, where the two agree)."""
+        found = self._lookups.get(field.full_name)
+        if found is None:
+            kind = field.message_type or field.enum_type
+            assert kind is not None, field.full_name
+            assert field.containing_type is not None, field.full_name
+            referring, defining = field.containing_type.file, kind.file
+            files = self._options.files
+            found = self._lookups[field.full_name] = nanopb_finds(
+                (referring.package, files[referring.name]),
+                (defining.package, files[defining.name]),
+                kind.full_name,
+            )
+        return found
 
     def _oneof_options(self, oneof: OneofDescriptor) -> Options:
         return self._options.oneofs[oneof.full_name]
