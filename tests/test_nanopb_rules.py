@@ -288,9 +288,9 @@ POINTER_SIZES: dict[str, Sized] = {
     },
     "1.0.0-dev": {
         "Leaf": 11,
-        "Pointers": 85,
+        "Pointers": 97,
         "Callbacks": 23,
-        "HoldsPointers": 87,
+        "HoldsPointers": 99,
         "PointerInOneof": 13,
         "UnboundedPointer": None,
         "UnboundedRepeatedPointer": None,
@@ -326,12 +326,12 @@ def test_the_default_rules_are_0_4_9() -> None:
 
 
 def test_a_codec_takes_the_newer_rules() -> None:
-    """A root with pointer fields has no size by 0.4.x's rules, 85 bytes by master's."""
+    """A root with pointer fields has no size by 0.4.x's rules, 97 bytes by master's."""
     with pytest.raises(erc_codec.SchemaError, match=r"Pointers\.name: nanopb type FT_POINTER"):
         erc_codec.Codec.from_path(POINTERS, root="Pointers")
     codec = erc_codec.Codec.from_path(POINTERS, root="Pointers", nanopb_version="1.0.0-dev")
     assert isinstance(codec, erc_codec.MessageCodec)
-    assert codec.max_size("Pointers") == 85
+    assert codec.max_size("Pointers") == 97
     assert codec.nanopb.nanopb_version == "1.0.0-dev"
     assert erc_codec.Codec.from_path(POINTERS, root="Leaf").nanopb.nanopb_version == "0.4.9"
 
@@ -380,3 +380,33 @@ def test_every_0_4_generator_sizes_as_the_0_4_9_rules(
             differ[name] = wrong
     assert differ == {}
     assert set(refused) == REFUSED[version], refused
+
+
+def test_a_maximal_message_with_pointer_fields_encodes_to_its_newer_size() -> None:
+    """The newer rule's 97 bytes are tight: protobuf's encoding of the longest Pointers message
+    the bounds allow is exactly that long, and the contract refuses one byte more."""
+    codec = erc_codec.Codec.from_path(POINTERS, root="Pointers", nanopb_version="1.0.0-dev")
+    cls = codec.message_class("Pointers")
+    leaf = codec.message_class("Leaf")(v=-1)
+    longest = cls(
+        name="n" * 8,
+        blob=b"\xff" * 4,
+        values=[-1, -2],
+        leaf=leaf,
+        leaves=[leaf, leaf],
+        key=b"\xff" * 3,
+        label="l" * 7,
+        plain=2**32 - 1,
+    )
+    assert len(longest.SerializeToString()) == 97
+    assert codec.encode(longest, "exact") == longest.SerializeToString()
+    with pytest.raises(erc_codec.EncodeError, match=r"Pointers\.name"):
+        codec.encode(cls(name="n" * 9), "exact")
+
+
+def test_a_message_containing_itself_through_a_pointer_has_no_size_by_either_rule() -> None:
+    for version in NANOPB_VERSIONS:
+        with pytest.raises(erc_codec.SchemaError, match=r"Recursive|FT_POINTER"):
+            erc_codec.Codec.from_path(POINTERS, root="Recursive", nanopb_version=version)
+    with pytest.raises(erc_codec.SchemaError, match=r"Recursive contains itself"):
+        erc_codec.Codec.from_path(POINTERS, root="Recursive", nanopb_version="1.0.0-dev")
