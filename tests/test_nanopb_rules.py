@@ -336,6 +336,14 @@ def test_a_codec_takes_the_newer_rules() -> None:
     assert erc_codec.Codec.from_path(POINTERS, root="Leaf").nanopb.nanopb_version == "0.4.9"
 
 
+def test_an_envelope_codec_takes_the_rules_too() -> None:
+    envelope = Path(__file__).resolve().parent / "size_trees" / "envelope"
+    codec = erc_codec.Codec.from_path(envelope, root="Env", nanopb_version="1.0.0-dev")
+    assert not isinstance(codec, erc_codec.MessageCodec)
+    assert codec.nanopb.nanopb_version == "1.0.0-dev"
+    assert codec.max_size("Env") == erc_codec.Codec.from_path(envelope, root="Env").max_size("Env")
+
+
 def test_an_unbounded_pointer_still_has_no_size_by_the_newer_rules() -> None:
     with pytest.raises(erc_codec.SchemaError, match=r"string field without nanopb max_size"):
         erc_codec.Codec.from_path(POINTERS, root="UnboundedPointer", nanopb_version="1.0.0-dev")
