@@ -10,11 +10,11 @@
   ``nanopb`` 0.4.9.1, 0.4.9, 0.4.8 and 0.4.7 (the older three pinned in throwaway venvs made once
   per session, sharing this environment's protobuf and grpcio-tools, so only the generator
   differs) and Debian's 0.4.7 (``nanopb_generator.py``, with Debian's protoc), on the rule trees
-  of tests/test_sizes.py and tests/nanopb_trees/pointers. "1.0.0-dev" (nanopb's master after
-  0.4.9.1, which sizes FT_POINTER and FT_CALLBACK fields whose bound is known) has no generator on
-  this machine: its expectations are derived by hand from master's generator/nanopb_generator.py
-  (``Field.encoded_size`` returns no size only where ``can_be_static`` is false) and written
-  beside each message in pointers.proto.
+  of tests/test_sizes.py and tests/nanopb_trees (pointers, mangling, crossfile). "1.0.0-dev"
+  (nanopb's master after 0.4.9.1, which sizes FT_POINTER and FT_CALLBACK fields whose bound is
+  known) has no generator on this machine: its expectations are derived by hand from master's
+  generator/nanopb_generator.py (``Field.encoded_size`` returns no size only where
+  ``can_be_static`` is false) and written beside each message in pointers.proto.
 
 Without a generator (no network for pip, no Debian package) a test skips, unless
 ERC_REQUIRE_INTEROP=1 (CI), where it fails.
@@ -42,6 +42,7 @@ POINTERS = NANOPB_TREES / "pointers"
 
 _DEFINE = re.compile(r"^#define\s+(\w+)_size\s+(\d+)\s*$", re.MULTILINE)
 _RUNTIME = re.compile(r"/\*\s*(\w+)_size depends on runtime parameters\s*\*/")
+_GUARDED = re.compile(r"^#if defined\((\w+)_size\)\n#define (\w+)_size\b", re.MULTILINE)
 
 Sized = dict[str, int | None]
 
@@ -61,7 +62,8 @@ class Generator:
 
     def run(self, tree: Path, files: Sequence[str], outdir: Path) -> tuple[Sized | None, str]:
         """Run over ``files`` of ``tree`` (from its root, ``-I .``): the ``<C name>_size`` of
-        every message, ``None`` where it writes "depends on runtime parameters"; or ``None`` and
+        every message, ``None`` where it writes "depends on runtime parameters" or a size guarded
+        by ``#if defined(X_size)`` with X_size defined by none of the headers; or ``None`` and
         its complaint when it refuses the tree."""
         done = subprocess.run(
             [*self.command, "-q", "--error-on-unmatched", "-I", ".", "-D", str(outdir), *files],
@@ -73,10 +75,15 @@ class Generator:
         if done.returncode != 0:
             return None, done.stderr
         sizes: Sized = {}
+        guarded: list[tuple[str, str]] = []
         for name in files:
             header = (outdir / name).with_suffix(".pb.h").read_text(encoding="utf-8")
             sizes.update({c: int(size) for c, size in _DEFINE.findall(header)})
             sizes.update(dict.fromkeys(_RUNTIME.findall(header)))
+            guarded += _GUARDED.findall(header)
+        for needed, c_name in guarded:
+            assert needed not in sizes, f"{c_name}_size is an expression of {needed}_size: read it"
+            sizes[c_name] = None  # what it needs is defined nowhere: the guard never holds
         return sizes, ""
 
 
@@ -201,7 +208,6 @@ def test_a_pattern_on_the_full_name_misses_a_stripped_message(tmp_path: Path) ->
 
 
 CROSSFILE = NANOPB_TREES / "crossfile"
-_GUARDED = re.compile(r"^#if defined\((\w+)_size\)\n#define (\w+)_size\b", re.MULTILINE)
 
 # (root, {full name: (C name, size)}): every message the root's file and imports define. A size
 # nanopb writes under a "#if defined(X_size)" that never holds is no size (X_size is defined in
@@ -231,11 +237,6 @@ def crossfile(tmp_path_factory: pytest.TempPathFactory) -> Sized:
     generator = Generator("0.4.9.1", (sys.executable, "-m", "nanopb.generator.nanopb_generator"))
     sizes, complaint = generator.run(CROSSFILE, _files(CROSSFILE), outdir)
     assert sizes is not None, complaint
-    for name in _files(CROSSFILE):
-        header = (outdir / name).with_suffix(".pb.h").read_text(encoding="utf-8")
-        for needed, c_name in _GUARDED.findall(header):
-            assert needed not in sizes, (needed, c_name)  # defined nowhere: the guard never holds
-            sizes[c_name] = None
     return sizes
 
 
@@ -364,7 +365,8 @@ def test_every_0_4_generator_sizes_as_the_0_4_9_rules(
     version: str,
 ) -> None:
     """Each 0.4.x generator gives every message of every rule tree it accepts erc_codec's size
-    by the "0.4.9" rules, the pointer tree included; it refuses exactly the trees listed. (The
+    by the "0.4.9" rules, the pointer tree included; it refuses exactly the trees listed; and it
+    names and finds types under mangle_names as 0.4.9.1 does (the two tables above). (The
     test extra's 0.4.9.1 meets the rule trees in tests/test_sizes.py already: here it runs on the
     pointer tree alone.)"""
     generator = _generator(generators, version, tmp_path_factory)
@@ -388,6 +390,15 @@ def test_every_0_4_generator_sizes_as_the_0_4_9_rules(
             differ[name] = wrong
     assert differ == {}
     assert set(refused) == REFUSED[version], refused
+    # Every 0.4.x mangles names alike, and finds (or misses) a field's type alike.
+    mangled, complaint = generator.run(MANGLING, _files(MANGLING), tmp_path_factory.mktemp("m"))
+    assert mangled is not None, complaint
+    for _, c_names in MANGLED.values():
+        assert [mangled[c_name] for c_name in c_names] == list(MANGLED_SIZES)
+    found, complaint = generator.run(CROSSFILE, _files(CROSSFILE), tmp_path_factory.mktemp("c"))
+    assert found is not None, complaint
+    for case in CROSSFILE_CASES.values():
+        assert {c_name: found[c_name] for c_name, _ in case.values()} == dict(case.values())
 
 
 def test_a_maximal_message_with_pointer_fields_encodes_to_its_newer_size() -> None:
