@@ -11,11 +11,10 @@ name); and in-file annotations (``[(nanopb).max_size = 32]``, ``option (nanopb_m
 field or oneof starts from its message's. At each level matching options lines merge in file
 order, then the annotation, which wins.
 
-A pattern matches the name nanopb gives an element, which its file's ``mangle_names`` and
-``(nanopb_fileopt).package`` change: ``pkg.sub.Outer.Inner`` by default, ``Outer.Inner`` under
-``M_STRIP_PACKAGE``, ``Inner`` under ``M_FLATTEN``, ``ps.Outer.Inner`` under
-``M_PACKAGE_INITIALS``, ``NEW.Outer.Inner`` with ``package:"NEW"`` (mangling wins over it); a field
-or oneof is matched as that name and its own. Options stay keyed by the real full names.
+A pattern matches the name nanopb gives an element under its file's ``mangle_names`` and
+``(nanopb_fileopt).package`` (``nanopb_name``: ``Outer.Inner`` for ``pkg.Outer.Inner`` under
+``M_STRIP_PACKAGE``, ...); a field or oneof is matched as that name and its own. Options stay
+keyed by the real full names.
 """
 
 import functools
