@@ -15,7 +15,7 @@ from ._envelope import Envelope, is_envelope
 from ._errors import SchemaError
 from ._plain import Plain
 from ._strict import refusal
-from .schema import Schema, Sizes, load_schema, message_of
+from .schema import NANOPB_VERSIONS, Schema, Sizes, load_schema, message_of
 
 __all__ = ["Codec", "Direction", "Member", "MessageCodec", "default_tree", "is_envelope"]
 
@@ -52,13 +52,18 @@ class Codec(Envelope):
     Loading compiles the root's file and its imports, computes every message's nanopb maximum size
     and checks that everything reachable from the root is fixed-size; any problem is a
     ``SchemaError`` naming the file and line. ``options_file`` and ``settings`` are nanopb's
-    generator's ``-f`` and ``-s`` (see ``erc_codec.schema.Sizes``).
+    generator's ``-f`` and ``-s``, ``nanopb_version`` whose sizing rules apply (``"0.4.9"``, or
+    ``"1.0.0-dev"``, master after 0.4.9.1: see ``erc_codec.schema.Sizes``).
     """
 
     def __init__(
-        self, schema: Schema, options_file: str = "%s.options", settings: Sequence[str] = ()
+        self,
+        schema: Schema,
+        options_file: str = "%s.options",
+        settings: Sequence[str] = (),
+        nanopb_version: str = NANOPB_VERSIONS[0],
     ) -> None:
-        self._load(schema, options_file, settings)
+        self._load(schema, options_file, settings, nanopb_version)
         super().__init__(
             schema.message_class(self.root),
             self._sizes.max_size(self.root),
@@ -66,9 +71,11 @@ class Codec(Envelope):
             functools.partial(refusal, self._sizes),
         )
 
-    def _load(self, schema: Schema, options_file: str, settings: Sequence[str]) -> None:
+    def _load(
+        self, schema: Schema, options_file: str, settings: Sequence[str], nanopb_version: str
+    ) -> None:
         self._schema = schema
-        self._sizes = Sizes(schema, options_file, settings)
+        self._sizes = Sizes(schema, options_file, settings, nanopb_version)
         self._sizes.require_fixed(schema.root)
         self.root = schema.root.full_name
 
@@ -90,9 +97,11 @@ class Codec(Envelope):
         include: Sequence[str | os.PathLike[str]] = (),
         options_file: str = "%s.options",
         settings: Sequence[str] = (),
+        nanopb_version: str = NANOPB_VERSIONS[0],
     ) -> "Codec":
         """Load the proto tree under ``tree`` (the import root), starting from message ``root``
-        (its full name), with ``include`` as further import folders (``-I``).
+        (its full name), with ``include`` as further import folders (``-I``), sized as nanopb's
+        generator ``nanopb_version`` sizes it (``-f options_file``, ``-s`` each of ``settings``).
 
         An envelope root (one oneof of messages, metadata fields beside it) gives the envelope
         codec; any other message a ``MessageCodec``, which sends that message alone in the same
@@ -102,7 +111,7 @@ class Codec(Envelope):
             raise TypeError(f"tree is a folder (str or os.PathLike), not {type(tree).__name__}")
         if not isinstance(root, str):
             raise TypeError(f"root is a message name (str), not {type(root).__name__}")
-        return cls._for(load_schema(tree, root, include), options_file, settings)
+        return cls._for(load_schema(tree, root, include), options_file, settings, nanopb_version)
 
     @classmethod
     def from_source(cls, source: SchemaSource) -> "Codec":
@@ -117,11 +126,15 @@ class Codec(Envelope):
 
     @classmethod
     def _for(
-        cls, schema: Schema, options_file: str = "%s.options", settings: Sequence[str] = ()
+        cls,
+        schema: Schema,
+        options_file: str = "%s.options",
+        settings: Sequence[str] = (),
+        nanopb_version: str = NANOPB_VERSIONS[0],
     ) -> "Codec":
         if cls is Codec and not is_envelope(schema.root):
-            return MessageCodec(schema, options_file, settings)
-        return cls(schema, options_file, settings)
+            return MessageCodec(schema, options_file, settings, nanopb_version)
+        return cls(schema, options_file, settings, nanopb_version)
 
     @classmethod
     def default(cls) -> "Codec":
@@ -221,9 +234,13 @@ class MessageCodec(Plain, Codec):
     empty."""
 
     def __init__(
-        self, schema: Schema, options_file: str = "%s.options", settings: Sequence[str] = ()
+        self,
+        schema: Schema,
+        options_file: str = "%s.options",
+        settings: Sequence[str] = (),
+        nanopb_version: str = NANOPB_VERSIONS[0],
     ) -> None:
-        self._load(schema, options_file, settings)
+        self._load(schema, options_file, settings, nanopb_version)
         Plain.__init__(
             self,
             schema.message_class(self.root),

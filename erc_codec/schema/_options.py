@@ -10,6 +10,11 @@ name); and in-file annotations (``[(nanopb).max_size = 32]``, ``option (nanopb_m
 ``option (nanopb_fileopt)...``). Every message, nested or not, starts from its file's options; a
 field or oneof starts from its message's. At each level matching options lines merge in file
 order, then the annotation, which wins.
+
+A pattern matches the name nanopb gives an element under its file's ``mangle_names`` and
+``(nanopb_fileopt).package`` (``nanopb_name``: ``Outer.Inner`` for ``pkg.Outer.Inner`` under
+``M_STRIP_PACKAGE``, ...); a field or oneof is matched as that name and its own. Options stay
+keyed by the real full names.
 """
 
 import functools
@@ -27,6 +32,7 @@ from google.protobuf.message import Message
 from .._errors import SchemaError
 from ._descriptors import declarations
 from ._files import file_exists, read_text
+from ._names import nanopb_name
 from ._protoc import FALLBACK_INCLUDE, compile_files
 from ._wire import LEN, WireError, next_field
 
@@ -42,9 +48,11 @@ Rules = list[tuple[str, Options]]
 
 class ResolvedOptions:
     """nanopb options resolved for a schema, by full name: ``messages["Msg"]``,
-    ``fields["Msg.f"]``, ``oneofs["Msg.o"]``, ``enums["Msg.Kind"]``."""
+    ``fields["Msg.f"]``, ``oneofs["Msg.o"]``, ``enums["Msg.Kind"]``, and each file's own by its
+    name, ``files["a/b.proto"]`` (its ``mangle_names`` and ``package`` among them)."""
 
     def __init__(self) -> None:
+        self.files: dict[str, Options] = {}
         self.messages: dict[str, Options] = {}
         self.fields: dict[str, Options] = {}
         self.oneofs: dict[str, Options] = {}
@@ -93,24 +101,25 @@ def resolve_options(
     top = _settings(settings)
     for proto in files:
         rules = _read_rules(_options_path(tree, include, options_file, proto.name))
-        base = _merge(top, rules, proto.name, proto.options)
+        base = resolved.files[proto.name] = _merge(top, rules, proto.name, proto.options)
         for declaration in declarations(proto):
             message = declaration.proto
             name = declaration.name
+            seen = nanopb_name(proto.package, base, name)  # what the patterns are matched with
             if not isinstance(message, descriptor_pb2.DescriptorProto):
                 parent = resolved.messages[declaration.parent] if declaration.parent else base
                 annotated = message.options if message.HasField("options") else None
-                resolved.enums[name] = _merge(parent, rules, name, annotated)
+                resolved.enums[name] = _merge(parent, rules, seen, annotated)
                 continue
-            own = resolved.messages[name] = _merge(base, rules, name, message.options)
+            own = resolved.messages[name] = _merge(base, rules, seen, message.options)
             for field in message.field:
                 options = field.options if field.HasField("options") else None
-                dotted = f"{name}.{field.name}"
-                resolved.fields[dotted] = _merge(own, rules, dotted, options)
+                dotted = f"{seen}.{field.name}"
+                resolved.fields[f"{name}.{field.name}"] = _merge(own, rules, dotted, options)
             for oneof in message.oneof_decl:
                 # oneofs carry no (nanopb) annotation: only .options lines reach them
-                dotted = f"{name}.{oneof.name}"
-                resolved.oneofs[dotted] = _merge(own, rules, dotted, None)
+                dotted = f"{seen}.{oneof.name}"
+                resolved.oneofs[f"{name}.{oneof.name}"] = _merge(own, rules, dotted, None)
     return resolved
 
 

@@ -9,6 +9,15 @@ string, bytes or repeated field with no limit, a callback or pointer field, a ty
 itself) has no size, exactly where nanopb writes "depends on runtime parameters". nanopb reads the
 descriptors as written: an editions field with ``message_encoding = DELIMITED`` is sized as the
 message field it is written as, and a proto2 ``group`` has no size (the generator refuses groups).
+
+Generator versions differ in one rule (``NANOPB_VERSIONS``): up to 0.4.9.1 (``"0.4.9"``, the rules
+of every 0.4.x release) a ``FT_CALLBACK`` or ``FT_POINTER`` field has no size; nanopb's master
+after 0.4.9.1 (``"1.0.0-dev"``, as its headers name it; the ERC firmware pins commit d68cd4e) sizes
+every field whose bound is known whatever its allocation (its ``Field.encoded_size`` asks
+``can_be_static``: a ``max_count`` for a repeated field, a ``max_size`` or ``max_length`` for a
+string or bytes), so a callback or pointer field counts as the static field it could have been.
+A type that contains itself still has no size there (master writes an expression naming the
+message's own size, which no compiler can evaluate).
 """
 
 from collections.abc import Sequence
@@ -18,11 +27,15 @@ from google.protobuf.descriptor import Descriptor, FieldDescriptor, OneofDescrip
 
 from .._errors import SchemaError
 from ._descriptors import declarations
+from ._names import nanopb_finds
 from ._options import Options, ResolvedOptions, resolve_options
 from ._schema import Schema, enum_of, message_of
 from ._wire import varint_size
 
-__all__ = ["Sizes"]
+__all__ = ["NANOPB_VERSIONS", "Sizes"]
+
+# The generator rules a ``Sizes`` can follow, the default first (see the module's docstring).
+NANOPB_VERSIONS = ("0.4.9", "1.0.0-dev")
 
 _T = FieldDescriptor
 _FT_CALLBACK, _FT_STATIC, _FT_IGNORE, _FT_POINTER = 1, 2, 3, 4
@@ -57,10 +70,20 @@ class Sizes:
         schema: Schema,
         options_file: str = "%s.options",
         settings: Sequence[str] = (),
+        nanopb_version: str = NANOPB_VERSIONS[0],
     ) -> None:
         """nanopb's sizes for ``schema``, its generator run from the tree's root with the
         schema's include folders (``-I``), ``-f options_file`` and ``-s`` for each setting
-        (``"max_size:61"``)."""
+        (``"max_size:61"``), by the rules of generator ``nanopb_version`` (``NANOPB_VERSIONS``;
+        another value is a ``SchemaError``)."""
+        if nanopb_version not in NANOPB_VERSIONS:
+            raise SchemaError(
+                f"nanopb_version {nanopb_version!r}: erc-codec knows the generator rules of "
+                f"{' and '.join(NANOPB_VERSIONS)} (0.4.x up to 0.4.9.1, and master after it)"
+            )
+        self.nanopb_version = nanopb_version
+        # master after 0.4.9.1 sizes callback and pointer fields whose bound is known
+        self._any_allocation = nanopb_version != NANOPB_VERSIONS[0]
         self._schema = schema
         self._options: ResolvedOptions = resolve_options(
             schema.tree, schema.files, schema.include, options_file, settings
@@ -78,6 +101,7 @@ class Sizes:
                         if field.type == _T.TYPE_GROUP:
                             self._proto2_groups.add(dotted)
         self._memo: dict[str, int | None] = {}
+        self._lookups: dict[str, bool] = {}  # field -> whether nanopb finds its type
 
     # -- field limits --------------------------------------------------------------------------
 
@@ -185,14 +209,25 @@ class Sizes:
         if field.full_name in self._proto2_groups:
             return "proto2 group (nanopb's generator refuses groups)"
         options = self.options(field)
-        if options.type in (_FT_CALLBACK, _FT_POINTER):
-            return f"nanopb type {'FT_CALLBACK' if options.type == _FT_CALLBACK else 'FT_POINTER'}"
+        if options.type in (_FT_CALLBACK, _FT_POINTER) and not self._any_allocation:
+            kind = "FT_CALLBACK" if options.type == _FT_CALLBACK else "FT_POINTER"
+            return f"nanopb type {kind} (sized from nanopb_version 1.0.0-dev on, if bounded)"
         if self._repeated(field) and self.max_count(field) is None:
             return "repeated field without nanopb max_count"
         sub = field.message_type
         if sub is not None and not self._generated(sub):
             # the generator writes "#if defined(Sub_size)" around a size that never is defined
             return f"its type {sub.full_name} is not generated (skip_message, or deprecated)"
+        if sub is not None and not self._found(field):
+            return (
+                f"nanopb's generator does not find its type {sub.full_name}: the two files' "
+                "mangle_names or (nanopb_fileopt).package disagree"
+            )
+        if field.enum_type is not None and self._enum_stops_generator(field):
+            return (
+                f"nanopb's generator does not find its enum type {field.enum_type.full_name} (the "
+                "two files' mangle_names or (nanopb_fileopt).package disagree) and stops"
+            )
         if field.type in (_T.TYPE_STRING, _T.TYPE_BYTES) and self.max_bytes(field) is None:
             kind = "string" if field.type == _T.TYPE_STRING else "bytes"
             return f"{kind} field without nanopb max_size"
@@ -284,6 +319,8 @@ class Sizes:
                 else options.max_size
             )
             payload = varint_size(limit) + limit - (1 if kind == _T.TYPE_STRING else 0)
+        elif kind == _T.TYPE_ENUM and not self._found(field):
+            payload = 10  # the generator's guess for an enum it does not find (see _names)
         elif kind == _T.TYPE_ENUM:
             payload = max(varint_size(value.number) for value in enum_of(field).values)
         elif kind in _SIZED_VARINTS:
@@ -297,6 +334,35 @@ class Sizes:
             return tag + payload
         count = int(options.max_count)
         return (tag + payload) * count + (1 if count == 1 else 0)
+
+    def _enum_stops_generator(self, field: FieldDescriptor) -> bool:
+        """Whether an enum field whose type nanopb does not find stops its generator ("Could not
+        find enum type", raised while it writes the defaults of singular static fields); in a
+        oneof, repeated, a callback or a pointer it counts as a guessed 10 bytes instead."""
+        return (
+            not self._found(field)
+            and not self._repeated(field)
+            and field.containing_oneof is None
+            and self.options(field).type not in (_FT_CALLBACK, _FT_POINTER)
+        )
+
+    def _found(self, field: FieldDescriptor) -> bool:
+        """Whether nanopb's generator finds the message or enum type of ``field`` under the
+        mangle_names and package options of the file that refers to it and of the one that
+        declares it (always, where the two agree)."""
+        found = self._lookups.get(field.full_name)
+        if found is None:
+            kind = field.message_type or field.enum_type
+            assert kind is not None, field.full_name
+            assert field.containing_type is not None, field.full_name
+            referring, defining = field.containing_type.file, kind.file
+            files = self._options.files
+            found = self._lookups[field.full_name] = nanopb_finds(
+                (referring.package, files[referring.name]),
+                (defining.package, files[defining.name]),
+                kind.full_name,
+            )
+        return found
 
     def _oneof_options(self, oneof: OneofDescriptor) -> Options:
         return self._options.oneofs[oneof.full_name]
