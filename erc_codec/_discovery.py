@@ -21,7 +21,16 @@ from pathlib import Path
 from typing import Any, NamedTuple, TypeVar
 
 from ._errors import SchemaError
-from .schema import FileError, TreeSource, file_exists, open_tree, proto_files, read_text
+from .schema import (
+    FileError,
+    GitSpec,
+    TreeSource,
+    file_exists,
+    open_tree,
+    parse_tree_spec,
+    proto_files,
+    read_text,
+)
 
 __all__ = ["ENVIRONMENT", "SchemaSource", "find_schema", "load_source", "packaged_tree"]
 
@@ -150,7 +159,7 @@ def load_source(source: SchemaSource, load: Callable[[TreeSource], _T]) -> _T:
         try:
             return load(opened)
         except SchemaError as error:
-            hint = _hint(opened.folder, opened.shown, source.root, error)
+            hint = _hint(opened.folder, source.tree, source.root, error)
             if hint:
                 raise SchemaError(hint) from None
             if opened.folder != opened.shown:  # a scratch copy: name the repository instead
@@ -159,15 +168,17 @@ def load_source(source: SchemaSource, load: Callable[[TreeSource], _T]) -> _T:
             raise
 
 
-def _hint(folder: Path, shown: Path, root: str, error: SchemaError) -> str:
+def _hint(folder: Path, tree: str, root: str, error: SchemaError) -> str:
     """One line for the common mistake of naming a folder inside the import root (``--proto
-    proto/components``): its protos import each other by paths from a folder above it."""
+    proto/components``): its protos import each other by paths from a folder above it. The tree
+    to give instead is spelled as ``tree`` was: a folder, or ``GITDIR#ref=REF,subdir=PATH``."""
     if isinstance(error, FileError) or not folder.is_dir():
         return ""
     text = str(error)
     if "Import" not in text and "not found" not in text:
         return ""
-    name = folder.resolve().name
+    spec = parse_tree_spec(tree)
+    name = (spec.shown if isinstance(spec, GitSpec) else folder).resolve().name
     files = proto_files(folder)
     if not files:
         return ""
@@ -177,9 +188,8 @@ def _hint(folder: Path, shown: Path, root: str, error: SchemaError) -> str:
             stripped = line.strip()
             if stripped.startswith("import") and f'"{name}/' in stripped:
                 return (
-                    f"{shown}: its files import each other as {name}/..., so the import root "
-                    f"is the folder above it: give {shown.parent if str(shown.parent) else '.'} "
-                    f"(root {root})"
+                    f"{tree}: its files import each other as {name}/..., so the import root "
+                    f"is the folder above it: give {_moved(spec, Path('..'))} (root {root})"
                 )
             first = stripped.partition('"')[2].partition("/")
             if stripped.startswith("import") and first[1]:
@@ -187,8 +197,24 @@ def _hint(folder: Path, shown: Path, root: str, error: SchemaError) -> str:
                 for below in sorted(folders, key=lambda path: len(path.parts)):
                     if below.name == first[0] and below.parent != Path("."):
                         return (
-                            f"{shown}: its files import each other as {first[0]}/..., so the "
+                            f"{tree}: its files import each other as {first[0]}/..., so the "
                             f"import root is the folder above {below}: give "
-                            f"{shown / below.parent} (root {root})"
+                            f"{_moved(spec, below.parent)} (root {root})"
                         )
     return ""
+
+
+def _moved(spec: Path | GitSpec, step: Path) -> str:
+    """The tree ``spec`` names moved by ``step`` (``..``, or a folder below it), spelled as it
+    was: a folder, or a git revision with its ``subdir=`` changed (the ref as given)."""
+    if isinstance(spec, Path):
+        moved = spec.parent if step == Path("..") else spec / step
+        return str(moved) if str(moved) else "."
+    subdir = Path(spec.subdir) if spec.subdir else None
+    if step != Path(".."):
+        subdir = subdir / step if subdir else step
+    elif subdir is not None:
+        subdir = subdir.parent if subdir.parent != Path(".") else None
+    else:  # GITDIR itself is the folder inside the import root: its parent is the GITDIR
+        return f"{spec.folder.parent}#ref={spec.ref}"
+    return f"{spec.folder}#ref={spec.ref}" + (f",subdir={subdir.as_posix()}" if subdir else "")

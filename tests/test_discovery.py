@@ -179,6 +179,45 @@ def test_a_folder_above_the_import_root_is_a_one_line_hint(tmp_path: Path) -> No
     assert run("sizes", "--proto", "X/vendor", "--root", "Env", cwd=tmp_path).returncode == 0
 
 
+def test_a_git_revision_inside_the_import_root_gets_the_git_spelling(tmp_path: Path) -> None:
+    """--proto 'REPO#ref=main,subdir=proto/components': the hint is a git spelling to give."""
+    repo = Repo(tmp_path / "repo")
+    shutil.copytree(PROTO / "components", repo.root / "proto" / "components")
+    repo.commit("the packaged tree")
+    shutil.rmtree(repo.root / "proto")  # only the commit holds it: no folder to point at
+    given = f"{repo.root}#ref=main,subdir=proto/components"
+    done = run("sizes", "--proto", given, cwd=tmp_path)
+    assert done.returncode == 2
+    assert done.stderr == (
+        f"Error: {given}: its files import each other as components/..., so the import root "
+        f"is the folder above it: give {repo.root}#ref=main,subdir=proto (root PBEnvelope)\n"
+    )
+    fixed = run("sizes", "--proto", f"{repo.root}#ref=main,subdir=proto", cwd=tmp_path)
+    assert fixed.returncode == 0, fixed.stderr
+
+
+def test_a_git_revision_above_the_import_root_gets_the_git_spelling(tmp_path: Path) -> None:
+    """--proto 'REPO#ref=main', the tree in REPO/vendor/ERC-Protobufs: a subdir= to add."""
+    repo = Repo(tmp_path / "repo")
+    tree = repo.root / "vendor" / "ERC-Protobufs"
+    tree.mkdir(parents=True)
+    (tree / "b.proto").write_text('syntax = "proto3";\nmessage Ping { uint32 s = 1; }\n')
+    (tree / "a.proto").write_text(
+        'syntax = "proto3";\nimport "ERC-Protobufs/b.proto";\n'
+        "message Env { oneof payload { Ping ping = 1; } }\n"
+    )
+    repo.commit("vendored")
+    done = run("sizes", "--proto", f"{repo.root}#ref=HEAD", "--root", "Env", cwd=tmp_path)
+    assert done.returncode == 2
+    assert done.stderr == (
+        f"Error: {repo.root}#ref=HEAD: its files import each other as ERC-Protobufs/..., so "
+        f"the import root is the folder above {Path('vendor', 'ERC-Protobufs')}: give "
+        f"{repo.root}#ref=HEAD,subdir=vendor (root Env)\n"
+    )
+    fixed = f"{repo.root}#ref=HEAD,subdir=vendor"
+    assert run("sizes", "--proto", fixed, "--root", "Env", cwd=tmp_path).returncode == 0
+
+
 def test_include_folders_from_the_configuration_are_searched(tmp_path: Path) -> None:
     (tmp_path / "tree").mkdir()
     (tmp_path / "shared").mkdir()
