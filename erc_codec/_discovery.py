@@ -16,14 +16,16 @@ source names is only read when it is loaded: finding it costs a walk up the fold
 import functools
 import os
 import sys
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Hashable, Mapping
 from pathlib import Path
 from typing import Any, NamedTuple, TypeVar
 
 from ._errors import SchemaError
 from .schema import (
     FileError,
+    GitError,
     GitSpec,
+    Repository,
     TreeSource,
     file_exists,
     open_tree,
@@ -32,7 +34,14 @@ from .schema import (
     read_text,
 )
 
-__all__ = ["ENVIRONMENT", "SchemaSource", "find_schema", "load_source", "packaged_tree"]
+__all__ = [
+    "ENVIRONMENT",
+    "SchemaSource",
+    "find_schema",
+    "load_source",
+    "packaged_tree",
+    "snapshot",
+]
 
 ENVIRONMENT = "ERC_CODEC_PROTO"
 _CONFIG_LIMIT = 1024 * 1024  # a pyproject.toml larger than this is no configuration
@@ -148,6 +157,53 @@ def _beside(here: Path, tree: str) -> str:
         folder, _, options = tree.partition("#")
         return f"{here / (folder or '.')}#{options}"
     return str(here / tree)
+
+
+def snapshot(source: SchemaSource) -> tuple[SchemaSource, Hashable]:
+    """``source`` as it stands now, and what tells this state from another, for a cache of
+    loaded schemas: a git revision with its ref replaced by the commit it names now (one ``git
+    rev-parse``; a moved ``HEAD`` or branch is a new source, the same commit under two spellings
+    one source) and ``None``; a folder as spelled, with the size, times and inode of each
+    ``.proto`` and ``.options`` file in it and in ``include`` (a stat each: an edit, a new file
+    or a removed one is a new state). The packaged schema is part of the installed package,
+    as its code is: it is not stat'ed (``erc_codec.decode`` stays a dict look-up away from the
+    codec). What cannot be read now is left for loading to report."""
+    if source.origin == "packaged":
+        return source, None
+    try:
+        spec = parse_tree_spec(source.tree)
+        if isinstance(spec, GitSpec):
+            with Repository(spec.folder) as repository:
+                commit = repository.commit(spec.ref)
+            pinned = f"{spec.folder}#ref={commit}" + (
+                f",subdir={spec.subdir}" if spec.subdir else ""
+            )
+            return source._replace(tree=pinned), None
+        return source, tuple(_stats(folder) for folder in (source.tree, *source.include))
+    except (GitError, FileError, OSError):
+        return source, None
+
+
+def _stats(folder: str) -> tuple[tuple[str, int, int, int, int], ...]:
+    """The state of each ``.proto`` and ``.options`` file below ``folder`` (as ``proto_files``
+    walks: not into symlinked folders). One ``scandir`` per folder and one stat per file,
+    without ``pathlib``: ``Codec.default()`` (and ``erc_codec.decode``) pay it on every call."""
+    states = []
+    pending = [folder]
+    while pending:
+        with os.scandir(pending.pop()) as entries:
+            for entry in entries:
+                if entry.is_dir(follow_symlinks=False):
+                    pending.append(entry.path)
+                elif entry.name.endswith((".proto", ".options")):
+                    try:
+                        stat = entry.stat()
+                    except OSError:  # dangling, or gone since the listing: loading says so
+                        continue
+                    states.append(
+                        (entry.path, stat.st_size, stat.st_mtime_ns, stat.st_ctime_ns, stat.st_ino)
+                    )
+    return tuple(sorted(states))
 
 
 def load_source(source: SchemaSource, load: Callable[[TreeSource], _T]) -> _T:

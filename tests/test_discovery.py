@@ -235,3 +235,51 @@ def test_include_folders_from_the_configuration_are_searched(tmp_path: Path) -> 
     assert codec.kinds() == {1: "ping"}
     assert codec.max_size("Envelope") == 8
     assert [m.full_name for m in codec.schema.messages()] == ["Envelope"]  # the tree's own
+
+
+def test_codec_default_sees_a_new_commit_on_a_moving_ref(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    repo = Repo(tmp_path / "repo")
+    ping = "message Ping { uint32 s = 1; }\n"
+    first = repo.commit("one", envelope=ping + "message PBEnvelope { oneof p { Ping ping = 1; } }")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv(ENVIRONMENT, repo.spec("main"))
+    codec = erc_codec.Codec.default()
+    assert codec.kinds() == {1: "ping"}
+    assert erc_codec.Codec.default() is codec  # nothing moved: the loaded one
+    repo.commit(
+        "two", envelope=ping + "message PBEnvelope { oneof p { Ping ping = 1; Ping pong = 2; } }"
+    )
+    assert erc_codec.Codec.default().kinds() == {1: "ping", 2: "pong"}
+    monkeypatch.setenv(ENVIRONMENT, repo.spec("HEAD"))
+    assert erc_codec.Codec.default().kinds() == {1: "ping", 2: "pong"}
+    monkeypatch.setenv(ENVIRONMENT, repo.spec(first))  # the same commit, spelled by its id
+    assert erc_codec.Codec.default() is codec
+
+
+def test_codec_default_sees_an_edited_folder_and_configuration(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.delenv(ENVIRONMENT, raising=False)
+    for name in ("one", "two"):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "envelope.proto").write_text(
+            'syntax = "proto3";\nmessage Ping { uint32 s = 1; }\n'
+            f"message Env {{ oneof p {{ Ping {name} = 1; }} }}\n"
+        )
+    configured(tmp_path, 'proto = "one"\nroot = "Env"')
+    monkeypatch.chdir(tmp_path)
+    codec = erc_codec.Codec.default()
+    assert codec.kinds() == {1: "one"}
+    assert erc_codec.Codec.default() is codec
+    (tmp_path / "one" / "envelope.proto").write_text(
+        'syntax = "proto3";\nmessage Ping { uint32 s = 1; }\n'
+        "message Env { oneof p { Ping one = 1; Ping added = 2; } }\n"
+    )
+    assert erc_codec.Codec.default().kinds() == {1: "one", 2: "added"}
+    assert erc_codec.Codec.default().max_size("Ping") == 6
+    (tmp_path / "one" / "envelope.options").write_text("Ping.s int_size:IS_8\n")
+    assert erc_codec.Codec.default().max_size("Ping") == 3  # a tag, 255 in two bytes
+    configured(tmp_path, 'proto = "two"\nroot = "Env"')  # the configuration edited
+    assert erc_codec.Codec.default().kinds() == {1: "two"}
