@@ -198,7 +198,13 @@ message Outer {
   Ping Outer_Ping = 2;
   Outer.Ping Any = 3;
 }
-message Outer_Ping { int32 overload = 1; int32 Optional = 2; }
+message Outer_Ping {  // and fields named like what protobuf's Message has
+  int32 overload = 1;
+  int32 Optional = 2;
+  int32 Clear = 3;
+  int32 DESCRIPTOR = 4;
+  int32 Extensions = 5;
+}
 message Ping { int32 s = 1; Outer.Ping Outer = 2; }
 message Palette {
   enum Color { ClassVar = 0; builtins = 1; int = 2; Mapping = 3; None = 4; }
@@ -254,7 +260,7 @@ numbers: list[int] = [
     it.builtins[0] + it.Iterable[0].ClassVar + it.Iterable[1].Any + it.Any.Mapping.ClassVar,
     b.int + b.Message.Any + msg.erc_codec,
     o.ping.Literal + o.Any.overload.overload + o.Outer_Ping.Literal,
-    codec.message_class("outer_ping")(overload=1, Optional=2).Optional + p.Outer.Literal,
+    codec.message_class("outer_ping")(Clear=3, DESCRIPTOR=4).DESCRIPTOR + p.Outer.Literal,
     t.Ping[0].s + t.MutableMapping[1].s + t.self + t.Color + t.TypeAlias,
     codec.message_class("palette")(Palette="int").Palette,
 ]
@@ -272,8 +278,9 @@ if TYPE_CHECKING:
 
 def test_names_like_what_the_stub_uses_shadow_nothing(tmp_path: Path) -> None:
     """Messages, fields and enum values named ``Mapping``, ``Any``, ``ClassVar``, ``Iterable``,
-    ``builtins``, ``int``, ``Message``, ``TypedCodec``, a field named like its own class and a
-    nested type named like a top-level one: the stub passes mypy --strict, every field keeps its
+    ``builtins``, ``int``, ``Message``, ``TypedCodec``, a field named like its own class, like
+    what protobuf's Message has (``Clear``, ``DESCRIPTOR``) and a nested type named like a
+    top-level one: the stub passes mypy --strict, every field keeps its
     type, and the script runs."""
     tree = tmp_path / "tree"
     tree.mkdir()
@@ -311,7 +318,7 @@ def test_names_like_what_the_stub_uses_shadow_nothing(tmp_path: Path) -> None:
         [sys.executable, "tool.py"], capture_output=True, text=True, check=False, cwd=tmp_path
     )
     assert ran.returncode == 0, ran.stderr
-    assert ran.stdout == "[7, 6, 6, 3, 3, 10, 2] ['s', 's', 's'] (b'b', 1.5, True)\n"
+    assert ran.stdout == "[7, 6, 6, 3, 5, 10, 2] ['s', 's', 's'] (b'b', 1.5, True)\n"
     stub = (out / "erc_messages.pyi").read_text()
     assert "class TypedCodec(_erc_codec.Codec):" in stub  # the message so named gave way
     assert "class TypedCodec_(_message.Message):" in stub

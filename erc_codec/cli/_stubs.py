@@ -21,6 +21,7 @@ from pathlib import Path
 
 import click
 from google.protobuf.descriptor import Descriptor, EnumDescriptor, FieldDescriptor
+from google.protobuf.message import Message
 
 from .._codec import Codec
 from ._shared import Fatal, load, schema_options
@@ -48,6 +49,11 @@ _MODULES = {
     "_message": "google.protobuf.message",
     "_erc_codec": "erc_codec",
 }
+# What protobuf's Message has (its methods, DESCRIPTOR, and Extensions in types-protobuf): a
+# field so named replaces it on the class, which mypy calls an incompatible override.
+_MESSAGE_NAMES = frozenset(
+    {name for name in dir(Message) if not name.startswith("_")} | {"Extensions"}
+)
 _CODEC = "TypedCodec"  # the documented name: a message so named gives way
 _Described = Descriptor | EnumDescriptor
 
@@ -142,7 +148,10 @@ def _message(descriptor: Descriptor, names: _Names) -> list[str]:
     lines = [f"class {names.classes[descriptor.full_name]}({base}):"]
     fields = [f for f in descriptor.fields if not keyword.iskeyword(f.name)]
     for field in fields:
-        lines.append(f"    {field.name}: {_field(field, names)[0]}")
+        line = f"    {field.name}: {_field(field, names)[0]}"
+        if field.name in _MESSAGE_NAMES:  # the field is what protobuf's class has by that name
+            line += "  # type: ignore[assignment, unused-ignore]"
+        lines.append(line)
     arguments = ", ".join(f"{f.name}: {_field(f, names)[1]} = ..." for f in fields)
     receiver = "self"  # positional-only, and named apart from every field (one may be ``self``)
     while receiver in descriptor.fields_by_name:
