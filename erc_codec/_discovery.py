@@ -163,24 +163,25 @@ def snapshot(source: SchemaSource) -> tuple[SchemaSource, Hashable]:
     """``source`` as it stands now, and what tells this state from another, for a cache of
     loaded schemas: a git revision with its ref replaced by the commit it names now (one ``git
     rev-parse``; a moved ``HEAD`` or branch is a new source, the same commit under two spellings
-    one source) and ``None``; a folder as spelled, with the size, times and inode of each
-    ``.proto`` and ``.options`` file in it and in ``include`` (a stat each: an edit, a new file
-    or a removed one is a new state). The packaged schema is part of the installed package,
-    as its code is: it is not stat'ed (``erc_codec.decode`` stays a dict look-up away from the
-    codec). What cannot be read now is left for loading to report."""
+    one source); a folder as spelled. The state: the size, times and inode of each ``.proto``
+    and ``.options`` file in the folder and in the ``include`` folders (a stat each: an edit, a
+    new file or a removed one is a new state). The packaged schema is part of the installed
+    package, as its code is: it is not stat'ed (``erc_codec.decode`` stays cheap). What cannot
+    be read now is left for loading to report."""
     if source.origin == "packaged":
         return source, None
     try:
         spec = parse_tree_spec(source.tree)
+        included = tuple(_stats(folder) for folder in source.include)
         if isinstance(spec, GitSpec):
             with Repository(spec.folder) as repository:
                 commit = repository.commit(spec.ref)
             pinned = f"{spec.folder}#ref={commit}" + (
                 f",subdir={spec.subdir}" if spec.subdir else ""
             )
-            return source._replace(tree=pinned), None
-        return source, tuple(_stats(folder) for folder in (source.tree, *source.include))
-    except (GitError, FileError, OSError):
+            return source._replace(tree=pinned), included
+        return source, (_stats(source.tree), *included)
+    except GitError:  # no such ref, no repository, or no commit yet
         return source, None
 
 
@@ -191,7 +192,11 @@ def _stats(folder: str) -> tuple[tuple[str, int, int, int, int], ...]:
     states = []
     pending = [folder]
     while pending:
-        with os.scandir(pending.pop()) as entries:
+        try:
+            listing = os.scandir(pending.pop())
+        except OSError:  # no such folder, or not to be listed: loading says so if it matters
+            continue
+        with listing as entries:
             for entry in entries:
                 if entry.is_dir(follow_symlinks=False):
                     pending.append(entry.path)

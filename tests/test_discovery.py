@@ -283,3 +283,23 @@ def test_codec_default_sees_an_edited_folder_and_configuration(
     assert erc_codec.Codec.default().max_size("Ping") == 3  # a tag, 255 in two bytes
     configured(tmp_path, 'proto = "two"\nroot = "Env"')  # the configuration edited
     assert erc_codec.Codec.default().kinds() == {1: "two"}
+
+
+def test_codec_default_sees_an_edited_include_folder_beside_a_git_revision(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.delenv(ENVIRONMENT, raising=False)
+    repo = Repo(tmp_path / "repo")
+    repo.commit(
+        "one", envelope='import "common.proto";\nmessage Env { oneof p { Ping ping = 1; } }'
+    )
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    (shared / "common.proto").write_text('syntax = "proto3";\nmessage Ping { uint32 s = 1; }\n')
+    configured(tmp_path, 'proto = "repo#ref=HEAD,subdir=proto"\nroot = "Env"\ninclude = ["shared"]')
+    monkeypatch.chdir(tmp_path)
+    assert erc_codec.Codec.default().max_size("Ping") == 6
+    (shared / "common.proto").write_text(
+        'syntax = "proto3";\nmessage Ping { uint32 s = 1; uint32 t = 2; }\n'
+    )
+    assert erc_codec.Codec.default().max_size("Ping") == 12
