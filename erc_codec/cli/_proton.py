@@ -182,7 +182,8 @@ def decode(
       {"bundle": "status", "id": 256, "length": 31, "signals": {...}}
       {"error": "...", "reason": "unknown_bundle", "length": 5}
     (reasons: empty, corrupt, unknown_bundle, unsupported_operation; not_hex,
-    with "line", for a line of standard input that is not hex). A message
+    with "line", for a line of standard input that is not hex, line_too_long
+    for one longer than 262144 characters). A message
     with fields Proton does not define decodes without them, listed in
     "unknown_fields". With --pcap every object starts with "time", "src" and
     "dst"; --pcap and --framed end with a summary line on stderr (--framed:
@@ -191,8 +192,8 @@ def decode(
     \b
     Exit status: 0 every message decoded (rejected frames, discarded bytes and
     a cut-off last frame show in the summary only, as for erc-codec decode
-    --framed); 1 at least one did not, a line was not hex, or there was
-    nothing to decode; 2 usage error, a configuration
+    --framed); 1 at least one did not, a line was not hex or too long, or
+    there was nothing to decode; 2 usage error, a configuration
     that does not load (one line naming its file, line and key), unreadable
     or damaged capture, or --pcap without dpkt.
     """
