@@ -243,7 +243,8 @@ def _hint(folder: Path, tree: str, root: str, error: SchemaError) -> str:
     files = proto_files(folder)
     if not files:
         return ""
-    folders = {Path(file).parent for file in files}
+    # every folder holding a file, however deep (X/ERC-Protobufs/components holds only folders)
+    folders = {folder for file in files for folder in Path(file).parents if folder != Path(".")}
     for file in files:
         for line in read_text(folder / file, errors="replace").splitlines():
             stripped = line.strip()
@@ -255,7 +256,7 @@ def _hint(folder: Path, tree: str, root: str, error: SchemaError) -> str:
             first = stripped.partition('"')[2].partition("/")
             if stripped.startswith("import") and first[1]:
                 # a tree below a subfolder (X/vendor/ERC-Protobufs imported as ERC-Protobufs/...)
-                for below in sorted(folders, key=lambda path: len(path.parts)):
+                for below in sorted(folders, key=lambda path: (len(path.parts), path.parts)):
                     if below.name == first[0] and below.parent != Path("."):
                         return (
                             f"{tree}: its files import each other as {first[0]}/..., so the "

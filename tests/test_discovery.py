@@ -179,6 +179,21 @@ def test_a_folder_above_the_import_root_is_a_one_line_hint(tmp_path: Path) -> No
     assert run("sizes", "--proto", "X/vendor", "--root", "Env", cwd=tmp_path).returncode == 0
 
 
+def test_a_folder_holding_the_tree_in_a_subfolder_is_a_one_line_hint(tmp_path: Path) -> None:
+    """--proto X, the team's tree in X/ERC-Protobufs (components/*/*.proto, importing
+    components/...): no folder holds a file directly where the imports begin, and protoc's
+    every line (about 5,000 characters) came out instead of the hint."""
+    shutil.copytree(PROTO / "components", tmp_path / "X" / "ERC-Protobufs" / "components")
+    done = run("sizes", "--proto", "X", cwd=tmp_path)
+    assert done.returncode == 2
+    assert done.stderr == (
+        "Error: X: its files import each other as components/..., so the import root is the "
+        f"folder above {Path('ERC-Protobufs', 'components')}: give {Path('X', 'ERC-Protobufs')} "
+        "(root PBEnvelope)\n"
+    )
+    assert run("sizes", "--proto", "X/ERC-Protobufs", cwd=tmp_path).returncode == 0
+
+
 def test_a_git_revision_inside_the_import_root_gets_the_git_spelling(tmp_path: Path) -> None:
     """--proto 'REPO#ref=main,subdir=proto/components': the hint is a git spelling to give."""
     repo = Repo(tmp_path / "repo")
