@@ -3,14 +3,14 @@
 import functools
 import os
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Hashable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
 from google.protobuf.message import Message
 
 from ._contract import contract
-from ._discovery import ENVIRONMENT, SchemaSource, find_schema, load_source, packaged_tree
+from ._discovery import SchemaSource, find_schema, load_source, packaged_tree, snapshot
 from ._envelope import Envelope, is_envelope
 from ._errors import SchemaError
 from ._plain import Plain
@@ -140,9 +140,12 @@ class Codec(Envelope):
     def default(cls) -> "Codec":
         """The codec for the schema found as every command finds it (``find_schema``):
         ``ERC_CODEC_PROTO``, else ``[tool.erc-codec]`` in the nearest ``pyproject.toml`` from the
-        working folder up, else the packaged rover schema. It is found once for each working
-        folder and value of ``ERC_CODEC_PROTO``, and each schema is loaded once, then shared."""
-        return _default(os.getcwd(), os.environ.get(ENVIRONMENT))
+        working folder up, else the packaged rover schema. It is found anew on each call and
+        loaded once for each state of it (``snapshot``), then shared: a new commit on a git
+        input's ref or branch, or an edited file of a folder, is loaded by the next call. That
+        check costs a ``git rev-parse`` for a git input and a stat of each file for a folder:
+        in a loop, keep the codec."""
+        return _loaded(*snapshot(find_schema()))
 
     def max_size(self, name: str) -> int:
         """nanopb's ``<name>_size``: the longest encoding of message ``name`` (a full name)."""
@@ -250,11 +253,6 @@ class MessageCodec(Plain, Codec):
         )
 
 
-@functools.cache
-def _default(folder: str, proto: str | None) -> Codec:
-    return _loaded(find_schema(start=folder))
-
-
-@functools.cache
-def _loaded(source: SchemaSource) -> Codec:
+@functools.lru_cache(maxsize=8)  # a state replaced by an edit is soon let go
+def _loaded(source: SchemaSource, state: Hashable) -> Codec:
     return Codec.from_source(source)

@@ -16,14 +16,32 @@ source names is only read when it is loaded: finding it costs a walk up the fold
 import functools
 import os
 import sys
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Hashable, Mapping
 from pathlib import Path
 from typing import Any, NamedTuple, TypeVar
 
 from ._errors import SchemaError
-from .schema import FileError, TreeSource, file_exists, open_tree, proto_files, read_text
+from .schema import (
+    FileError,
+    GitError,
+    GitSpec,
+    Repository,
+    TreeSource,
+    file_exists,
+    open_tree,
+    parse_tree_spec,
+    proto_files,
+    read_text,
+)
 
-__all__ = ["ENVIRONMENT", "SchemaSource", "find_schema", "load_source", "packaged_tree"]
+__all__ = [
+    "ENVIRONMENT",
+    "SchemaSource",
+    "find_schema",
+    "load_source",
+    "packaged_tree",
+    "snapshot",
+]
 
 ENVIRONMENT = "ERC_CODEC_PROTO"
 _CONFIG_LIMIT = 1024 * 1024  # a pyproject.toml larger than this is no configuration
@@ -141,6 +159,58 @@ def _beside(here: Path, tree: str) -> str:
     return str(here / tree)
 
 
+def snapshot(source: SchemaSource) -> tuple[SchemaSource, Hashable]:
+    """``source`` as it stands now, and what tells this state from another, for a cache of
+    loaded schemas: a git revision with its ref replaced by the commit it names now (one ``git
+    rev-parse``; a moved ``HEAD`` or branch is a new source, the same commit under two spellings
+    one source); a folder as spelled. The state: the size, times and inode of each ``.proto``
+    and ``.options`` file in the folder and in the ``include`` folders (a stat each: an edit, a
+    new file or a removed one is a new state). The packaged schema is part of the installed
+    package, as its code is: it is not stat'ed (``erc_codec.decode`` stays cheap). What cannot
+    be read now is left for loading to report."""
+    if source.origin == "packaged":
+        return source, None
+    try:
+        spec = parse_tree_spec(source.tree)
+        included = tuple(_stats(folder) for folder in source.include)
+        if isinstance(spec, GitSpec):
+            with Repository(spec.folder) as repository:
+                commit = repository.commit(spec.ref)
+            pinned = f"{spec.folder}#ref={commit}" + (
+                f",subdir={spec.subdir}" if spec.subdir else ""
+            )
+            return source._replace(tree=pinned), included
+        return source, (_stats(source.tree), *included)
+    except GitError:  # no such ref, no repository, or no commit yet
+        return source, None
+
+
+def _stats(folder: str) -> tuple[tuple[str, int, int, int, int], ...]:
+    """The state of each ``.proto`` and ``.options`` file below ``folder`` (as ``proto_files``
+    walks: not into symlinked folders). One ``scandir`` per folder and one stat per file,
+    without ``pathlib``: ``Codec.default()`` (and ``erc_codec.decode``) pay it on every call."""
+    states = []
+    pending = [folder]
+    while pending:
+        try:
+            listing = os.scandir(pending.pop())
+        except OSError:  # no such folder, or not to be listed: loading says so if it matters
+            continue
+        with listing as entries:
+            for entry in entries:
+                if entry.is_dir(follow_symlinks=False):
+                    pending.append(entry.path)
+                elif entry.name.endswith((".proto", ".options")):
+                    try:
+                        stat = entry.stat()
+                    except OSError:  # dangling, or gone since the listing: loading says so
+                        continue
+                    states.append(
+                        (entry.path, stat.st_size, stat.st_mtime_ns, stat.st_ctime_ns, stat.st_ino)
+                    )
+    return tuple(sorted(states))
+
+
 def load_source(source: SchemaSource, load: Callable[[TreeSource], _T]) -> _T:
     """``load(tree)`` for ``source``'s tree opened as a folder (a git revision read into a
     scratch folder for the call). A folder holding its ``.proto`` files below a folder they
@@ -150,7 +220,7 @@ def load_source(source: SchemaSource, load: Callable[[TreeSource], _T]) -> _T:
         try:
             return load(opened)
         except SchemaError as error:
-            hint = _hint(opened.folder, opened.shown, source.root, error)
+            hint = _hint(opened.folder, source.tree, source.root, error)
             if hint:
                 raise SchemaError(hint) from None
             if opened.folder != opened.shown:  # a scratch copy: name the repository instead
@@ -159,36 +229,54 @@ def load_source(source: SchemaSource, load: Callable[[TreeSource], _T]) -> _T:
             raise
 
 
-def _hint(folder: Path, shown: Path, root: str, error: SchemaError) -> str:
+def _hint(folder: Path, tree: str, root: str, error: SchemaError) -> str:
     """One line for the common mistake of naming a folder inside the import root (``--proto
-    proto/components``): its protos import each other by paths from a folder above it."""
+    proto/components``): its protos import each other by paths from a folder above it. The tree
+    to give instead is spelled as ``tree`` was: a folder, or ``GITDIR#ref=REF,subdir=PATH``."""
     if isinstance(error, FileError) or not folder.is_dir():
         return ""
     text = str(error)
     if "Import" not in text and "not found" not in text:
         return ""
-    name = folder.resolve().name
+    spec = parse_tree_spec(tree)
+    name = (spec.shown if isinstance(spec, GitSpec) else folder).resolve().name
     files = proto_files(folder)
     if not files:
         return ""
-    folders = {Path(file).parent for file in files}
+    # every folder holding a file, however deep (X/ERC-Protobufs/components holds only folders)
+    folders = {folder for file in files for folder in Path(file).parents if folder != Path(".")}
     for file in files:
         for line in read_text(folder / file, errors="replace").splitlines():
             stripped = line.strip()
             if stripped.startswith("import") and f'"{name}/' in stripped:
                 return (
-                    f"{shown}: its files import each other as {name}/..., so the import root "
-                    f"is the folder above it: give {shown.parent if str(shown.parent) else '.'} "
-                    f"(root {root})"
+                    f"{tree}: its files import each other as {name}/..., so the import root "
+                    f"is the folder above it: give {_moved(spec, Path('..'))} (root {root})"
                 )
             first = stripped.partition('"')[2].partition("/")
             if stripped.startswith("import") and first[1]:
                 # a tree below a subfolder (X/vendor/ERC-Protobufs imported as ERC-Protobufs/...)
-                for below in sorted(folders, key=lambda path: len(path.parts)):
+                for below in sorted(folders, key=lambda path: (len(path.parts), path.parts)):
                     if below.name == first[0] and below.parent != Path("."):
                         return (
-                            f"{shown}: its files import each other as {first[0]}/..., so the "
+                            f"{tree}: its files import each other as {first[0]}/..., so the "
                             f"import root is the folder above {below}: give "
-                            f"{shown / below.parent} (root {root})"
+                            f"{_moved(spec, below.parent)} (root {root})"
                         )
     return ""
+
+
+def _moved(spec: Path | GitSpec, step: Path) -> str:
+    """The tree ``spec`` names moved by ``step`` (``..``, or a folder below it), spelled as it
+    was: a folder, or a git revision with its ``subdir=`` changed (the ref as given)."""
+    if isinstance(spec, Path):
+        moved = spec.parent if step == Path("..") else spec / step
+        return str(moved) if str(moved) else "."
+    subdir = Path(spec.subdir) if spec.subdir else None
+    if step != Path(".."):
+        subdir = subdir / step if subdir else step
+    elif subdir is not None:
+        subdir = subdir.parent if subdir.parent != Path(".") else None
+    else:  # GITDIR itself is the folder inside the import root: its parent is the GITDIR
+        return f"{spec.folder.parent}#ref={spec.ref}"
+    return f"{spec.folder}#ref={spec.ref}" + (f",subdir={subdir.as_posix()}" if subdir else "")
