@@ -242,6 +242,54 @@ def test_the_rest_of_such_a_tree_works() -> None:
         codec.message_class("ManyRequired")
 
 
+# -- proto2 groups: where nanopb's generator refuses the file, no size ----------------------------
+
+GROUPS = TREES / "groups"
+# Each file of the groups tree, the message to load it from, and nanopb 0.4.9.1's sizes for its
+# messages (None: the generator fails on the file, NotImplementedError, and writes no header).
+GROUP_FILES: dict[str, tuple[str, dict[str, int] | None]] = {
+    "group.proto": ("Holder", None),
+    "imports.proto": ("Importer", None),
+    "ignored.proto": ("Ignoring", {"Ignoring": 11, "Ignoring.Item": 11}),
+    "skipped.proto": ("Kept", {"Skipped.Item": 11, "Kept": 11}),
+    "deprecated.proto": ("Discarding", {"Discarding": 11, "Discarding.Old": 11}),
+}
+
+
+@pytest.mark.parametrize("file", sorted(GROUP_FILES))
+def test_proto2_groups_size_as_nanopbs_generator_does(
+    generator: None, tmp_path: Path, file: str
+) -> None:
+    root, expected = GROUP_FILES[file]
+    command = [sys.executable, "-m", "nanopb.generator.nanopb_generator", "-q", "-I", "."]
+    run = subprocess.run(
+        [*command, "--error-on-unmatched", "-D", str(tmp_path), file],
+        cwd=GROUPS,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    sizes = Sizes(load_schema(GROUPS, root))
+    ours = sizes.all()  # every file loaded is the one named, or group.proto and it
+    if expected is None:
+        assert run.returncode != 0
+        assert "NotImplementedError: 10" in run.stderr  # 10: TYPE_GROUP
+        assert ours == {}  # Unrelated too: there is no header
+        why = (
+            r"group\.proto:5:\d+: Holder\.item is a proto2 group, which nanopb's generator does not"
+        )
+        with pytest.raises(SchemaError, match=rf"nanopb's generator refuses {file} \(.*{why}"):
+            sizes.max_size(root)
+        with pytest.raises(SchemaError, match=rf"refuses {file}"):
+            Codec.from_path(GROUPS, root)
+    else:
+        assert run.returncode == 0, run.stderr
+        header = (tmp_path / file).with_suffix(".pb.h").read_text()
+        theirs = {c.replace("_", "."): int(size) for c, size in _DEFINE.findall(header)}
+        assert ours == theirs == expected
+        assert Codec.from_path(GROUPS, root).max_size(root) == 11
+
+
 def test_nesting_deeper_than_python_recurses(tmp_path: Path) -> None:
     """700 messages, each holding the next: sized without recursion; the runtime cannot build
     the class (nanopb's own generator, recursive too, gives up on it)."""
