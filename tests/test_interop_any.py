@@ -360,3 +360,63 @@ def test_a_delimited_field_is_refused_at_load(
         match=rf"{file}:{line}:\d+: {root}\.{field}: protobuf writes it delimited .*\(wire type 2",
     ):
         erc_codec.Codec.from_path(tree, root)
+
+
+@pytest.fixture(scope="module")
+def mapkeys(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Peer]:
+    build = tmp_path_factory.mktemp("nanopb-mapkeys")
+    peer = build_0491(ANY_TREES / "mapkeys", ["mapkeys.proto"], ["Labels"], build)
+    yield peer
+    peer.close()
+
+
+MAPKEYS = erc_codec.Codec.from_path(ANY_TREES / "mapkeys", root="Labels")
+
+
+@pytest.mark.parametrize(
+    ("values", "ours", "theirs"),
+    [
+        (
+            {"by_name": {"abcde": 1}},
+            r"^Labels\.by_name key 'abcde' is 5 bytes long, more than the 4 allowed$",
+            "string overflow",  # max_length:4
+        ),
+        (
+            {"flags": {"abc": True}},
+            r"^Labels\.flags key 'abc' is 3 bytes long, more than the 2 allowed$",
+            "string overflow",  # max_size:3, its NUL included
+        ),
+        (
+            {"by_name": {"a\0b": 1}},
+            r"^Labels\.by_name key 'a\\x00b' holds a NUL at character 1: nanopb stores",
+            "0a050a01611001",  # the key arrives cut at the NUL: "a"
+        ),
+    ],
+    ids=["max-length", "max-size", "nul"],
+)
+def test_a_map_key_nanopb_refuses_or_cuts_is_not_sent(
+    mapkeys: Peer, values: dict[str, object], ours: str, theirs: str
+) -> None:
+    message = MAPKEYS.message_class("Labels")(**values)
+    assert re.search(ours, _refused(MAPKEYS, message))
+    answer = mapkeys.recode("Labels", message.SerializeToString())
+    assert (answer if isinstance(answer, str) else answer.hex()) == theirs
+
+
+@given(data=st.data())
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_map_keys_at_their_limits_round_trip_through_nanopb(
+    mapkeys: Peer, data: st.DataObject
+) -> None:
+    """What the contract lets through nanopb reads back the same. (Not byte for byte: protobuf
+    writes a map entry's key and value even at their defaults, nanopb leaves them out.)"""
+    message = data.draw(strategies.messages(MAPKEYS, "Labels"))
+    theirs = mapkeys.recode("Labels", MAPKEYS.encode(message, "exact"))
+    assert isinstance(theirs, bytes), theirs
+    assert MAPKEYS.decode(theirs, strict=True) == ("Labels", message)
+    longest = MAPKEYS.message_class("Labels")(by_name={"abcd": 2**32 - 1, "wxyz": 2**32 - 1})
+    longest.flags["ab"] = True
+    exact = MAPKEYS.encode(longest, "exact")
+    assert mapkeys.recode("Labels", exact) == exact
+    # the longest keys and values: nanopb's 37 less the byte it adds for max_count:1 (flags)
+    assert (len(exact), MAPKEYS.max_size("Labels")) == (36, 37)
