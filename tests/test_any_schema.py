@@ -290,6 +290,40 @@ def test_proto2_groups_size_as_nanopbs_generator_does(
         assert Codec.from_path(GROUPS, root).max_size(root) == 11
 
 
+def _chain(tree: Path, fields: int) -> None:
+    """M0 holding M1 ... holding M{fields}, the last an int32: ``fields`` message fields deep."""
+    lines = [f"message M{i} {{ M{i + 1} next = 1; }}" for i in range(fields)]
+    (tree / "deep.proto").write_text(
+        'syntax = "proto3";\n' + "\n".join(lines) + f"\nmessage M{fields} {{ int32 x = 1; }}\n"
+    )
+
+
+def test_nesting_as_deep_as_protobuf_decodes_round_trips(tmp_path: Path) -> None:
+    _chain(tmp_path, 100)
+    codec = Codec.from_path(tmp_path, "M0")
+    message: Any = codec.message_class("M0")()
+    inner = message
+    for _ in range(100):
+        inner = inner.next
+    inner.x = -1
+    assert codec.decode(codec.encode(message)).message == message
+
+
+def test_nesting_deeper_than_protobuf_decodes_is_refused_at_load(tmp_path: Path) -> None:
+    """101 message fields deep: nanopb sizes (and decodes) it, protobuf's runtime cannot decode
+    it ("Exceeded upb_DecodeOptions_MaxDepth"), so the codec would send what it cannot read."""
+    _chain(tmp_path, 101)
+    assert Sizes(load_schema(tmp_path, "M0")).max_size("M101") == 11
+    pattern = (
+        r"deep\.proto:102:\d+: M0 nests messages too deeply for protobuf's Python runtime to "
+        r"decode: M0\.next\.next\.next\.\(\.\.\. 96 more \.\.\.\)\.next\.next is 101 messages "
+        r"deep, it decodes at most 100"
+    )
+    with pytest.raises(SchemaError, match=pattern):
+        Codec.from_path(tmp_path, "M0")
+    assert Codec.from_path(tmp_path, "M1").max_size("M101") == 11  # 100 deep from M1
+
+
 def test_nesting_deeper_than_python_recurses(tmp_path: Path) -> None:
     """700 messages, each holding the next: sized without recursion; the runtime cannot build
     the class (nanopb's own generator, recursive too, gives up on it)."""
