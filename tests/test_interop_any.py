@@ -365,7 +365,8 @@ def test_a_delimited_field_is_refused_at_load(
 @pytest.fixture(scope="module")
 def mapkeys(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Peer]:
     build = tmp_path_factory.mktemp("nanopb-mapkeys")
-    peer = build_0491(ANY_TREES / "mapkeys", ["mapkeys.proto"], ["Labels"], build)
+    messages = ["Labels", "Labels.ByNameEntry"]
+    peer = build_0491(ANY_TREES / "mapkeys", ["mapkeys.proto"], messages, build)
     yield peer
     peer.close()
 
@@ -420,3 +421,21 @@ def test_map_keys_at_their_limits_round_trip_through_nanopb(
     assert mapkeys.recode("Labels", exact) == exact
     # the longest keys and values: nanopb's 37 less the byte it adds for max_count:1 (flags)
     assert (len(exact), MAPKEYS.max_size("Labels")) == (36, 37)
+
+
+def test_a_map_entry_is_a_root_as_nanopb_generates_it(mapkeys: Peer) -> None:
+    """nanopb generates a map's entry type (Labels_ByNameEntry, its _msg and _size) like any
+    nested message: it loads as a plain root, with its key's and value's limits."""
+    codec = erc_codec.Codec.from_path(ANY_TREES / "mapkeys", root="Labels.ByNameEntry")
+    assert isinstance(codec, erc_codec.MessageCodec)
+    ((ok, listed),) = mapkeys.ask("S")
+    assert ok
+    assert listed == f"Labels=37 Labels_ByNameEntry={codec.max_size(codec.root)}"
+    entry = codec.message_class("Labels.ByNameEntry")(key="abcd", value=2**32 - 1)
+    exact = codec.encode(entry, "exact")
+    assert len(exact) == codec.max_size(codec.root) == 12
+    assert mapkeys.recode("Labels_ByNameEntry", exact) == exact
+    assert codec.decode(codec.encode(entry)) == ("Labels.ByNameEntry", entry)
+    too_long = codec.message_class("Labels.ByNameEntry")(key="abcde")
+    assert re.search(r"^Labels\.ByNameEntry\.key is 5 bytes long", _refused(codec, too_long))
+    assert mapkeys.recode("Labels_ByNameEntry", too_long.SerializeToString()) == "string overflow"

@@ -233,11 +233,16 @@ def load_schema(
             raise SchemaError(f"{folder}: include folder is not a directory")
     file, colon, root = root.rpartition(":")
     short = root.rpartition(".")[2]
+    # A map's entry type (Msg.CountsEntry: nanopb generates it, with its size) is written in no
+    # file's text: the message holding the map is.
+    outer = root.rpartition(".")[0].rpartition(".")[2] if short.endswith("Entry") else short
     names = [file] if colon else proto_files(base)
     if colon and not (base / file).is_file():
         raise SchemaError(f"{base / file}: no such .proto file in the tree")
     candidates = [
-        name for name in names if short in declared_names(read_text(base / name, errors="replace"))
+        name
+        for name in names
+        if {short, outer} & declared_names(read_text(base / name, errors="replace"))
     ]
     found: list[tuple[str, descriptor_pb2.FileDescriptorSet]] = []
     failure: SchemaError | None = None
