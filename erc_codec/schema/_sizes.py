@@ -20,7 +20,7 @@ from google.protobuf import descriptor_pb2
 from google.protobuf.descriptor import Descriptor, FieldDescriptor, OneofDescriptor
 
 from .._errors import SchemaError
-from ._descriptors import declarations
+from ._descriptors import declarations, extensions
 from ._options import Options, ResolvedOptions, resolve_options
 from ._schema import Schema, enum_of, message_of
 from ._wire import varint_size
@@ -117,6 +117,15 @@ class Sizes:
                             "nanopb's generator does not implement"
                         )
                         break
+            # An extension that is a group fails the generator too. (Its FT_IGNORE, which would
+            # spare the file, is not looked for: options are resolved for messages' own fields.)
+            grouped = (e for e in extensions(proto) if e.proto.type == _T.TYPE_GROUP)
+            extension = next(grouped, None)
+            if extension is not None and proto.name not in refused:
+                refused[proto.name] = (
+                    f"{self._schema.shown / proto.name}: extension {extension.name} is a proto2 "
+                    "group, which nanopb's generator does not implement"
+                )
             imported = next((name for name in proto.dependency if name in refused), None)
             if imported is not None and proto.name not in refused:
                 refused[proto.name] = f"it imports {imported}, and {refused[imported]}"
