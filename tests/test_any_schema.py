@@ -315,6 +315,94 @@ def test_the_rest_of_such_a_tree_works() -> None:
         codec.message_class("ManyRequired")
 
 
+# -- proto2 groups: where nanopb's generator refuses the file, no size ----------------------------
+
+GROUPS = TREES / "groups"
+_GROUP_FIELD = r"group\.proto:5:\d+: Holder\.item is a proto2 group, which nanopb's generator"
+# Each file of the groups tree, the message to load it from, and nanopb 0.4.9.1's sizes for its
+# messages, or (a str) where the generator fails on the file, NotImplementedError, and writes no
+# header, what our SchemaError says why.
+GROUP_FILES: dict[str, tuple[str, dict[str, int] | str]] = {
+    "group.proto": ("Holder", _GROUP_FIELD),
+    "imports.proto": ("Importer", rf"it imports group\.proto, and .*{_GROUP_FIELD}"),
+    "extension.proto": ("Extended", r"extension\.proto: extension added is a proto2 group"),
+    "ignored.proto": ("Ignoring", {"Ignoring": 11, "Ignoring.Item": 11}),
+    "skipped.proto": ("Kept", {"Skipped.Item": 11, "Kept": 11}),
+    "deprecated.proto": ("Discarding", {"Discarding": 11, "Discarding.Old": 11}),
+    "overridden.proto": ("Overriding", {"Overriding": 24, "Overriding.Item": 11}),
+}
+
+
+@pytest.mark.parametrize("file", sorted(GROUP_FILES))
+def test_proto2_groups_size_as_nanopbs_generator_does(
+    generator: None, tmp_path: Path, file: str
+) -> None:
+    root, expected = GROUP_FILES[file]
+    command = [sys.executable, "-m", "nanopb.generator.nanopb_generator", "-q", "-I", "."]
+    run = subprocess.run(
+        [*command, "--error-on-unmatched", "-D", str(tmp_path), file],
+        cwd=GROUPS,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    sizes = Sizes(load_schema(GROUPS, root))
+    ours = sizes.all()  # every file loaded is the one named, or group.proto and it
+    if isinstance(expected, str):
+        assert run.returncode != 0
+        assert "NotImplementedError: 10" in run.stderr  # 10: TYPE_GROUP
+        assert ours == {}  # Unrelated too: there is no header
+        with pytest.raises(SchemaError, match=rf"nanopb's generator refuses {file} \(.*{expected}"):
+            sizes.max_size(root)
+        with pytest.raises(SchemaError, match=rf"refuses {file}"):
+            Codec.from_path(GROUPS, root)
+    else:
+        assert run.returncode == 0, run.stderr
+        header = (tmp_path / file).with_suffix(".pb.h").read_text()
+        theirs = {c.replace("_", "."): int(size) for c, size in _DEFINE.findall(header)}
+        assert ours == theirs == expected
+        if file != "overridden.proto":
+            assert Codec.from_path(GROUPS, root).max_size(root) == 11
+            return
+        # nanopb writes the group as a length-prefixed message: no bytes are right for both
+        with pytest.raises(SchemaError, match=r"Overriding\.item: protobuf writes it delimited"):
+            Codec.from_path(GROUPS, root)
+
+
+def _chain(tree: Path, fields: int) -> None:
+    """M0 holding M1 ... holding M{fields}, the last an int32: ``fields`` message fields deep."""
+    lines = [f"message M{i} {{ M{i + 1} next = 1; }}" for i in range(fields)]
+    (tree / "deep.proto").write_text(
+        'syntax = "proto3";\n' + "\n".join(lines) + f"\nmessage M{fields} {{ int32 x = 1; }}\n"
+    )
+
+
+def test_nesting_as_deep_as_protobuf_decodes_round_trips(tmp_path: Path) -> None:
+    _chain(tmp_path, 100)
+    codec = Codec.from_path(tmp_path, "M0")
+    message: Any = codec.message_class("M0")()
+    inner = message
+    for _ in range(100):
+        inner = inner.next
+    inner.x = -1
+    assert codec.decode(codec.encode(message)).message == message
+
+
+def test_nesting_deeper_than_protobuf_decodes_is_refused_at_load(tmp_path: Path) -> None:
+    """101 message fields deep: nanopb sizes (and decodes) it, protobuf's runtime cannot decode
+    it ("Exceeded upb_DecodeOptions_MaxDepth"), so the codec would send what it cannot read."""
+    _chain(tmp_path, 101)
+    assert Sizes(load_schema(tmp_path, "M0")).max_size("M101") == 11
+    pattern = (
+        r"deep\.proto:102:\d+: M0 nests messages too deeply for protobuf's Python runtime to "
+        r"decode: M0\.next\.next\.next\.\(\.\.\. 96 more \.\.\.\)\.next\.next is 101 messages "
+        r"deep, it decodes at most 100"
+    )
+    with pytest.raises(SchemaError, match=pattern):
+        Codec.from_path(tmp_path, "M0")
+    assert Codec.from_path(tmp_path, "M1").max_size("M101") == 11  # 100 deep from M1
+
+
 def test_nesting_deeper_than_python_recurses(tmp_path: Path) -> None:
     """700 messages, each holding the next: sized without recursion; the runtime cannot build
     the class (nanopb's own generator, recursive too, gives up on it)."""

@@ -8,7 +8,10 @@ bytes ``varint(max_size) + max_size``, repeated fields ``(tag + item) * max_coun
 string, bytes or repeated field with no limit, a callback or pointer field, a type that contains
 itself) has no size, exactly where nanopb writes "depends on runtime parameters". nanopb reads the
 descriptors as written: an editions field with ``message_encoding = DELIMITED`` is sized as the
-message field it is written as, and a proto2 ``group`` has no size (the generator refuses groups).
+message field it is written as (which ``require_fixed`` refuses: see ``_DELIMITED``). nanopb's
+generator refuses a file holding a proto2 ``group`` it must generate (``NotImplementedError``: it
+has no groups), and with it every file importing that file: their messages have no size and are
+not listed.
 
 Generator versions differ in one rule (``NANOPB_VERSIONS``): up to 0.4.9.1 (``"0.4.9"``, the rules
 of every 0.4.x release) a ``FT_CALLBACK`` or ``FT_POINTER`` field has no size; nanopb's master
@@ -26,7 +29,7 @@ from google.protobuf import descriptor_pb2
 from google.protobuf.descriptor import Descriptor, FieldDescriptor, OneofDescriptor
 
 from .._errors import SchemaError
-from ._descriptors import declarations
+from ._descriptors import declarations, extensions
 from ._names import nanopb_finds
 from ._options import Options, ResolvedOptions, resolve_options
 from ._schema import Schema, enum_of, message_of
@@ -58,6 +61,16 @@ _SIZED_VARINTS = {
     _T.TYPE_UINT64: {0: 10, 8: 2, 16: 3, 32: 5, 64: 10},
     _T.TYPE_SINT64: {0: 10, 8: 2, 16: 3, 32: 5, 64: 10},
 }
+# A field protobuf writes as a group where nanopb's generator, taking the descriptor as written,
+# has a length-prefixed message: an editions DELIMITED field (or a proto2 group whose nanopb
+# type_override is TYPE_MESSAGE). nanopb's C library answers protobuf's bytes "wrong wire type"
+# and protobuf keeps nanopb's as an unknown field, so no bytes are right for both: the codec
+# refuses it rather than pick one side. Without the feature nanopb's code is the same.
+_DELIMITED = (
+    "protobuf writes it delimited (a group: wire types 3 and 4) and nanopb as a length-prefixed "
+    "message (wire type 2), so each side refuses or drops the other's bytes; make it a "
+    "length-prefixed message field (nanopb's generated code stays the same)"
+)
 _SIGNED = {_T.TYPE_INT32, _T.TYPE_INT64, _T.TYPE_SINT32, _T.TYPE_SINT64}
 _UNSIGNED = {_T.TYPE_UINT32, _T.TYPE_UINT64}
 
@@ -89,19 +102,58 @@ class Sizes:
             schema.tree, schema.files, schema.include, options_file, settings
         )
         self._optional: set[str] = set()  # proto3 `optional` fields (not in a real oneof)
-        # proto2 groups (an editions DELIMITED field reads as one)
-        self._proto2_groups: set[str] = set()
         for proto in schema.files:
             for declaration in declarations(proto):
                 if isinstance(declaration.proto, descriptor_pb2.DescriptorProto):
                     for field in declaration.proto.field:
-                        dotted = f"{declaration.name}.{field.name}"
                         if field.proto3_optional:
-                            self._optional.add(dotted)
-                        if field.type == _T.TYPE_GROUP:
-                            self._proto2_groups.add(dotted)
+                            self._optional.add(f"{declaration.name}.{field.name}")
+        self._refused = self._refused_files()
         self._memo: dict[str, int | None] = {}
         self._lookups: dict[str, bool] = {}  # field -> whether nanopb finds its type
+
+    def _refused_files(self) -> dict[str, str]:
+        """File name -> why nanopb's generator writes no code for it: a message it generates holds
+        a proto2 group it does not leave out (by ``FT_IGNORE``, ``discard_deprecated`` or a
+        ``type_override``), or the file imports such a file (the generator parses every import)."""
+        refused: dict[str, str] = {}
+        for proto in self._schema.files:  # protoc lists a file's imports before the file
+            for declaration in declarations(proto):
+                message = declaration.proto
+                if not isinstance(message, descriptor_pb2.DescriptorProto):
+                    continue
+                if proto.name in refused or not self._wanted(
+                    self._schema.descriptor(declaration.name)
+                ):
+                    continue
+                for field in message.field:  # as written: a DELIMITED field is TYPE_MESSAGE here
+                    dotted = f"{declaration.name}.{field.name}"
+                    options = self._options.fields[dotted]
+                    kind = (
+                        options.type_override if options.HasField("type_override") else field.type
+                    )
+                    left_out = options.type == _FT_IGNORE or (
+                        options.discard_deprecated and field.options.deprecated
+                    )
+                    if kind == _T.TYPE_GROUP and not left_out:
+                        refused[proto.name] = (
+                            f"{self._schema.where(dotted)}: {dotted} is a proto2 group, which "
+                            "nanopb's generator does not implement"
+                        )
+                        break
+            # An extension that is a group fails the generator too. (Its FT_IGNORE, which would
+            # spare the file, is not looked for: options are resolved for messages' own fields.)
+            grouped = (e for e in extensions(proto) if e.proto.type == _T.TYPE_GROUP)
+            extension = next(grouped, None)
+            if extension is not None and proto.name not in refused:
+                refused[proto.name] = (
+                    f"{self._schema.shown / proto.name}: extension {extension.name} is a proto2 "
+                    "group, which nanopb's generator does not implement"
+                )
+            imported = next((name for name in proto.dependency if name in refused), None)
+            if imported is not None and proto.name not in refused:
+                refused[proto.name] = f"it imports {imported}, and {refused[imported]}"
+        return refused
 
     # -- field limits --------------------------------------------------------------------------
 
@@ -155,6 +207,7 @@ class Sizes:
     def max_size(self, name: str) -> int:
         """nanopb's ``<name>_size``; ``SchemaError`` when nanopb has none for it."""
         descriptor = self._schema.descriptor(name)
+        self._require_generated(descriptor)
         size = self._size(descriptor)
         if size is None:
             self.require_fixed(descriptor)
@@ -172,13 +225,29 @@ class Sizes:
         }
 
     def _generated(self, message: Descriptor) -> bool:
+        return message.file.name not in self._refused and self._wanted(message)
+
+    def _wanted(self, message: Descriptor) -> bool:
+        """Whether the generator makes code for ``message`` where it takes its file."""
         options = self._options.messages[message.full_name]
         if options.skip_message:
             return False
         return not (options.discard_deprecated and message.GetOptions().deprecated)
 
+    def _require_generated(self, message: Descriptor) -> None:
+        """``SchemaError`` when nanopb's generator refuses the file of ``message``."""
+        why = self._refused.get(message.file.name)
+        if why is not None:
+            raise SchemaError(
+                f"nanopb's generator refuses {message.file.name} ({why}): it writes no code "
+                f"for {message.full_name}, so no size"
+            )
+
     def require_fixed(self, root: Descriptor) -> None:
-        """``SchemaError`` naming the first field, and its path from ``root``, nanopb can't size."""
+        """``SchemaError`` naming the first field, and its path from ``root``, nanopb can't size;
+        else the first field whose bytes nanopb and protobuf disagree on (``_DELIMITED``)."""
+        self._require_generated(root)  # the files root reaches are all imported by its own
+        delimited: tuple[FieldDescriptor, str] | None = None
         # Depth first with a stack of its own: messages nest as deeply as protoc lets them.
         pending: list[tuple[Descriptor, str, tuple[str, ...]]] = [
             (root, root.full_name, (root.full_name,))
@@ -190,6 +259,8 @@ class Sizes:
                 if self.ignored(field):
                     continue
                 here = f"{path}.{field.name}"
+                if field.type == _T.TYPE_GROUP and delimited is None:  # in a file nanopb takes
+                    delimited = field, here
                 problem = self._problem(field)
                 if field.message_type is not None and problem is None:
                     sub = message_of(field)
@@ -203,11 +274,15 @@ class Sizes:
                         f"nanopb cannot size it (reached from {stack[0]} as {here})"
                     )
             pending.extend(reversed(inner))
+        if delimited is not None:
+            field, here = delimited
+            raise SchemaError(
+                f"{self._schema.where(field.full_name)}: {field.full_name}: {_DELIMITED} "
+                f"(reached from {root.full_name} as {here})"
+            )
 
     def _problem(self, field: FieldDescriptor) -> str | None:
         """Why ``field`` itself (not what it contains) has no static size, if it hasn't."""
-        if field.full_name in self._proto2_groups:
-            return "proto2 group (nanopb's generator refuses groups)"
         options = self.options(field)
         if options.type in (_FT_CALLBACK, _FT_POINTER) and not self._any_allocation:
             kind = "FT_CALLBACK" if options.type == _FT_CALLBACK else "FT_POINTER"
