@@ -22,6 +22,7 @@ from recording_support import need
 from test_any_schema import INCLUDE, generator_sizes
 
 import erc_codec
+from erc_codec import Codec, SchemaError
 from erc_codec._discovery import ENVIRONMENT, SchemaSource, find_schema
 
 # One file for every .proto, for -f FILE (no %s): App's and Reading's options in one place.
@@ -181,6 +182,19 @@ def test_from_source_keeps_the_options_file_and_the_settings() -> None:
     codec = erc_codec.Codec.from_source(source)
     assert codec.max_size("App") == 69
     assert codec.max_size("Reading") == (2 + 29) + 2 * (1 + 5)  # units.nanopb, on the -I folder
+
+
+def test_one_options_file_found_nowhere_is_a_schema_error() -> None:
+    settings = ["max_size:20", "max_count:3"]  # a size without any options file
+    assert Codec.from_path(INCLUDE / "main", "App", [INCLUDE / "inc"], settings=settings)
+    with pytest.raises(SchemaError, match=r"options file nope\.options: not found \(looked in "):
+        Codec.from_path(
+            INCLUDE / "main",
+            "App",
+            [INCLUDE / "inc"],
+            options_file="nope.options",
+            settings=settings,
+        )
 
 
 def test_given_inputs_replace_the_configurations(tmp_path: Path) -> None:
