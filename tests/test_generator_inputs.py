@@ -16,12 +16,14 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
+from types import MappingProxyType
 
 import pytest
 from recording_support import need
 from test_any_schema import INCLUDE, generator_sizes
 
 import erc_codec
+import erc_lint
 from erc_codec import Codec, SchemaError
 from erc_codec._discovery import ENVIRONMENT, SchemaSource, find_schema
 
@@ -215,6 +217,23 @@ def test_given_inputs_replace_the_configurations(tmp_path: Path) -> None:
     kept = find_schema(start=tmp_path, environ={}, include=None, settings=None)
     assert kept == found
     assert find_schema("t", environ={}, settings=["max_count=1"]).settings == ("max_count=1",)
+
+
+def test_the_lint_api_takes_the_inputs_in_its_configuration(nanopb: None, tmp_path: Path) -> None:
+    main = INCLUDE / "main"
+    args = ["-I", ".", "-I", "../inc", "-s", "max_size=20", "-s", "max_count=3"]
+    theirs = generator_sizes(tmp_path, main, ["app.proto"], *args)
+    config = erc_lint.Config(
+        roots=("App",),
+        budget=MappingProxyType({"App": 1}),
+        include=(str(INCLUDE / "inc"),),
+        settings=("max_size=20", "max_count=3"),
+    )
+    found = [f.message for f in erc_lint.check(main, config) if f.rule == "ENVELOPE_OVER_BUDGET"]
+    assert found == [
+        f'Maximum size of message "App" is {theirs["App"]} bytes, over its budget of 1 bytes: '
+        f"headroom {1 - 74} bytes."
+    ]
 
 
 # -- what cannot be used: one line, exit status 2 --------------------------------------------

@@ -60,6 +60,7 @@ def generator_options(store: Store | None = None) -> Callable[[_Command], _Comma
             "-I",
             "--include",
             "includes",
+            metavar="DIR",
             multiple=True,
             type=click.Path(exists=True, file_okay=False, path_type=Path),
             expose_value=store is None,
