@@ -113,9 +113,11 @@ def read_config(
     known_rules: Collection[str],
     explicit: bool = False,
     categories: Collection[str] = (),
+    base: Path | None = None,
 ) -> Config:
     """The configuration in ``path`` (defaults when None); an ``explicit`` file must have one.
-    ``use`` and ``except`` may name ``known_rules`` and ``categories``; ``ignore`` rules only."""
+    ``use`` and ``except`` may name ``known_rules`` and ``categories``; ``ignore`` rules only.
+    Its paths are relative to ``base``, else to its folder."""
     if path is None:
         return Config()
     table = _table(path)
@@ -144,7 +146,7 @@ def read_config(
                 + did_you_mean(strange[0], allowed)
             )
     roots = tuple(values["roots"]) if "roots" in table else _ROOTS
-    include, options_file, settings = _generator(path, table, values)
+    include, options_file, settings = _generator(path, base or path.parent, table, values)
     return Config(
         roots=roots,
         ignore=frozenset(values["ignore"]),
@@ -163,11 +165,11 @@ def read_config(
 
 
 def _generator(
-    path: Path, table: dict[str, Any], values: dict[str, list[str]]
+    path: Path, here: Path, table: dict[str, Any], values: dict[str, list[str]]
 ) -> tuple[tuple[str, ...], str, tuple[str, ...]]:
     """nanopb's generator inputs: ``include`` folders (each there), ``options_file`` (a file
-    beside the configuration taken from there) and ``settings`` (each read as nanopb reads it)."""
-    here = path.parent
+    there taken from there) and ``settings`` (each read as nanopb reads it); ``here`` is where
+    paths are relative to."""
     for folder in values["include"]:
         if not (here / folder).is_dir():
             raise ConfigError(

@@ -19,6 +19,7 @@ from pathlib import Path
 from types import MappingProxyType
 
 import pytest
+from git_support import Repo
 from recording_support import need
 from test_any_schema import INCLUDE, generator_sizes
 
@@ -160,6 +161,19 @@ def test_the_configurations_give_include_options_file_and_settings(
     # erc-lint: the include folder relative to the configuration, beside the tree's protos
     budget(main, generator.replace('"inc"', '"../inc"'))
     assert lint_size(run("erc_lint", "check", "main", cwd=tree)) == theirs["App"]
+
+
+def test_a_git_revisions_configuration_takes_its_folders_from_the_checkout(
+    nanopb: None, tree: Path, tmp_path: Path
+) -> None:
+    repo = Repo(tree)
+    budget(tree / "main", 'include = ["../inc"]\nsettings = ["max_size=20", "max_count=3"]\n')
+    repo.git("add", "-A")
+    repo.git("commit", "-q", "-m", "a tree, its include folder and its configuration")
+    args = ["-I", ".", "-I", "../inc", "-s", "max_size=20", "-s", "max_count=3"]
+    theirs = generator_sizes(tmp_path, tree / "main", ["app.proto"], *args)
+    done = run("erc_lint", "check", f"{tree}#ref=main,subdir=main", cwd=tmp_path)
+    assert lint_size(done) == theirs["App"] == 74
 
 
 def test_one_options_file_in_a_configuration_is_relative_to_it(tree: Path) -> None:

@@ -61,7 +61,7 @@ def diff(
             outcome = compare(
                 before,
                 after,
-                settings(config, after.folder, *generator),
+                settings(config, after.folder, *generator, shown=after.shown),
                 includes,
                 ledger,
                 accepted,
@@ -96,7 +96,7 @@ def check(
             outcome = compare(
                 None,
                 source,
-                settings(config, source.folder, *generator),
+                settings(config, source.folder, *generator, shown=source.shown),
                 includes,
                 ledger,
                 accepted,
@@ -137,7 +137,11 @@ def baseline(
         if len(trees) == 1:
             with opened(trees[0], "TREE") as source:
                 outcome = compare(
-                    None, source, settings(config, source.folder, *generator), includes, ledger
+                    None,
+                    source,
+                    settings(config, source.folder, *generator, shown=source.shown),
+                    includes,
+                    ledger,
                 )
         else:
             with (
@@ -145,7 +149,11 @@ def baseline(
                 opened(trees[1], "NEW") as after,
             ):
                 outcome = compare(
-                    before, after, settings(config, after.folder, *generator), includes, ledger
+                    before,
+                    after,
+                    settings(config, after.folder, *generator, shown=after.shown),
+                    includes,
+                    ledger,
                 )
         target.write_text(render_baseline(outcome.keys), encoding="utf-8")
     count = len(set(outcome.keys))

@@ -79,12 +79,22 @@ def settings(
     includes: Sequence[Path] = (),
     options_file: str | None = None,
     generator_settings: Sequence[str] = (),
+    shown: Path | None = None,
 ) -> Config:
     """``--config``, else the configuration in the tree's folder (if it has one), else here;
-    with the ``-I``, ``-f`` and ``-s`` given in place of its own."""
+    with the ``-I``, ``-f`` and ``-s`` given in place of its own. ``shown`` is where the tree's
+    folder is shown (a git revision's scratch copy: in the repository), which the paths of a
+    configuration found in it are relative to."""
     folders = [folder] if folder is not None and folder.is_dir() else []
     found = config or find_config(*folders, Path.cwd())
-    read = read_config(found, set(RULES), explicit=config is not None, categories=set(CATEGORIES))
+    copied = found is not None and shown is not None and found.parent == folder
+    read = read_config(
+        found,
+        set(RULES),
+        explicit=config is not None,
+        categories=set(CATEGORIES),
+        base=shown if copied else None,
+    )
     return read._replace(
         include=tuple(map(str, includes)) or read.include,
         options_file=read.options_file if options_file is None else options_file,
