@@ -25,9 +25,10 @@ def main(tree: str | None, root: str | None) -> None:
     """Encode, decode and size the ERC rover's PBEnvelope datagrams.
 
     --proto, --root and nanopb's generator inputs -I, -f and -s here hold
-    for the command that follows, unless it gives its own. Without them, the schema is found (erc-codec schema says
-    which): $ERC_CODEC_PROTO, else [tool.erc-codec] in the nearest
-    pyproject.toml from here up, else the packaged one.
+    for the command that follows, unless it gives its own. Without them, the
+    schema is found (erc-codec schema says which): $ERC_CODEC_PROTO, else
+    [tool.erc-codec] in the nearest pyproject.toml from here up, else the
+    packaged one.
     """
 
 
