@@ -176,6 +176,14 @@ def test_a_git_revisions_configuration_takes_its_folders_from_the_checkout(
     assert lint_size(done) == theirs["App"] == 74
 
 
+def test_the_ledger_update_takes_the_configurations_include_folders(tree: Path) -> None:
+    budget(tree / "main", 'include = ["../inc"]\n')
+    done = run("erc_lint", "ledger", "update", "main", cwd=tree)
+    assert done.returncode == 0, done.stderr
+    assert "does not compile" not in done.stderr
+    assert "message App 1 reading Reading -" in (tree / "main" / "erc-lint.lock").read_text()
+
+
 def test_one_options_file_in_a_configuration_is_relative_to_it(tree: Path) -> None:
     (tree / "pyproject.toml").write_text(
         '[tool.erc-codec]\nproto = "main"\nroot = "App"\ninclude = ["inc"]\n'
