@@ -111,27 +111,34 @@ class Codec(Envelope):
             raise TypeError(f"tree is a folder (str or os.PathLike), not {type(tree).__name__}")
         if not isinstance(root, str):
             raise TypeError(f"root is a message name (str), not {type(root).__name__}")
-        return cls._for(load_schema(tree, root, include), options_file, settings, nanopb_version)
+        return cls.from_schema(
+            load_schema(tree, root, include), options_file, settings, nanopb_version
+        )
 
     @classmethod
     def from_source(cls, source: SchemaSource) -> "Codec":
         """Load the schema ``source`` names (``find_schema``): a folder, or a git revision
-        ``GITDIR#ref=REF[,subdir=PATH]`` read without a checkout."""
+        ``GITDIR#ref=REF[,subdir=PATH]`` read without a checkout, with its include folders,
+        options file and generator settings."""
         return load_source(
             source,
-            lambda tree: cls._for(
-                load_schema(tree.folder, source.root, source.include, tree.shown)
+            lambda tree: cls.from_schema(
+                load_schema(tree.folder, source.root, source.include, tree.shown),
+                source.options_file,
+                source.settings,
             ),
         )
 
     @classmethod
-    def _for(
+    def from_schema(
         cls,
         schema: Schema,
         options_file: str = "%s.options",
         settings: Sequence[str] = (),
         nanopb_version: str = NANOPB_VERSIONS[0],
     ) -> "Codec":
+        """The codec for a loaded ``schema`` (``erc_codec.schema.load_schema``): an envelope
+        codec, or a ``MessageCodec`` for a plain root, as ``from_path`` gives."""
         if cls is Codec and not is_envelope(schema.root):
             return MessageCodec(schema, options_file, settings, nanopb_version)
         return cls(schema, options_file, settings, nanopb_version)

@@ -3,9 +3,13 @@
 The first of these that is there wins:
 1. the tree a caller names (``--proto TREE``);
 2. the environment variable ``ERC_CODEC_PROTO``;
-3. ``[tool.erc-codec] proto = "..."`` (with ``root`` and ``include``) in the nearest
-   ``pyproject.toml`` from the working folder up (paths there relative to that file's folder);
+3. ``[tool.erc-codec] proto = "..."`` (with ``root``, ``include``, ``options_file`` and
+   ``settings``) in the nearest ``pyproject.toml`` from the working folder up (paths there
+   relative to that file's folder);
 4. the packaged rover schema.
+
+nanopb's generator inputs (include folders ``-I``, the options file ``-f``, settings ``-s``) come
+with the source: given by the caller (a command line), each replaces the configuration's.
 
 A tree is a folder or a git revision in erc-lint's spelling, ``GITDIR#ref=REF[,subdir=PATH]``,
 read from the repository's objects (``erc_codec.schema.open_tree``), never checked out. What a
@@ -16,7 +20,7 @@ source names is only read when it is loaded: finding it costs a walk up the fold
 import functools
 import os
 import sys
-from collections.abc import Callable, Hashable, Mapping
+from collections.abc import Callable, Hashable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple, TypeVar
 
@@ -28,6 +32,7 @@ from .schema import (
     Repository,
     TreeSource,
     file_exists,
+    given_options_file,
     open_tree,
     parse_tree_spec,
     proto_files,
@@ -35,6 +40,7 @@ from .schema import (
 )
 
 __all__ = [
+    "DEFAULT_OPTIONS_FILE",
     "ENVIRONMENT",
     "SchemaSource",
     "find_schema",
@@ -44,6 +50,7 @@ __all__ = [
 ]
 
 ENVIRONMENT = "ERC_CODEC_PROTO"
+DEFAULT_OPTIONS_FILE = "%s.options"  # nanopb's generator's -f: each .proto's own, beside it
 _CONFIG_LIMIT = 1024 * 1024  # a pyproject.toml larger than this is no configuration
 _TABLE = "erc-codec"
 _T = TypeVar("_T")
@@ -52,12 +59,15 @@ _T = TypeVar("_T")
 class SchemaSource(NamedTuple):
     """A schema to load: its ``tree`` (a folder or a git revision, as spelled), the envelope
     message ``root``, further import folders ``include``, and ``origin``: ``"--proto"``,
-    ``"ERC_CODEC_PROTO"``, the path of the ``pyproject.toml`` that named it, or ``"packaged"``."""
+    ``"ERC_CODEC_PROTO"``, the path of the ``pyproject.toml`` that named it, or ``"packaged"``;
+    and nanopb's generator's ``options_file`` (``-f``) and ``settings`` (``-s``)."""
 
     tree: str
     root: str
     include: tuple[str, ...]
     origin: str
+    options_file: str = DEFAULT_OPTIONS_FILE
+    settings: tuple[str, ...] = ()
 
 
 @functools.cache
@@ -76,31 +86,54 @@ def find_schema(
     root: str | None = None,
     start: str | os.PathLike[str] | None = None,
     environ: Mapping[str, str] | None = None,
+    include: Sequence[str] | None = None,
+    options_file: str | None = None,
+    settings: Sequence[str] | None = None,
 ) -> SchemaSource:
     """The schema to use: ``tree`` if given, else ``ERC_CODEC_PROTO`` in ``environ`` (the
     process's environment), else the nearest ``pyproject.toml`` from ``start`` (the working
-    folder) up that has a ``[tool.erc-codec]`` table, else the packaged one. ``root`` overrides
-    the root the source names (``PBEnvelope`` unless a configuration says otherwise).
+    folder) up that has a ``[tool.erc-codec]`` table, else the packaged one. ``root``,
+    ``include``, ``options_file`` and ``settings``, where given (not ``None``), replace what the
+    source names (``PBEnvelope``, no include folder, ``%s.options`` and no setting unless a
+    configuration says otherwise).
 
     A configuration that cannot be read or holds what it should not is a ``SchemaError`` naming
     the file and the key."""
+    given = _Given(root, include, options_file, settings)
     if tree is not None:
-        return SchemaSource(tree, root or "PBEnvelope", (), "--proto")
+        return given.over(SchemaSource(tree, "PBEnvelope", (), "--proto"))
     value = (os.environ if environ is None else environ).get(ENVIRONMENT, "")
     if value.strip():
-        return SchemaSource(value, root or "PBEnvelope", (), ENVIRONMENT)
+        return given.over(SchemaSource(value, "PBEnvelope", (), ENVIRONMENT))
     place = os.path.abspath(os.getcwd() if start is None else os.fspath(start))
     while True:
         config = os.path.join(place, "pyproject.toml")
         if file_exists(config):
             table = _table(Path(config))
             if table is not None:
-                return _configured(Path(config), table, root)
+                return given.over(_configured(Path(config), table))
         above = os.path.dirname(place)
         if above == place:
             break
         place = above
-    return SchemaSource(str(packaged_tree()), root or "PBEnvelope", (), "packaged")
+    return given.over(SchemaSource(str(packaged_tree()), "PBEnvelope", (), "packaged"))
+
+
+class _Given(NamedTuple):
+    """What a caller gave itself (``None``: not given), to replace what a source names."""
+
+    root: str | None
+    include: Sequence[str] | None
+    options_file: str | None
+    settings: Sequence[str] | None
+
+    def over(self, source: SchemaSource) -> SchemaSource:
+        return source._replace(
+            root=self.root or source.root,
+            include=source.include if self.include is None else tuple(self.include),
+            options_file=source.options_file if self.options_file is None else self.options_file,
+            settings=source.settings if self.settings is None else tuple(self.settings),
+        )
 
 
 def _table(path: Path) -> dict[str, Any] | None:
@@ -123,17 +156,18 @@ def _table(path: Path) -> dict[str, Any] | None:
     return table
 
 
-def _configured(path: Path, table: dict[str, Any], root: str | None) -> SchemaSource:
-    unknown = sorted(set(table) - {"proto", "root", "include"})
+_KEYS = ("proto", "root", "include", "options_file", "settings")
+
+
+def _configured(path: Path, table: dict[str, Any]) -> SchemaSource:
+    unknown = sorted(set(table) - set(_KEYS))
     if unknown:
         raise SchemaError(
-            f"{path}: [tool.{_TABLE}] has no key {unknown[0]!r} (it takes proto, root, include)"
+            f"{path}: [tool.{_TABLE}] has no key {unknown[0]!r} (it takes {', '.join(_KEYS)})"
         )
-    proto, named_root, include = (
-        table.get("proto"),
-        table.get("root", "PBEnvelope"),
-        table.get("include", []),
-    )
+    proto, named_root = table.get("proto"), table.get("root", "PBEnvelope")
+    include, settings = table.get("include", []), table.get("settings", [])
+    options_file = table.get("options_file", DEFAULT_OPTIONS_FILE)
     if not isinstance(proto, str) or not proto.strip():
         raise SchemaError(
             f"{path}: [tool.{_TABLE}] proto must be a tree: a folder or GITDIR#ref=REF"
@@ -142,12 +176,22 @@ def _configured(path: Path, table: dict[str, Any], root: str | None) -> SchemaSo
         raise SchemaError(f"{path}: [tool.{_TABLE}] root must be a message name")
     if not isinstance(include, list) or not all(isinstance(i, str) and i for i in include):
         raise SchemaError(f"{path}: [tool.{_TABLE}] include must be a list of folders")
+    if not isinstance(options_file, str) or not options_file:
+        raise SchemaError(
+            f"{path}: [tool.{_TABLE}] options_file must be a file or a pattern (%s.options)"
+        )
+    if not isinstance(settings, list) or not all(isinstance(s, str) and s for s in settings):
+        raise SchemaError(
+            f'{path}: [tool.{_TABLE}] settings must be a list of generator settings ("max_size=61")'
+        )
     here = path.parent
     return SchemaSource(
         _beside(here, proto),
-        root or named_root,
+        named_root,
         tuple(str(here / folder) for folder in include),
         str(path),
+        given_options_file(options_file, here),
+        tuple(settings),
     )
 
 

@@ -32,7 +32,7 @@ def test_the_command_is_reached_by_a_public_path() -> None:
     module, _, name = scripts["erc-codec"].partition(":")
     assert not any(part.startswith("_") for part in module.split("."))
     assert getattr(erc_codec.cli, name) is erc_codec.cli.main
-    assert erc_codec.cli.__all__ == ["OneLineGroup", "main"]
+    assert erc_codec.cli.__all__ == ["OneLineGroup", "generator_options", "main"]
 
 
 def test_importing_the_cli_package_leaves_the_commands_unloaded() -> None:

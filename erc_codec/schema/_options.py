@@ -36,7 +36,14 @@ from ._names import nanopb_name
 from ._protoc import FALLBACK_INCLUDE, compile_files
 from ._wire import LEN, WireError, next_field
 
-__all__ = ["Options", "ResolvedOptions", "options_class", "resolve_options"]
+__all__ = [
+    "Options",
+    "ResolvedOptions",
+    "given_options_file",
+    "options_class",
+    "options_path",
+    "resolve_options",
+]
 
 _EXTENSION = 1010  # (nanopb), (nanopb_msgopt), (nanopb_fileopt) on the descriptor options
 _COMMENTS = re.compile(r"/\*.*?\*/|//.*$|#.*$")
@@ -96,11 +103,18 @@ def resolve_options(
     nanopb's generator run in ``tree`` with ``-I`` for each of ``include``, ``-f options_file``
     and ``-s`` for each of ``settings`` resolves them. As the generator does, every message
     starts from its file's options, a nested enum from its message's (``enum_intsize``,
-    ``long_names``, ...)."""
+    ``long_names``, ...).
+
+    The settings are checked, and an ``options_file`` without ``%s`` (one file for all) must be
+    found, even for no ``files``: either is a ``SchemaError`` (nanopb's generator warns of a
+    missing one and sizes without it)."""
     resolved = ResolvedOptions()
     top = _settings(settings)
+    if _one_file(options_file) and options_path(tree, include, options_file, "") is None:
+        where = ", ".join(str(folder) for folder in (tree, *include))
+        raise SchemaError(f"options file {options_file}: not found (looked in {where})")
     for proto in files:
-        rules = _read_rules(_options_path(tree, include, options_file, proto.name))
+        rules = _read_rules(options_path(tree, include, options_file, proto.name))
         base = resolved.files[proto.name] = _merge(top, rules, proto.name, proto.options)
         for declaration in declarations(proto):
             message = declaration.proto
@@ -140,10 +154,22 @@ def _settings(settings: Sequence[str]) -> Options:
     return top
 
 
-def _options_path(tree: Path, include: Sequence[Path], pattern: str, name: str) -> Path | None:
-    """Where the generator reads the options of file ``name`` from, if anywhere: ``pattern``
-    with ``%s`` the name without its suffix (a pattern without ``%s`` names one file for all),
-    under ``tree``, then under each include folder, the first that holds it."""
+def _one_file(pattern: str) -> bool:
+    """Whether an options file pattern names one file for every .proto (it has no ``%s``)."""
+    try:
+        pattern % ""
+    except TypeError:
+        return True
+    except ValueError:
+        return False  # options_path says what is wrong with it
+    return False
+
+
+def options_path(tree: Path, include: Sequence[Path], pattern: str, name: str) -> Path | None:
+    """Where nanopb's generator reads the options of file ``name`` (tree-relative) from, if
+    anywhere: ``pattern`` (``-f``) with ``%s`` the name without its suffix (a pattern without
+    ``%s`` names one file for all), under ``tree``, then under each include folder, the first
+    that holds it (an absolute pattern is itself)."""
     try:
         wanted = pattern % os.path.splitext(name)[0]
     except TypeError:  # no %s in it (the generator's own test)
@@ -155,6 +181,16 @@ def _options_path(tree: Path, include: Sequence[Path], pattern: str, name: str) 
         if file_exists(path):
             return path
     return None
+
+
+def given_options_file(options_file: str, here: Path) -> str:
+    """An options file as given where paths are relative to ``here`` (the working folder, a
+    configuration's folder): one file (no ``%s``) that is there, as that path; anything else as
+    given, for nanopb's search under the tree and its include folders."""
+    if "%" in options_file or Path(options_file).is_absolute():
+        return options_file
+    beside = here / options_file
+    return str(beside.absolute()) if beside.is_file() else options_file
 
 
 def _merge(parent: Options, rules: Rules, dotted: str, options: Message | None) -> Options:
