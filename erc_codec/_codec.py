@@ -74,6 +74,7 @@ class Codec(Envelope):
     def _load(
         self, schema: Schema, options_file: str, settings: Sequence[str], nanopb_version: str
     ) -> None:
+        _require_compiled_runtime()
         self._schema = schema
         self._sizes = Sizes(schema, options_file, settings, nanopb_version)
         self._sizes.require_fixed(schema.root)
@@ -257,6 +258,22 @@ class MessageCodec(Plain, Codec):
             self._sizes.max_size(self.root),
             functools.partial(contract, self._sizes),
             functools.partial(refusal, self._sizes),
+        )
+
+
+def _require_compiled_runtime() -> None:
+    """protobuf's pure-Python runtime keeps no serialized descriptors and reads some malformed
+    bytes otherwise than upb does, so a codec on it would answer otherwise than the one tested.
+    nanopb's generator switches to it for its own process (it sets
+    ``PROTOCOL_BUFFERS_PYTHON_IMPLEMENTATION=python`` in ``os.environ`` on import), and every
+    process started after that inherits it: say so, rather than decode differently."""
+    from google.protobuf.internal import api_implementation
+
+    if api_implementation.Type() == "python":
+        raise SchemaError(
+            "protobuf runs its pure-Python implementation here "
+            "(PROTOCOL_BUFFERS_PYTHON_IMPLEMENTATION=python, which importing nanopb's generator "
+            "sets): erc_codec needs its compiled one (upb); unset the variable"
         )
 
 

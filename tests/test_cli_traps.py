@@ -5,6 +5,7 @@ filtered by port and kind, and output that goes away ends a command quietly."""
 
 import contextlib
 import json
+import os
 import socket
 import subprocess
 import sys
@@ -228,3 +229,19 @@ def test_listen_into_a_closed_pipe_ends_quietly(codec: erc_codec.Codec) -> None:
     assert listener.wait(timeout=30) == 1
     assert b"Traceback" not in listener.stderr.read()
     listener.stderr.close()
+
+
+def test_protobufs_pure_python_runtime_is_refused_in_one_line() -> None:
+    # What a process that imported nanopb's generator hands to the processes it starts.
+    environment = {**os.environ, "PROTOCOL_BUFFERS_PYTHON_IMPLEMENTATION": "python"}
+    done = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "decode", "62026805"],
+        capture_output=True,
+        text=True,
+        env=environment,
+        check=False,
+    )
+    assert (done.returncode, done.stdout) == (2, "")
+    assert done.stderr.count("\n") == 1
+    assert "PROTOCOL_BUFFERS_PYTHON_IMPLEMENTATION=python" in done.stderr
+    assert "needs its compiled one (upb)" in done.stderr
