@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 from conftest import REPO
+from datagrams import MAX
 
 import erc_codec
 from erc_codec import Codec, DecodeError, EncodeError
@@ -112,3 +113,105 @@ def test_loading_with_wrong_types_is_a_type_error() -> None:
         Codec.from_path(5)  # type: ignore[arg-type]
     with pytest.raises(TypeError, match="root is a message name"):
         Codec.from_path(REPO / "proto", root=b"PBEnvelope")  # type: ignore[arg-type]
+
+
+# gps_info (12, empty), then field 20 as a varint on PBEnvelope itself: 20 is a member, which a
+# varint cannot be, so protobuf keeps it as an unknown field of the envelope.
+BESIDE = bytes.fromhex("6200a00101")
+# gps_info, then field 40 (length-delimited, two bytes): a number PBEnvelope lacks altogether.
+LACKED = bytes.fromhex("6200c2020201ff")
+
+
+def test_an_unknown_field_beside_the_payload_is_listed_on_the_envelope(codec: Codec) -> None:
+    """``6200a00101`` decoded as gps_info with no unknown fields: field 20 went unseen."""
+    decoded = codec.decode(BESIDE)
+    assert decoded.kind == "gps_info"
+    assert decoded.unknown_fields == (erc_codec.UnknownField("PBEnvelope", 20, 0),)
+    assert decoded.envelope_unknown_fields == decoded.unknown_fields
+    assert codec.decode(LACKED).unknown_fields == (erc_codec.UnknownField(codec.root, 40, 2),)
+    assert decoded.to_dict()["unknown_fields"] == [
+        {"path": "PBEnvelope", "number": 20, "wire_type": 0}
+    ]
+    # the payload's own come after the envelope's; a datagram of this schema has none at all
+    both = codec.decode(bytes.fromhex("62026805a00101"))
+    assert both.unknown_fields == (
+        erc_codec.UnknownField("PBEnvelope", 20, 0),
+        erc_codec.UnknownField("", 13, 0),
+    )
+    with_timeout = codec.encode(codec.message_class("drive_motor")(), "strip", timeout=300)
+    assert codec.decode(with_timeout).unknown_fields == ()
+    assert codec.decode(with_timeout).envelope_unknown_fields == ()
+
+
+def test_an_unknown_field_before_the_payload_is_listed_too(codec: Codec) -> None:
+    decoded = codec.decode(bytes.fromhex("a001016200"))
+    assert (decoded.kind, decoded.unknown_fields) == (
+        "gps_info",
+        (erc_codec.UnknownField("PBEnvelope", 20, 0),),
+    )
+
+
+@pytest.mark.parametrize("mode", ["strip", "exact", "pad"])
+def test_every_form_of_such_a_datagram_shows_its_envelope_field(codec: Codec, mode: str) -> None:
+    datagram = {"strip": LACKED, "exact": LACKED, "pad": LACKED + bytes(8)}[mode]
+    assert codec.decode(datagram).envelope_unknown_fields == (
+        erc_codec.UnknownField("PBEnvelope", 40, 2),
+    )
+
+
+def test_strict_refuses_unknown_fields_on_the_envelope_in_the_payloads_words(
+    codec: Codec,
+) -> None:
+    with pytest.raises(DecodeError) as raised:
+        codec.decode(BESIDE, strict=True)
+    assert raised.value.reason == "unknown_fields"
+    assert str(raised.value) == (
+        "datagram of 5 bytes: its envelope holds fields PBEnvelope does not know: "
+        "20 (wire type 0) (another schema?)"
+    )
+    with pytest.raises(DecodeError) as both:
+        codec.decode(bytes.fromhex("62026805a00101"), strict=True)
+    assert str(both.value) == (
+        "datagram of 7 bytes: its envelope holds fields PBEnvelope does not know: "
+        "20 (wire type 0); its gps_info payload holds fields SensorBoardGPSInfo does not know: "
+        "13 (wire type 0) (another schema?)"
+    )
+    timed = codec.encode(codec.message_class("drive_motor")(), "strip", timeout=300)
+    assert codec.decode(timed, strict=True).timeout == 300
+
+
+def test_decode_output_shows_the_envelopes_unknown_fields_and_strict_refuses_them() -> None:
+    def run(*args: str) -> subprocess.CompletedProcess[str]:
+        command = [sys.executable, "-m", "erc_codec", "decode", *args]
+        return subprocess.run(command, capture_output=True, text=True, check=False)
+
+    done = run(BESIDE.hex())
+    assert done.returncode == 0, done.stderr
+    record = json.loads(done.stdout)
+    assert record["unknown_fields"] == [{"path": "PBEnvelope", "number": 20, "wire_type": 0}]
+    strict = run("--strict", BESIDE.hex())
+    assert strict.returncode == 1
+    refused = json.loads(strict.stdout)
+    assert refused["reason"] == "unknown_fields"
+    assert "its envelope holds fields PBEnvelope does not know: 20" in refused["error"]
+
+
+def test_reencode_sends_on_the_envelopes_unknown_fields_byte_for_byte(codec: Codec) -> None:
+    """Re-encoding the payload loses what sat beside it; ``reencode`` keeps all of it."""
+    assert codec.encode(codec.decode(BESIDE).message) == bytes.fromhex("62")  # field 20 gone
+    assert codec.reencode(codec.decode(BESIDE)) == BESIDE
+    assert codec.reencode(codec.decode(LACKED), "exact") == LACKED
+    assert codec.reencode(codec.decode(LACKED), "pad") == LACKED + bytes(MAX - len(LACKED))
+    # protobuf writes the fields it knows first: the unknown one moves, its bytes stay
+    assert codec.reencode(codec.decode(bytes.fromhex("a001016200"))) == BESIDE
+    # metadata, unknown fields beside it and in the payload: everything, both ways round
+    mixed = codec.decode(bytes.fromhex("62026805a00101f001ac02"))
+    assert codec.reencode(mixed) == bytes.fromhex("62026805f001ac02a00101")
+    again = codec.decode(codec.reencode(mixed))
+    assert (again.timeout, again.unknown_fields) == (300, mixed.unknown_fields)
+    # a datagram of the usual shape re-encodes as encode does it
+    usual = codec.encode(codec.from_dict("gps_info", {"satellites": 9}))
+    assert codec.decode(usual).envelope is None
+    assert codec.reencode(codec.decode(usual)) == usual
+    with pytest.raises(TypeError, match="reencode takes what decode returned"):
+        codec.reencode(codec.decode(usual).message)  # type: ignore[arg-type]
