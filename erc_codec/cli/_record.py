@@ -111,11 +111,20 @@ def capture_to_mcap(capture: Capture, codec: Codec, output: Path) -> tuple[int, 
         + (f" ({reasons})" if reasons else "")
         + f"; {output}: {plural(messages, 'message')} on {plural(len(stats.messages), 'channel')}"
         + f", {plural(failed, 'drop')}"
+        + _unkept(stats.unkept, codec.root)
     )
     if capture.damage:
         click.echo(summary, err=True)
         raise Fatal(one_line(capture.damage))
     return failed, summary
+
+
+def _unkept(unkept: dict[int, int], root: str) -> str:
+    """The summary's words for fields beside the payloads that the recording could not keep."""
+    if not unkept:
+        return ""
+    fields = ", ".join(f"{number} ({count})" for number, count in sorted(unkept.items()))
+    return f"; not recorded: fields {root} does not know beside the payload: {fields}"
 
 
 # -- record --------------------------------------------------------------------------------------
