@@ -100,6 +100,24 @@ def test_record_writes_what_arrives(codec: erc_codec.Codec, tmp_path: Path, stop
             assert read.message.data == message.SerializeToString()
 
 
+def test_record_counts_the_fields_beside_the_payload_it_cannot_keep(tmp_path: Path) -> None:
+    need("mcap")
+    out = tmp_path / "newer.mcap"
+    sent = [bytes.fromhex("6200a00101"), bytes.fromhex("6200c2020201ff"), bytes.fromhex("6200")]
+    recorder, port = start_recorder(out, "--count", str(len(sent)))
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
+        for data in sent:
+            sender.sendto(data, ("127.0.0.1", port))
+            time.sleep(0.002)
+        _, err = recorder.communicate(timeout=60)
+    assert recorder.returncode == 0, err
+    result = summary(err, "recorded: ")
+    assert (result["messages"], result["unkept"]) == ({"gps_info": 3}, {"20": 1, "40": 1})
+    assert [m.message.data for m in read_back(out)] == [b""] * 3
+    written = metadata(out)["erc-codec.summary"]
+    assert (written["unkept.20"], written["unkept.40"]) == ("1", "1")
+
+
 def test_record_refuses_to_overwrite_and_to_bind_twice(tmp_path: Path) -> None:
     need("mcap")
     out = tmp_path / "old.mcap"

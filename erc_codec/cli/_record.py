@@ -271,6 +271,8 @@ class _Recording:
         extra = {"received": str(self.received)}
         if kernel is not None:
             extra["dropped_by_kernel"] = str(kernel)
+        unkept = self.dispatcher.stats().unkept  # the writer sees payloads only
+        extra.update({f"unkept.{number}": str(n) for number, n in sorted(unkept.items())})
         if self._failure is not None:
             raise self._failure
         written, size = self._writer.close(extra)
@@ -282,6 +284,8 @@ class _Recording:
             "file": str(self._output),
             "bytes": size,
         }
+        if unkept:  # fields beside the payloads, unknown to the schema, which no channel holds
+            self.summary["unkept"] = {str(number): n for number, n in sorted(unkept.items())}
 
     def _guarded(self, step: Callable[[], None]) -> None:
         """Run a hand-over; a writer that failed stops the recording with its error."""
