@@ -451,6 +451,44 @@ def test_replay_decodes_json_lines(
     assert result["skipped"] == {"drops_without_bytes": 2, "not_valid": 1}
 
 
+def test_replay_of_a_capture_sends_the_fields_beside_the_payload_on(
+    codec: erc_codec.Codec, tmp_path: Path, catcher: Catcher
+) -> None:
+    """A capture holds whole datagrams: what their envelopes carried is sent too; decode's JSON
+    lines name unknown fields but hold no bytes of them, and the summary says they went unsent."""
+    need("dpkt")
+    newer = [
+        bytes.fromhex("6200a00101"),  # field 20 as a varint beside gps_info
+        bytes.fromhex("4a00c2020201fff001ac02"),  # a stop, field 40, the timeout metadata
+        bytes.fromhex("62026805"),  # the payload's own unknown field
+    ]
+    capture = tmp_path / "newer.pcap"
+    write_pcap(capture, newer, step=0.01)
+    result = finished(replay(capture, catcher, "--as-fast-as-possible", "--mode", "exact"))
+    got = [data for _, data in catcher.take(len(newer))]
+    assert got == [
+        bytes.fromhex("6200a00101"),
+        bytes.fromhex("4a00f001ac02c2020201ff"),  # protobuf writes the fields it knows first
+        bytes.fromhex("62026805"),
+    ]
+    assert "unknown_fields_unsent" not in result
+    lines = tmp_path / "newer.jsonl"
+    decoded = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "decode", "--pcap", str(capture)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    lines.write_text(decoded.stdout)
+    result = finished(replay(lines, catcher, "--as-fast-as-possible", "--mode", "exact"))
+    assert [data for _, data in catcher.take(len(newer))] == [
+        bytes.fromhex("6200"),
+        bytes.fromhex("4a00"),
+        bytes.fromhex("6200"),
+    ]
+    assert result["unknown_fields_unsent"] == 3
+
+
 def test_a_recording_replayed_into_record_records_the_same(
     codec: erc_codec.Codec, tmp_path: Path
 ) -> None:
