@@ -8,7 +8,8 @@ drop also goes to the optional ``on_drop`` callback with the datagram and the re
 exception is caught and counted; the next datagram is dispatched as usual. No threads, no I/O.
 """
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from types import MappingProxyType
 from typing import Any, NamedTuple, TypeVar
 
 from google.protobuf.message import DecodeError as ProtobufDecodeError
@@ -41,7 +42,7 @@ class DispatchStats(NamedTuple):
     handler_errors: dict[str, int]  # kind → handler exceptions
     # field number → datagrams whose envelope carried that field, unknown to the schema, beside
     # the payload: the payload was dispatched, the field (which no handler takes) was not
-    unkept: dict[int, int]
+    unkept: Mapping[int, int] = MappingProxyType({})
 
     @property
     def dropped(self) -> int:

@@ -24,6 +24,7 @@ import struct
 import zlib
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, BinaryIO, Literal, NamedTuple
 
 from google.protobuf.message import DecodeError as ProtobufDecodeError
@@ -59,7 +60,7 @@ class RecordingStats(NamedTuple):
     drops: dict[str, int]  # reason → dropped datagrams
     # field number → datagrams whose envelope carried that field, unknown to the schema, beside
     # the payload: the payload is recorded on its channel, the field is not (``unkept``)
-    unkept: dict[int, int]
+    unkept: Mapping[int, int] = MappingProxyType({})
 
 
 class Recorded(NamedTuple):

@@ -19,7 +19,7 @@ import socket
 import struct
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any, BinaryIO, NamedTuple, cast
 
@@ -119,7 +119,7 @@ def capture_to_mcap(capture: Capture, codec: Codec, output: Path) -> tuple[int, 
     return failed, summary
 
 
-def _unkept(unkept: dict[int, int], root: str) -> str:
+def _unkept(unkept: Mapping[int, int], root: str) -> str:
     """The summary's words for fields beside the payloads that the recording could not keep."""
     if not unkept:
         return ""
