@@ -215,3 +215,25 @@ def test_reencode_sends_on_the_envelopes_unknown_fields_byte_for_byte(codec: Cod
     assert codec.reencode(codec.decode(usual)) == usual
     with pytest.raises(TypeError, match="reencode takes what decode returned"):
         codec.reencode(codec.decode(usual).message)  # type: ignore[arg-type]
+
+
+def test_an_envelope_in_a_package_is_named_in_full_and_a_plain_root_reencodes(
+    tmp_path: Path,
+) -> None:
+    (tmp_path / "p.proto").write_text(
+        'syntax = "proto3";\npackage rover;\n'
+        "message Reading { uint32 b = 2; }\n"
+        "message Env { oneof payload { Reading reading = 1; } }\n"
+    )
+    envelope = Codec.from_path(tmp_path, "rover.Env")
+    decoded = envelope.decode(bytes.fromhex("0a00a00101"))
+    assert decoded.unknown_fields == (erc_codec.UnknownField("rover.Env", 20, 0),)
+    assert decoded.unknown_fields[0].path == envelope.root
+    with pytest.raises(
+        DecodeError, match=r"its envelope holds fields rover\.Env does not know: 20"
+    ):
+        envelope.decode(bytes.fromhex("0a00a00101"), strict=True)
+    plain = Codec.from_path(tmp_path, "rover.Reading")
+    data = bytes.fromhex("1007a00101")  # b: 7, and field 20, which Reading lacks: the root's own
+    assert plain.decode(data).unknown_fields == (erc_codec.UnknownField("", 20, 0),)
+    assert plain.reencode(plain.decode(data)) == data
