@@ -12,6 +12,10 @@ What this module guarantees:
   presence its default is a datagram cut short, reason ``truncated`` (see ``_truncation``).
 - ``encode`` never produces a datagram ``decode`` refuses, and ``decode`` takes any bytes-like
   object (a ``str`` is a ``TypeError``).
+- Fields the schema does not know are kept and listed: the payload's, and those beside it on the
+  envelope (``Decoded.envelope_unknown_fields``, path the envelope's name), which ``reencode``
+  sends on. Only the general path can meet the latter: the fast path takes a datagram that is
+  one member field and nothing else, so the usual datagram pays nothing for them.
 - Every failure is a ``DecodeError``/``EncodeError`` saying what and where (offset, field path).
 
 Both directions run per datagram, so the common case is the protobuf call plus a few byte
