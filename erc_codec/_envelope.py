@@ -12,6 +12,10 @@ What this module guarantees:
   presence its default is a datagram cut short, reason ``truncated`` (see ``_truncation``).
 - ``encode`` never produces a datagram ``decode`` refuses, and ``decode`` takes any bytes-like
   object (a ``str`` is a ``TypeError``).
+- Fields the schema does not know are kept and listed: the payload's, and those beside it on the
+  envelope (``Decoded.envelope_unknown_fields``, path the envelope's name), which ``reencode``
+  sends on. Only the general path can meet the latter: the fast path takes a datagram that is
+  one member field and nothing else, so the usual datagram pays nothing for them.
 - Every failure is a ``DecodeError``/``EncodeError`` saying what and where (offset, field path).
 
 Both directions run per datagram, so the common case is the protobuf call plus a few byte
@@ -45,7 +49,7 @@ from ._errors import DecodeError, EncodeError, SchemaError
 from ._foreign import Foreign
 from ._forms import Forms, Mode, as_bytes, cut_short, strict_error
 from ._truncation import Table, cut_reason, presence_table
-from ._unknown import UnknownField, unknown_fields
+from ._unknown import UnknownField, own_unknown_fields, unknown_fields
 from .schema import (
     LEN,
     descriptor_of,
@@ -73,10 +77,38 @@ class _Payload(NamedTuple):
     kind: str
     message: Message
 
+
+class Decoded(_Payload):
+    """A decoded datagram: the oneof member name (``kind``) and the payload message, unpacked
+    as ``kind, message = codec.decode(data)``; besides them, the envelope's metadata and the
+    fields the envelope itself carried that the schema does not know.
+
+    ``metadata`` maps each field outside the envelope's oneof that the datagram carried to its
+    value (a field holding 0 is never sent, so a missing one is 0); it is an attribute, not a
+    third item, so two-name unpacking keeps working, and equality compares kind and message.
+    ``timeout`` is the rover envelope's ``timeout`` (milliseconds; 0: not sent, or not declared).
+    ``envelope_unknown_fields`` are the unknown fields beside the payload, on the envelope
+    itself (``path`` is the envelope's name, ``codec.root``), a cheap test: ``()`` for a datagram
+    of this schema. ``envelope`` is the envelope message where decode parsed the whole envelope
+    (a datagram carrying more than its payload: metadata, unknown fields beside it), ``None``
+    where it parsed the payload alone. ``codec.reencode(decoded)`` sends on all of it.
+    """
+
+    metadata: Mapping[str, object] = _NO_METADATA
+    envelope_unknown_fields: tuple[UnknownField, ...] = ()
+    envelope: Message | None = None
+
+    @property
+    def timeout(self) -> int:
+        """The sender's advertised timeout in milliseconds; 0 when it sent none."""
+        value = self.metadata.get("timeout", 0)
+        return value if isinstance(value, int) else 0
+
     @property
     def unknown_fields(self) -> tuple[UnknownField, ...]:
-        """The fields the payload carried that this schema does not know (none, normally)."""
-        return unknown_fields(self.message)
+        """The fields the datagram carried that this schema does not know (none, normally):
+        the envelope's own first (``envelope_unknown_fields``), then the payload's."""
+        return self.envelope_unknown_fields + unknown_fields(self.message)
 
     def to_dict(self) -> dict[str, Any]:
         """The datagram as ``erc-codec decode`` prints it (without its ``length``): ``kind``,
@@ -95,25 +127,6 @@ class _Payload(NamedTuple):
         import json
 
         return json.dumps(self.to_dict())
-
-
-class Decoded(_Payload):
-    """A decoded datagram: the oneof member name (``kind``) and the payload message, unpacked
-    as ``kind, message = codec.decode(data)``; besides them, the envelope's metadata.
-
-    ``metadata`` maps each field outside the envelope's oneof that the datagram carried to its
-    value (a field holding 0 is never sent, so a missing one is 0); it is an attribute, not a
-    third item, so two-name unpacking keeps working, and equality compares kind and message.
-    ``timeout`` is the rover envelope's ``timeout`` (milliseconds; 0: not sent, or not declared).
-    """
-
-    metadata: Mapping[str, object] = _NO_METADATA
-
-    @property
-    def timeout(self) -> int:
-        """The sender's advertised timeout in milliseconds; 0 when it sent none."""
-        value = self.metadata.get("timeout", 0)
-        return value if isinstance(value, int) else 0
 
     def __repr__(self) -> str:
         shown = super().__repr__()
@@ -263,6 +276,19 @@ class Envelope:
         if mode == "exact":
             return header + body
         return self._forms.in_form(header + body, mode)
+
+    def reencode(self, decoded: Decoded, mode: Mode = "strip") -> bytes:
+        """The datagram ``decoded`` (what ``decode`` returned) came from, in ``mode``: its
+        payload, its metadata and the fields the schema does not know, those beside the payload
+        included, each as protobuf kept it, byte for byte (what a relay sends on). A payload
+        changed since the decode is sent as it is now."""
+        if not isinstance(decoded, Decoded):
+            raise TypeError(
+                f"reencode takes what decode returned (a Decoded), not {type(decoded).__name__}"
+            )
+        if decoded.envelope is None:
+            return self.encode(decoded.message, mode, **decoded.metadata)
+        return self.encode(decoded.envelope, mode)
 
     def _encode_other(self, message: Message, mode: Mode) -> bytes:
         """An envelope, a payload of a class built elsewhere (generated code of the same
@@ -444,7 +470,13 @@ class Envelope:
         if type(data) is not bytes:
             data = as_bytes(data)
         decoded = self.decode(data)
-        error = strict_error(len(data), decoded.message, f"{decoded.kind} payload", self._refusal)
+        error = strict_error(
+            len(data),
+            decoded.message,
+            f"{decoded.kind} payload",
+            self._refusal,
+            decoded.envelope_unknown_fields,
+        )
         if error is not None:
             raise error
         return decoded
@@ -491,6 +523,10 @@ class Envelope:
         if kind is None:
             raise self._no_payload(data)
         decoded = _decoded(Decoded, (kind, getattr(envelope, kind)))
+        decoded.envelope = envelope
+        outside = own_unknown_fields(envelope, self._name)
+        if outside:
+            decoded.envelope_unknown_fields = outside
         if self._metadata:
             carried = {
                 field.name: value

@@ -13,8 +13,9 @@ What this module guarantees, for a root of maximum size ``max_size``:
   (a field without presence at its default, a varint ending in ``80 00``: see ``_truncation``):
   a datagram cut short, reason ``"truncated"``. ``Forms.peek`` is the exact encoding without the
   parse where no zeros were restored, ``None`` for what ``parse`` would refuse before parsing.
-- ``strict_error`` is what a strict decode refuses beyond that: fields the schema does not know
-  (reason ``"unknown_fields"``), then what nanopb's decoder refuses.
+- ``strict_error`` is what a strict decode refuses beyond that: fields the schema does not know,
+  the envelope's own and the payload's (reason ``"unknown_fields"``), then what nanopb's decoder
+  refuses.
 - Every failure is a ``DecodeError``/``EncodeError`` saying what and where (offset, field path);
   a datagram is bytes or any bytes-like object (``as_bytes``), a ``str`` is a ``TypeError``.
 """
@@ -27,7 +28,7 @@ from google.protobuf.message import Message
 
 from ._errors import DecodeError, EncodeError
 from ._truncation import Table, cut_reason, presence_table
-from ._unknown import unknown_fields
+from ._unknown import UnknownField, unknown_fields
 from .schema import EGROUP, SGROUP, WireError, descriptor_of, next_field
 
 __all__ = ["Forms", "Mode", "as_bytes", "cut_short", "strict_error"]
@@ -152,27 +153,41 @@ class Forms:
 
 
 def strict_error(
-    size: int, message: Message, subject: str, refusal: Callable[[Message], str | None] | None
+    size: int,
+    message: Message,
+    subject: str,
+    refusal: Callable[[Message], str | None] | None,
+    around: tuple[UnknownField, ...] = (),
 ) -> DecodeError | None:
     """What a strict decode refuses in ``message``, decoded from a datagram of ``size`` bytes
     (``subject`` names it: ``"gps_info payload"``, ``"Probe"``): fields its schema does not know,
-    then what nanopb's decoder refuses (``refusal``); ``None`` if nothing."""
+    with ``around``, those the envelope around it does not know (their path is its name), before
+    them; then what nanopb's decoder refuses (``refusal``); ``None`` if nothing."""
+    found = []
+    if around:
+        found.append(_not_known("envelope", around[0].path, around, around[0].path))
     unknown = unknown_fields(message)
     if unknown:
-        listed = ", ".join(
-            f"{field.number} (wire type {field.wire_type}"
-            + (f", in {field.path})" if field.path else ")")
-            for field in unknown
-        )
+        found.append(_not_known(subject, message.DESCRIPTOR.full_name, unknown, ""))
+    if found:
         return DecodeError(
-            f"datagram of {size} bytes: its {subject} holds fields "
-            f"{message.DESCRIPTOR.full_name} does not know: {listed} (another schema?)",
-            "unknown_fields",
+            f"datagram of {size} bytes: {'; '.join(found)} (another schema?)", "unknown_fields"
         )
     why = refusal(message) if refusal is not None else None
     if why is not None:
         return DecodeError(f"nanopb's decoder refuses the {subject}: {why}")
     return None
+
+
+def _not_known(subject: str, name: str, fields: tuple[UnknownField, ...], own: str) -> str:
+    """``its SUBJECT holds fields NAME does not know: N (wire type W[, in PATH]), ...``; the
+    path is shown for a field inside a nested message, not for one whose path is ``own``."""
+    listed = ", ".join(
+        f"{field.number} (wire type {field.wire_type}"
+        + (f", in {field.path})" if field.path != own else ")")
+        for field in fields
+    )
+    return f"its {subject} holds fields {name} does not know: {listed}"
 
 
 def cut_short(data: bytes, why: str) -> DecodeError:
