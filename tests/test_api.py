@@ -1,6 +1,7 @@
 """erc_codec's public face: ``erc_codec/__init__.py`` re-exports its names, one ``__all__``, each
 documented in README.md; the command is reached by a public path."""
 
+import ast
 import re
 import subprocess
 import sys
@@ -40,3 +41,35 @@ def test_importing_the_cli_package_leaves_the_commands_unloaded() -> None:
     script = "import sys, erc_codec.cli; print('erc_codec.cli._decode' in sys.modules)"
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
     assert done.stdout.strip() == "False"
+
+
+def test_the_schema_layer_loads_without_the_codec() -> None:
+    """``erc_codec.schema`` runs the package first; the package loads a name's module on the
+    name's first use, so the schema layer (all erc-lint takes of this package) costs itself and
+    the errors alone (bench_lint's ratio to buf)."""
+    script = (
+        "import sys, erc_codec.schema\n"
+        "print(sorted(m for m in sys.modules if m.startswith('erc_codec.')))"
+    )
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    loaded = set(ast.literal_eval(done.stdout))
+    assert "erc_codec.schema._protoc" in loaded
+    assert {m for m in loaded if not m.startswith("erc_codec.schema")} == {"erc_codec._errors"}
+
+
+def test_a_name_loaded_on_first_use_is_its_modules_own() -> None:
+    """A name reached through the package (``from erc_codec import *``, an attribute) is the
+    object its module defines, and ``dir`` lists it before its first use."""
+    script = (
+        "import sys, erc_codec\n"
+        "listed = set(dir(erc_codec))\n"
+        "from erc_codec import *\n"
+        "def own(n, x):  # a class or function of a module of ours is that module's\n"
+        "    home = getattr(x, '__module__', '')\n"
+        "    return not home.startswith('erc_codec.') or vars(sys.modules[home])[n] is x\n"
+        "ok = [n for n in erc_codec.__all__\n"
+        "      if getattr(erc_codec, n) is globals()[n] and own(n, globals()[n])]\n"
+        "print(sorted(set(erc_codec.__all__) - set(ok)), sorted(set(erc_codec.__all__) - listed))"
+    )
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert done.stdout.split() == ["[]", "[]"], done.stderr
