@@ -5,6 +5,7 @@ import ast
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 from conftest import REPO
 
@@ -73,3 +74,23 @@ def test_a_name_loaded_on_first_use_is_its_modules_own() -> None:
     )
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
     assert done.stdout.split() == ["[]", "[]"], done.stderr
+
+
+def test_the_names_loaded_on_first_use_are_typed_from_their_own_modules() -> None:
+    """The table of name -> module the package loads from and the ``TYPE_CHECKING`` imports that
+    type checkers read say the same, and with the names imported at once make ``__all__``."""
+    source = (Path(erc_codec.__file__).parent / "__init__.py").read_text()
+    typed: dict[str, str] = {}
+    table: dict[str, str] = {}
+    for node in ast.parse(source).body:
+        if isinstance(node, ast.If) and ast.unparse(node.test) == "_TYPE_CHECKING":
+            for item in node.body:
+                assert isinstance(item, ast.ImportFrom)
+                assert item.level == 1
+                assert item.module
+                typed.update((alias.name, item.module) for alias in item.names)
+        if isinstance(node, ast.Assign) and ast.unparse(node.targets[0]) == "_LAZY":
+            table = ast.literal_eval(node.value)
+    assert typed == table
+    eager = {"CodecError", "DecodeError", "EncodeError", "SchemaError", "decode", "encode"}
+    assert set(erc_codec.__all__) == set(table) | eager
