@@ -277,6 +277,21 @@ def _require_compiled_runtime() -> None:
         )
 
 
-@functools.lru_cache(maxsize=8)  # a state replaced by an edit is soon let go
 def _loaded(source: SchemaSource, state: Hashable) -> Codec:
+    """The codec of ``source`` in ``state``. The packaged schema's is kept for the life of the
+    process, so ``Codec.default()`` and its message classes stay the same objects however many
+    other schemas are loaded meanwhile; another schema's are kept while they are among the
+    eight last used (an edited folder's old state is soon let go)."""
+    if source.origin == "packaged":
+        return _packaged(source)
+    return _edited(source, state)
+
+
+@functools.cache
+def _packaged(source: SchemaSource) -> Codec:
+    return Codec.from_source(source)
+
+
+@functools.lru_cache(maxsize=8)
+def _edited(source: SchemaSource, state: Hashable) -> Codec:
     return Codec.from_source(source)

@@ -318,3 +318,25 @@ def test_codec_default_sees_an_edited_include_folder_beside_a_git_revision(
         'syntax = "proto3";\nmessage Ping { uint32 s = 1; uint32 t = 2; }\n'
     )
     assert erc_codec.Codec.default().max_size("Ping") == 12
+
+
+def test_the_packaged_codec_stays_the_same_whatever_else_is_loaded(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Its message classes are the same objects all along: a module's ``Codec.default()``
+    classes work with a later ``Codec.default()``, after other schemas filled the cache."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv(ENVIRONMENT, raising=False)
+    packaged = erc_codec.Codec.default()
+    assert packaged.schema.root.full_name == "PBEnvelope"
+    for k in range(10):  # more than the eight other schemas kept
+        folder = tmp_path / f"tree{k}"
+        folder.mkdir()
+        (folder / "envelope.proto").write_text(
+            f'syntax = "proto3";\nmessage Ping {{ uint32 s = 1; }}\n'
+            f"message PBEnvelope {{ oneof p {{ Ping ping{k} = 1; }} }}\n"
+        )
+        monkeypatch.setenv(ENVIRONMENT, str(folder))
+        assert erc_codec.Codec.default().kinds() == {1: f"ping{k}"}
+    monkeypatch.delenv(ENVIRONMENT)
+    assert erc_codec.Codec.default() is packaged
