@@ -63,7 +63,7 @@ class Codec(Envelope):
             schema.message_class(self.root),
             self._sizes.max_size(self.root),
             functools.partial(contract, self._sizes),
-            functools.partial(refusal, self._sizes),
+            functools.partial(refusal, self._sizes, schema.root),
         )
 
     def _load(self, schema: Schema, options_file: str, settings: Sequence[str]) -> None:
@@ -229,7 +229,7 @@ class MessageCodec(Plain, Codec):
             schema.message_class(self.root),
             self._sizes.max_size(self.root),
             functools.partial(contract, self._sizes),
-            functools.partial(refusal, self._sizes),
+            functools.partial(refusal, self._sizes, schema.root),
         )
 
 

@@ -142,7 +142,7 @@ class Envelope:
         envelope: type[Message],
         max_size: int,
         contract: Callable[[Descriptor], Contract | None],
-        refusal: Callable[[Message], str | None] | None = None,
+        refusal: Callable[[Message, bytes], str | None] | None = None,
     ) -> None:
         descriptor = descriptor_of(envelope)
         self._refusal = refusal  # what nanopb's decoder refuses, for strict decodes
@@ -483,7 +483,8 @@ class Envelope:
                 f"{decoded.message.DESCRIPTOR.full_name} does not know: {listed} (another schema?)",
                 "unknown_fields",
             )
-        why = self._refusal(decoded.message) if self._refusal is not None else None
+        exact = self._restore(bytes(data))  # what nanopb reads: the bytes themselves
+        why = self._refusal(decoded.message, exact) if self._refusal is not None else None
         if why is not None:
             raise DecodeError(f"nanopb's decoder refuses the {decoded.kind} payload: {why}")
         return decoded

@@ -38,7 +38,7 @@ class Plain:
         cls: type[Message],
         max_size: int,
         contract: Callable[[Descriptor], Contract | None],
-        refusal: Callable[[Message], str | None] | None = None,
+        refusal: Callable[[Message, bytes], str | None] | None = None,
     ) -> None:
         descriptor = descriptor_of(cls)
         self._refusal = refusal
@@ -119,7 +119,7 @@ class Plain:
                     f"datagram of {len(received)} bytes was cut short: {cut}", "truncated"
                 )
         if strict and self._refusal is not None:
-            refused = self._refusal(message)
+            refused = self._refusal(message, exact)
             if refused is not None:
                 raise DecodeError(f"nanopb's decoder refuses the {self._name}: {refused}")
         return Decoded(self._name, message)
