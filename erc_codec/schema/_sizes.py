@@ -78,6 +78,7 @@ _WIRE_CLASS = {
     **dict.fromkeys((_T.TYPE_SFIXED64, _T.TYPE_DOUBLE), _T.TYPE_FIXED64),
     _T.TYPE_BYTES: _T.TYPE_STRING,
 }
+_UNPACKABLE = {_T.TYPE_STRING, _T.TYPE_BYTES, _T.TYPE_MESSAGE, _T.TYPE_GROUP}
 _TYPE_NAMES = {
     number: name[len("TYPE_") :]
     for name, number in vars(_T).items()
@@ -203,6 +204,11 @@ class Sizes:
             return (
                 "label_override makes a packed repeated field single: protobuf writes it "
                 "packed, which nanopb refuses for a single value (wrong wire type)"
+            )
+        if not field.is_repeated and self.repeated(field) and nanopb not in _UNPACKABLE:
+            return (
+                "label_override makes a single number an array: nanopb writes it packed, "
+                "which protobuf does not read into a single field"
             )
         return None
 
