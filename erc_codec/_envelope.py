@@ -251,9 +251,12 @@ class Envelope:
         try:
             body = serialize(message)
         except ProtobufEncodeError:  # an unset proto2 required field: the check names it
-            if check is not None:
-                check(message)
-            raise EncodeError(f"{message.DESCRIPTOR.full_name}: unset required fields") from None
+            if check is None:
+                raise EncodeError(
+                    f"{message.DESCRIPTOR.full_name}: unset required fields"
+                ) from None
+            check(message)  # nanopb does not require it (label_override): send it unset
+            body = message.SerializePartialToString()
         if check is not None and (screen is None or screen(body)):
             check(message)
         try:
@@ -298,7 +301,7 @@ class Envelope:
             rules = self._contracts[kind]
             if rules is not None:
                 rules.check(getattr(message, kind))
-            data = message.SerializeToString()
+            data = message.SerializePartialToString()  # required fields: the check's, as nanopb's
             if len(data) > self._max_size:
                 raise self._too_long(message, [b""], data)
             datagram = self._in_form(data, mode)
@@ -323,7 +326,7 @@ class Envelope:
         headers, _, check, _ = member
         if check is not None:
             check(message)
-        body = message.SerializeToString()
+        body = message.SerializePartialToString()  # required fields: the check's, as nanopb's
         if len(body) >= len(headers):
             raise self._too_long(message, headers, body)
         return self._in_form(headers[len(body)] + body, mode)

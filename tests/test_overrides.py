@@ -139,3 +139,23 @@ def test_strategies_draw_what_the_contract_and_strict_decode_take(
     message = data.draw(strategies.messages(codec, root))
     for mode in ("exact", "strip", "pad"):
         assert codec.decode(codec.encode(message, mode), strict=True) == (root, message)
+
+
+def test_an_envelope_sends_a_proto2_required_field_nanopb_does_not_require(tmp_path: Path) -> None:
+    """Overrides2.loose is proto2 ``required``, made optional by label_override: protobuf's
+    own serializer refuses the payload without it, nanopb takes it (it was an EncodeError, and
+    protobuf's own with a traceback for a whole envelope)."""
+    (tmp_path / "overrides2.proto").write_text((OVERRIDES / "overrides2.proto").read_text())
+    (tmp_path / "env.proto").write_text(
+        'syntax = "proto3";\nimport "overrides2.proto";\n'
+        "message Env {\n  oneof payload {\n    Overrides2 two = 1;\n  }\n}\n"
+    )
+    codec = erc_codec.Codec.from_path(tmp_path, root="Env")
+    payload = codec.message_class("Overrides2")(must=0, words=["w"])
+    envelope = codec.message_class("Env")(two=payload)
+    for message in (payload, envelope):
+        data = codec.encode(message, "exact")
+        assert data == envelope.SerializePartialToString()
+        assert codec.decode(data, strict=True) == ("two", payload)
+    with pytest.raises(erc_codec.EncodeError, match=r"Overrides2\.must is required"):
+        codec.encode(codec.message_class("Overrides2")(words=["w"]))
