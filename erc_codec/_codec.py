@@ -3,19 +3,19 @@
 import functools
 import os
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Hashable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
 from google.protobuf.message import Message
 
 from ._contract import contract
-from ._discovery import ENVIRONMENT, SchemaSource, find_schema, load_source, packaged_tree
+from ._discovery import SchemaSource, find_schema, load_source, packaged_tree, snapshot
 from ._envelope import Envelope, is_envelope
 from ._errors import SchemaError
 from ._plain import Plain
 from ._strict import refusal
-from .schema import Schema, Sizes, load_schema, message_of
+from .schema import NANOPB_VERSIONS, Schema, Sizes, load_schema, message_of
 
 __all__ = ["Codec", "Direction", "Member", "MessageCodec", "default_tree", "is_envelope"]
 
@@ -52,13 +52,18 @@ class Codec(Envelope):
     Loading compiles the root's file and its imports, computes every message's nanopb maximum size
     and checks that everything reachable from the root is fixed-size; any problem is a
     ``SchemaError`` naming the file and line. ``options_file`` and ``settings`` are nanopb's
-    generator's ``-f`` and ``-s`` (see ``erc_codec.schema.Sizes``).
+    generator's ``-f`` and ``-s``, ``nanopb_version`` whose sizing rules apply (``"0.4.9"``, or
+    ``"1.0.0-dev"``, master after 0.4.9.1: see ``erc_codec.schema.Sizes``).
     """
 
     def __init__(
-        self, schema: Schema, options_file: str = "%s.options", settings: Sequence[str] = ()
+        self,
+        schema: Schema,
+        options_file: str = "%s.options",
+        settings: Sequence[str] = (),
+        nanopb_version: str = NANOPB_VERSIONS[0],
     ) -> None:
-        self._load(schema, options_file, settings)
+        self._load(schema, options_file, settings, nanopb_version)
         super().__init__(
             schema.message_class(self.root),
             self._sizes.max_size(self.root),
@@ -66,9 +71,12 @@ class Codec(Envelope):
             functools.partial(refusal, self._sizes, schema.root),
         )
 
-    def _load(self, schema: Schema, options_file: str, settings: Sequence[str]) -> None:
+    def _load(
+        self, schema: Schema, options_file: str, settings: Sequence[str], nanopb_version: str
+    ) -> None:
+        _require_compiled_runtime()
         self._schema = schema
-        self._sizes = Sizes(schema, options_file, settings)
+        self._sizes = Sizes(schema, options_file, settings, nanopb_version)
         self._sizes.require_fixed(schema.root)
         self.root = schema.root.full_name
 
@@ -90,9 +98,11 @@ class Codec(Envelope):
         include: Sequence[str | os.PathLike[str]] = (),
         options_file: str = "%s.options",
         settings: Sequence[str] = (),
+        nanopb_version: str = NANOPB_VERSIONS[0],
     ) -> "Codec":
         """Load the proto tree under ``tree`` (the import root), starting from message ``root``
-        (its full name), with ``include`` as further import folders (``-I``).
+        (its full name), with ``include`` as further import folders (``-I``), sized as nanopb's
+        generator ``nanopb_version`` sizes it (``-f options_file``, ``-s`` each of ``settings``).
 
         An envelope root (one oneof of messages, metadata fields beside it) gives the envelope
         codec; any other message a ``MessageCodec``, which sends that message alone in the same
@@ -102,34 +112,48 @@ class Codec(Envelope):
             raise TypeError(f"tree is a folder (str or os.PathLike), not {type(tree).__name__}")
         if not isinstance(root, str):
             raise TypeError(f"root is a message name (str), not {type(root).__name__}")
-        return cls._for(load_schema(tree, root, include), options_file, settings)
+        return cls.from_schema(
+            load_schema(tree, root, include), options_file, settings, nanopb_version
+        )
 
     @classmethod
     def from_source(cls, source: SchemaSource) -> "Codec":
         """Load the schema ``source`` names (``find_schema``): a folder, or a git revision
-        ``GITDIR#ref=REF[,subdir=PATH]`` read without a checkout."""
+        ``GITDIR#ref=REF[,subdir=PATH]`` read without a checkout, with its include folders,
+        options file and generator settings."""
         return load_source(
             source,
-            lambda tree: cls._for(
-                load_schema(tree.folder, source.root, source.include, tree.shown)
+            lambda tree: cls.from_schema(
+                load_schema(tree.folder, source.root, source.include, tree.shown),
+                source.options_file,
+                source.settings,
             ),
         )
 
     @classmethod
-    def _for(
-        cls, schema: Schema, options_file: str = "%s.options", settings: Sequence[str] = ()
+    def from_schema(
+        cls,
+        schema: Schema,
+        options_file: str = "%s.options",
+        settings: Sequence[str] = (),
+        nanopb_version: str = NANOPB_VERSIONS[0],
     ) -> "Codec":
+        """The codec for a loaded ``schema`` (``erc_codec.schema.load_schema``): an envelope
+        codec, or a ``MessageCodec`` for a plain root, as ``from_path`` gives."""
         if cls is Codec and not is_envelope(schema.root):
-            return MessageCodec(schema, options_file, settings)
-        return cls(schema, options_file, settings)
+            return MessageCodec(schema, options_file, settings, nanopb_version)
+        return cls(schema, options_file, settings, nanopb_version)
 
     @classmethod
     def default(cls) -> "Codec":
         """The codec for the schema found as every command finds it (``find_schema``):
         ``ERC_CODEC_PROTO``, else ``[tool.erc-codec]`` in the nearest ``pyproject.toml`` from the
-        working folder up, else the packaged rover schema. It is found once for each working
-        folder and value of ``ERC_CODEC_PROTO``, and each schema is loaded once, then shared."""
-        return _default(os.getcwd(), os.environ.get(ENVIRONMENT))
+        working folder up, else the packaged rover schema. It is found anew on each call and
+        loaded once for each state of it (``snapshot``), then shared: a new commit on a git
+        input's ref or branch, or an edited file of a folder, is loaded by the next call. That
+        check costs a ``git rev-parse`` for a git input and a stat of each file for a folder:
+        in a loop, keep the codec."""
+        return _loaded(*snapshot(find_schema()))
 
     def max_size(self, name: str) -> int:
         """nanopb's ``<name>_size``: the longest encoding of message ``name`` (a full name)."""
@@ -221,9 +245,13 @@ class MessageCodec(Plain, Codec):
     empty."""
 
     def __init__(
-        self, schema: Schema, options_file: str = "%s.options", settings: Sequence[str] = ()
+        self,
+        schema: Schema,
+        options_file: str = "%s.options",
+        settings: Sequence[str] = (),
+        nanopb_version: str = NANOPB_VERSIONS[0],
     ) -> None:
-        self._load(schema, options_file, settings)
+        self._load(schema, options_file, settings, nanopb_version)
         Plain.__init__(
             self,
             schema.message_class(self.root),
@@ -233,11 +261,22 @@ class MessageCodec(Plain, Codec):
         )
 
 
-@functools.cache
-def _default(folder: str, proto: str | None) -> Codec:
-    return _loaded(find_schema(start=folder))
+def _require_compiled_runtime() -> None:
+    """protobuf's pure-Python runtime keeps no serialized descriptors and reads some malformed
+    bytes otherwise than upb does, so a codec on it would answer otherwise than the one tested.
+    nanopb's generator switches to it for its own process (it sets
+    ``PROTOCOL_BUFFERS_PYTHON_IMPLEMENTATION=python`` in ``os.environ`` on import), and every
+    process started after that inherits it: say so, rather than decode differently."""
+    from google.protobuf.internal import api_implementation
+
+    if api_implementation.Type() == "python":
+        raise SchemaError(
+            "protobuf runs its pure-Python implementation here "
+            "(PROTOCOL_BUFFERS_PYTHON_IMPLEMENTATION=python, which importing nanopb's generator "
+            "sets): erc_codec needs its compiled one (upb); unset the variable"
+        )
 
 
-@functools.cache
-def _loaded(source: SchemaSource) -> Codec:
+@functools.lru_cache(maxsize=8)  # a state replaced by an edit is soon let go
+def _loaded(source: SchemaSource, state: Hashable) -> Codec:
     return Codec.from_source(source)

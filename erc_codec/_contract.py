@@ -3,7 +3,8 @@
 A message can be valid protobuf and still be one a nanopb receiver drops or misreads: an enum value
 the schema does not declare (proto3 enums are open in Python), a string or bytes value longer than
 its ``max_size``, more repeated items than ``max_count``, an integer wider than its ``int_size``, a
-string holding a NUL (nanopb stores strings NUL-terminated: it would arrive cut there),
+string holding a NUL (nanopb stores strings NUL-terminated: it would arrive cut there; a map's
+keys as much as its values),
 ``fixed_length`` bytes not exactly ``max_size`` long or a ``fixed_count`` field without exactly
 ``max_count`` items (nanopb: "incorrect fixed length bytes size", "wrong size for fixed count
 field"), an unset proto2 ``required`` field (nanopb: "missing required field").
@@ -290,6 +291,7 @@ def _field_check(sizes: Sizes, field: FieldDescriptor, path: str) -> Callable[[A
     else:  # label_override: nanopb holds one value (a required one exactly one)
         count, fixed = 1, sizes.required(field)
         limit, need = "the one nanopb holds (label_override)", "label_override REQUIRED needs"
+    key = _key_check(sizes, field)
 
     def check(value: Any, prefix: str) -> None:
         where = f"{prefix}.{path}"
@@ -298,13 +300,29 @@ def _field_check(sizes: Sizes, field: FieldDescriptor, path: str) -> Callable[[A
         if fixed and len(value) != count:
             raise EncodeError(f"{where} holds {len(value)} items; {need} exactly {count}")
         if isinstance(value, Mapping):
-            for key, item in value.items():
-                element(item, entry_path(where, key))
+            for name, item in value.items():
+                if key is not None:
+                    key(name, f"{where} key {name!r}")
+                element(item, entry_path(where, name))
         else:
             for index, item in enumerate(value):
                 element(item, f"{where}[{index}]")
 
     return check
+
+
+def _key_check(sizes: Sizes, field: FieldDescriptor) -> Callable[[Any, str], None] | None:
+    """The check of a map's keys, ``None`` where no key can break the contract. A key is a
+    nanopb field of its own: a string key has its ``max_size`` or ``max_length`` (nanopb's
+    decoder: "string overflow") and no NUL (it would arrive cut there), an integer key its
+    ``int_size``."""
+    entry = field.message_type
+    if entry is None or not entry.GetOptions().map_entry:
+        return None
+    key = entry.fields_by_name["key"]
+    if key.type != _T.TYPE_STRING and sizes.int_range(key) is None:
+        return None
+    return _element_check(sizes, key)
 
 
 def _element_check(sizes: Sizes, field: FieldDescriptor) -> Callable[[Any, str], None]:

@@ -1,12 +1,15 @@
 """Dispatch: each decoded payload to the handler registered for its kind, and nothing lost silently.
 
 Guarantees: every datagram fed ends in exactly one counter: handled (per kind), unhandled (a kind
-with no handler), undecodable (per ``DecodeError.reason``) or a handler error (per kind). Every
+with no handler), undecodable (per ``DecodeError.reason``) or a handler error (per kind). A
+handler takes a payload: fields the schema does not know beside it, on the envelope, are counted
+by number (``unkept``), not passed on. Every
 drop also goes to the optional ``on_drop`` callback with the datagram and the reason. A handler's
 exception is caught and counted; the next datagram is dispatched as usual. No threads, no I/O.
 """
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from types import MappingProxyType
 from typing import Any, NamedTuple, TypeVar
 
 from google.protobuf.message import DecodeError as ProtobufDecodeError
@@ -37,6 +40,9 @@ class DispatchStats(NamedTuple):
     unhandled: dict[str, int]  # kind → datagrams with no handler
     undecodable: dict[str, int]  # DecodeError reason → datagrams
     handler_errors: dict[str, int]  # kind → handler exceptions
+    # field number → datagrams whose envelope carried that field, unknown to the schema, beside
+    # the payload: the payload was dispatched, the field (which no handler takes) was not
+    unkept: Mapping[int, int] = MappingProxyType({})
 
     @property
     def dropped(self) -> int:
@@ -73,6 +79,7 @@ class Dispatcher:
         self._unhandled: dict[str, int] = {}
         self._undecodable: dict[str, int] = {}
         self._handler_errors: dict[str, int] = {}
+        self._unkept: dict[int, int] = {}
 
     @property
     def codec(self) -> Codec:
@@ -112,11 +119,16 @@ class Dispatcher:
                 message = None
         if message is None:
             try:
-                kind, message = self._decode(data)
+                decoded = self._decode(data)
             except DecodeError as error:
                 return self._drop(
                     self._undecodable, error.reason, Drop(error.reason, None, data, error)
                 )
+            kind, message = decoded
+            if decoded.envelope_unknown_fields:  # never on peek's path: one member, no more
+                unkept = self._unkept
+                for number in {field.number for field in decoded.envelope_unknown_fields}:
+                    unkept[number] = unkept.get(number, 0) + 1
             entry = self._kinds[kind]
         if self.on_decoded is not None:
             self.on_decoded(kind)
@@ -137,6 +149,7 @@ class Dispatcher:
             dict(self._unhandled),
             dict(self._undecodable),
             dict(self._handler_errors),
+            dict(self._unkept),
         )
 
     def _drop(self, counter: dict[str, int], key: str, drop: Drop) -> bool:

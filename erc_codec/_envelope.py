@@ -12,6 +12,10 @@ What this module guarantees:
   presence its default is a datagram cut short, reason ``truncated`` (see ``_truncation``).
 - ``encode`` never produces a datagram ``decode`` refuses, and ``decode`` takes any bytes-like
   object (a ``str`` is a ``TypeError``).
+- Fields the schema does not know are kept and listed: the payload's, and those beside it on the
+  envelope (``Decoded.envelope_unknown_fields``, path the envelope's name), which ``reencode``
+  sends on. Only the general path can meet the latter: the fast path takes a datagram that is
+  one member field and nothing else, so the usual datagram pays nothing for them.
 - Every failure is a ``DecodeError``/``EncodeError`` saying what and where (offset, field path).
 
 Both directions run per datagram, so the common case is the protobuf call plus a few byte
@@ -22,7 +26,7 @@ gets its missing zeros appended and a padded one is cut, by arithmetic, before t
 only a datagram whose zeros were restored has its parse serialized again, and only when that
 differs from the restored bytes is the payload walked for a cut field. Datagrams of any other
 shape (several top-level fields, unknown members, corruption) take the general path: the repair
-walk over the whole envelope, then the envelope parse.
+walk over the whole envelope, then the envelope parse, as ``_forms`` does them for any root.
 
 Metadata: fields an envelope declares beside its oneof (the rover's ``timeout``) are encoded on
 request (``encode(message, timeout=300)``) and returned on ``Decoded.metadata``. A datagram
@@ -33,7 +37,7 @@ datagram without metadata (the usual one) decodes exactly as before.
 
 from collections.abc import Callable, Mapping
 from types import MappingProxyType
-from typing import Any, Literal, NamedTuple
+from typing import Any, NamedTuple
 
 from google.protobuf.descriptor import Descriptor, OneofDescriptor
 from google.protobuf.message import DecodeError as ProtobufDecodeError
@@ -42,24 +46,21 @@ from google.protobuf.message import Message
 
 from ._contract import Contract
 from ._errors import DecodeError, EncodeError, SchemaError
+from ._foreign import Foreign
+from ._forms import Forms, Mode, as_bytes, cut_short, strict_error
 from ._truncation import Table, cut_reason, presence_table
-from ._unknown import UnknownField, unknown_fields
+from ._unknown import UnknownField, own_unknown_fields, unknown_fields
 from .schema import (
-    EGROUP,
     LEN,
-    SGROUP,
-    WireError,
     descriptor_of,
     encode_varint,
     message_of,
-    next_field,
     read_varint,
     varint_size,
 )
 
 __all__ = ["Decoded", "Envelope", "Mode", "is_envelope"]
 
-Mode = Literal["strip", "exact", "pad"]
 _Tag = tuple[str, Callable[[bytes], Message], int]
 _Member = tuple[
     list[bytes],
@@ -76,10 +77,38 @@ class _Payload(NamedTuple):
     kind: str
     message: Message
 
+
+class Decoded(_Payload):
+    """A decoded datagram: the oneof member name (``kind``) and the payload message, unpacked
+    as ``kind, message = codec.decode(data)``; besides them, the envelope's metadata and the
+    fields the envelope itself carried that the schema does not know.
+
+    ``metadata`` maps each field outside the envelope's oneof that the datagram carried to its
+    value (a field holding 0 is never sent, so a missing one is 0); it is an attribute, not a
+    third item, so two-name unpacking keeps working, and equality compares kind and message.
+    ``timeout`` is the rover envelope's ``timeout`` (milliseconds; 0: not sent, or not declared).
+    ``envelope_unknown_fields`` are the unknown fields beside the payload, on the envelope
+    itself (``path`` is the envelope's name, ``codec.root``), a cheap test: ``()`` for a datagram
+    of this schema. ``envelope`` is the envelope message where decode parsed the whole envelope
+    (a datagram carrying more than its payload: metadata, unknown fields beside it), ``None``
+    where it parsed the payload alone. ``codec.reencode(decoded)`` sends on all of it.
+    """
+
+    metadata: Mapping[str, object] = _NO_METADATA
+    envelope_unknown_fields: tuple[UnknownField, ...] = ()
+    envelope: Message | None = None
+
+    @property
+    def timeout(self) -> int:
+        """The sender's advertised timeout in milliseconds; 0 when it sent none."""
+        value = self.metadata.get("timeout", 0)
+        return value if isinstance(value, int) else 0
+
     @property
     def unknown_fields(self) -> tuple[UnknownField, ...]:
-        """The fields the payload carried that this schema does not know (none, normally)."""
-        return unknown_fields(self.message)
+        """The fields the datagram carried that this schema does not know (none, normally):
+        the envelope's own first (``envelope_unknown_fields``), then the payload's."""
+        return self.envelope_unknown_fields + unknown_fields(self.message)
 
     def to_dict(self) -> dict[str, Any]:
         """The datagram as ``erc-codec decode`` prints it (without its ``length``): ``kind``,
@@ -98,25 +127,6 @@ class _Payload(NamedTuple):
         import json
 
         return json.dumps(self.to_dict())
-
-
-class Decoded(_Payload):
-    """A decoded datagram: the oneof member name (``kind``) and the payload message, unpacked
-    as ``kind, message = codec.decode(data)``; besides them, the envelope's metadata.
-
-    ``metadata`` maps each field outside the envelope's oneof that the datagram carried to its
-    value (a field holding 0 is never sent, so a missing one is 0); it is an attribute, not a
-    third item, so two-name unpacking keeps working, and equality compares kind and message.
-    ``timeout`` is the rover envelope's ``timeout`` (milliseconds; 0: not sent, or not declared).
-    """
-
-    metadata: Mapping[str, object] = _NO_METADATA
-
-    @property
-    def timeout(self) -> int:
-        """The sender's advertised timeout in milliseconds; 0 when it sent none."""
-        value = self.metadata.get("timeout", 0)
-        return value if isinstance(value, int) else 0
 
     def __repr__(self) -> str:
         shown = super().__repr__()
@@ -183,10 +193,13 @@ class Envelope:
         self._tags: dict[int, _Tag] = {}
         self._first: list[_Tag | None] = [None] * 256
         self._payloads: dict[str, type[Message]] = {}  # kind → payload class
-        # What judging restored zeros takes: the envelope's presence table (general path), and
-        # per kind the payload's serializer and table (fast path).
+        # What judging restored zeros takes: the envelope's forms (general path: restoring,
+        # parsing and the cut check, shared with plain roots), and per kind the payload's
+        # serializer and presence table (fast path), all tables built once.
         tables: dict[str, Table] = {}
-        self._table = presence_table(descriptor, tables)
+        self._forms = Forms(
+            envelope, max_size, "the envelope's", groups=False, inside=True, tables=tables
+        )
         self._restoring: dict[str, tuple[Callable[[Message], bytes], Table]] = {}
         for field in members:
             payload = field.message_type
@@ -216,11 +229,8 @@ class Envelope:
             if len(tag) == 1:
                 self._first[tag[0]] = self._tags[tag[0]]
         self._by_name = {cls.DESCRIPTOR.full_name: member for cls, member in self._members.items()}
-        # Full name → this schema's descriptor, for the classes built elsewhere that encode is
-        # given; and the verdict on each such class, once.
-        self._own = {name: cls.DESCRIPTOR for name, cls in [(self._name, envelope)]}
-        self._own.update((cls.DESCRIPTOR.full_name, cls.DESCRIPTOR) for cls in self._members)
-        self._foreign: dict[type[Message], bool] = {}
+        # The verdicts on classes built elsewhere that encode is given.
+        self._foreign = Foreign([envelope, *self._members])
 
     def kinds(self) -> dict[int, str]:
         """The envelope's payload members: field number → member name (a decoded ``kind``)."""
@@ -243,7 +253,8 @@ class Envelope:
         """The datagram carrying ``message`` (a payload, or a whole envelope) in ``mode``, with
         the envelope metadata fields named (``timeout=300``) set to their values."""
         if metadata:
-            return self._in_form(self._with_metadata(self.encode(message, "exact"), metadata), mode)
+            exact = self._with_metadata(self.encode(message, "exact"), metadata)
+            return self._forms.in_form(exact, mode)
         member = self._members.get(type(message))
         if member is None:
             return self._encode_other(message, mode)
@@ -267,17 +278,20 @@ class Envelope:
             return header + body.rstrip(b"\0") if body else header.rstrip(b"\0")
         if mode == "exact":
             return header + body
-        return self._in_form(header + body, mode)
+        return self._forms.in_form(header + body, mode)
 
-    def _in_form(self, data: bytes, mode: Mode) -> bytes:
-        """An exact datagram in transmission form ``mode``."""
-        if mode == "strip":
-            return data.rstrip(b"\0")
-        if mode == "exact":
-            return data
-        if mode == "pad":
-            return data + bytes(self._max_size - len(data))
-        raise EncodeError(f"unknown mode {mode!r}: use 'strip', 'exact' or 'pad'")
+    def reencode(self, decoded: Decoded, mode: Mode = "strip") -> bytes:
+        """The datagram ``decoded`` (what ``decode`` returned) came from, in ``mode``: its
+        payload, its metadata and the fields the schema does not know, those beside the payload
+        included, each as protobuf kept it, byte for byte (what a relay sends on). A payload
+        changed since the decode is sent as it is now."""
+        if not isinstance(decoded, Decoded):
+            raise TypeError(
+                f"reencode takes what decode returned (a Decoded), not {type(decoded).__name__}"
+            )
+        if decoded.envelope is None:
+            return self.encode(decoded.message, mode, **decoded.metadata)
+        return self.encode(decoded.envelope, mode)
 
     def _encode_other(self, message: Message, mode: Mode) -> bytes:
         """An envelope, a payload of a class built elsewhere (generated code of the same
@@ -288,12 +302,9 @@ class Envelope:
                 f"{type(message).__name__}"
             )
         name = message.DESCRIPTOR.full_name
-        if name in self._own and not self._same_schema(type(message)):
-            raise EncodeError(
-                f"{name} is a message class of another schema: it is not this schema's {name} "
-                "(its fields or those of a message it holds differ); build the message with "
-                "this codec (message_class, from_dict)"
-            )
+        refused = self._foreign.refusal(type(message))
+        if refused is not None:
+            raise refused
         if name == self._name:
             kind = message.WhichOneof(self._oneof)
             if kind is None:
@@ -304,7 +315,7 @@ class Envelope:
             data = message.SerializePartialToString()  # required fields: the check's, as nanopb's
             if len(data) > self._max_size:
                 raise self._too_long(message, [b""], data)
-            datagram = self._in_form(data, mode)
+            datagram = self._forms.in_form(data, mode)
             # An envelope parsed from bytes keeps the fields this schema does not know, and some
             # (a group at the top level) are what decode refuses: never send those.
             try:
@@ -329,7 +340,7 @@ class Envelope:
         body = message.SerializePartialToString()  # required fields: the check's, as nanopb's
         if len(body) >= len(headers):
             raise self._too_long(message, headers, body)
-        return self._in_form(headers[len(body)] + body, mode)
+        return self._forms.in_form(headers[len(body)] + body, mode)
 
     def _with_metadata(self, exact: bytes, metadata: Mapping[str, object]) -> bytes:
         """The exact datagram ``exact`` with ``metadata`` set: protobuf writes every field in
@@ -350,26 +361,12 @@ class Envelope:
             raise self._too_long(envelope, [b""], data)
         return data
 
-    def _same_schema(self, cls: type[Message]) -> bool:
-        """Whether ``cls`` (not one of this schema's classes) is of a message this schema has
-        as it is: the same declaration, and the same declarations of every message and enum it
-        reaches, as generated code of the same .proto files has."""
-        same = self._foreign.get(cls)
-        if same is None:
-            same = self._foreign[cls] = _shape(cls.DESCRIPTOR) == _shape(
-                self._own[cls.DESCRIPTOR.full_name]
-            )
-        return same
-
     def _too_long(self, message: Message, headers: list[bytes], body: bytes) -> EncodeError:
         """The error for a ``body`` too long to fit, ``headers`` being its member's (or ``[b""]``
         for a whole envelope)."""
         tag = max(len(headers[0]) - 1, 0)
         length = tag + (varint_size(len(body)) if tag else 0) + len(body)
-        return EncodeError(
-            f"{message.DESCRIPTOR.full_name}: the datagram would be {length} bytes, more than the "
-            f"{self._max_size} a fixed-size receiver accepts (unknown fields from a newer sender?)"
-        )
+        return self._forms.oversize(message.DESCRIPTOR.full_name, length)
 
     # -- decoding ------------------------------------------------------------------------------
 
@@ -380,7 +377,7 @@ class Envelope:
         only the general decoder can judge, and for a cut one (see ``decode``). Only a datagram
         whose zeros were restored has its payload parsed, to tell stripped from cut."""
         if type(data) is not bytes:
-            data = _as_bytes(data)
+            data = as_bytes(data)
         size = len(data)
         if not 0 < size <= self._max_size:
             return None
@@ -434,7 +431,7 @@ class Envelope:
         # most 1.25x the bare runtime's time) has no tenth to spare. tests/test_envelope_decode.py
         # holds decode equal to peek and a parse, on every form and on hostile bytes.
         if type(data) is not bytes:
-            data = _as_bytes(data)
+            data = as_bytes(data)
         size = len(data)
         if not 0 < size <= self._max_size:
             return self._decode_envelope(data)  # raises the right error
@@ -473,23 +470,19 @@ class Envelope:
             raise self._invalid(data, kind, payload, error) from None
 
     def _decode_strict(self, data: bytes) -> Decoded:
+        if type(data) is not bytes:
+            data = as_bytes(data)
         decoded = self.decode(data)
-        unknown = decoded.unknown_fields
-        if unknown:
-            listed = ", ".join(
-                f"{field.number} (wire type {field.wire_type}"
-                + (f", in {field.path})" if field.path else ")")
-                for field in unknown
-            )
-            raise DecodeError(
-                f"datagram of {len(data)} bytes: its {decoded.kind} payload holds fields "
-                f"{decoded.message.DESCRIPTOR.full_name} does not know: {listed} (another schema?)",
-                "unknown_fields",
-            )
-        exact = self._restore(bytes(data))  # what nanopb reads: the bytes themselves
-        why = self._refusal(decoded.message, exact) if self._refusal is not None else None
-        if why is not None:
-            raise DecodeError(f"nanopb's decoder refuses the {decoded.kind} payload: {why}")
+        error = strict_error(
+            len(data),
+            decoded.message,
+            self._forms.restore(data),  # what nanopb reads: the exact bytes, the envelope's
+            f"{decoded.kind} payload",
+            self._refusal,
+            decoded.envelope_unknown_fields,
+        )
+        if error is not None:
+            raise error
         return decoded
 
     def _decode_stripped(
@@ -504,7 +497,7 @@ class Envelope:
             raise self._invalid(data, kind, payload, error) from None
         cut = self._restored_cut(kind, payload, message, len(data) - start)
         if cut:
-            raise _cut_short(data, cut)
+            raise cut_short(data, cut)
         return _decoded(Decoded, (kind, message))
 
     def _restored_cut(self, kind: str, payload: bytes, message: Message, boundary: int) -> str:
@@ -534,6 +527,10 @@ class Envelope:
         if kind is None:
             raise self._no_payload(data)
         decoded = _decoded(Decoded, (kind, getattr(envelope, kind)))
+        decoded.envelope = envelope
+        outside = own_unknown_fields(envelope, self._name)
+        if outside:
+            decoded.envelope_unknown_fields = outside
         if self._metadata:
             carried = {
                 field.name: value
@@ -547,64 +544,10 @@ class Envelope:
     def _parse_restored(self, data: bytes) -> Message:
         if not data:
             raise DecodeError("empty datagram", "empty")
-        if len(data) > self._max_size:
-            raise DecodeError(
-                f"datagram of {len(data)} bytes is longer than the envelope's maximum of "
-                f"{self._max_size}: a fixed-size receiver drops it",
-                "too_long",
-            )
-        data = bytes(data)
-        exact = self._restore(data)
-        try:
-            envelope = self._from_string(exact)
-        except ProtobufDecodeError as error:
-            form = "" if exact == data else " (after restoring its trailing zeros)"
-            raise DecodeError(
-                f"datagram of {len(data)} bytes is not a valid {self._name}{form}: {error}"
-            ) from None
-        if len(exact) > len(data):
-            canonical = envelope.SerializePartialToString() == exact  # see _restoring
-            cut = cut_reason(self._table, exact, envelope, len(data), canonical, inside=True)
-            if cut:
-                raise _cut_short(data, cut)
-        return envelope
-
-    def _restore(self, data: bytes) -> bytes:
-        """The exact encoding of a datagram sent exact, stripped or zero-padded."""
-        pos, end = 0, len(data)
-        try:
-            while pos < end:
-                if data[pos] == 0:
-                    return self._unpad(data, pos)
-                field = next_field(data, pos, zeros_past_end=True)
-                if field.wire_type in (SGROUP, EGROUP):
-                    raise DecodeError(
-                        f"field {field.number} uses wire type {field.wire_type} (a group), "
-                        "which a proto3 envelope never contains"
-                    )
-                pos = field.end
-        except WireError as error:
-            raise DecodeError(f"truncated or corrupt datagram: {error}") from None
-        if pos > self._max_size:
-            raise DecodeError(
-                f"restoring its stripped zeros makes the datagram {pos} bytes long, more than "
-                f"the envelope's maximum of {self._max_size}"
-            )
-        return data + bytes(pos - end)
-
-    def _unpad(self, data: bytes, pos: int) -> bytes:
-        """Cut zero padding that starts at ``pos``; anything non-zero after it is corruption."""
-        stray = len(data.rstrip(b"\0"))
-        if stray > pos:
-            first = next(i for i in range(pos, stray) if data[i])
-            raise DecodeError(
-                f"zero byte at offset {pos} ends the message, "
-                f"but a non-zero byte follows at offset {first}"
-            )
-        return data[:pos]
+        return self._forms.parse(data)
 
     def _no_payload(self, data: bytes) -> DecodeError:
-        exact = self._restore(bytes(data))
+        exact = self._forms.restore(data)
         if not exact:
             return DecodeError("datagram holds no payload (only zero bytes)", "no_payload")
         key, _ = read_varint(exact, 0)
@@ -624,47 +567,6 @@ class Envelope:
             "(sent by a newer schema?)",
             "unknown_member",
         )
-
-
-def _shape(descriptor: Any) -> list[bytes]:
-    """The declarations of a message and of every message and enum it reaches, serialized."""
-    from google.protobuf import descriptor_pb2
-
-    shapes: list[bytes] = []
-    seen: set[str] = set()
-    pending = [descriptor]
-    while pending:
-        current = pending.pop()
-        if current.full_name in seen:
-            continue
-        seen.add(current.full_name)
-        proto: Any = (
-            descriptor_pb2.DescriptorProto()
-            if hasattr(current, "fields")
-            else descriptor_pb2.EnumDescriptorProto()
-        )
-        current.CopyToProto(proto)
-        shapes.append(current.full_name.encode() + proto.SerializeToString(deterministic=True))
-        for field in getattr(current, "fields", ()):
-            pending.extend(kind for kind in (field.message_type, field.enum_type) if kind)
-    return sorted(shapes)
-
-
-def _cut_short(data: bytes, why: str) -> DecodeError:
-    """The error for a datagram whose restored zeros make what no encoder sends."""
-    return DecodeError(f"datagram of {len(data)} bytes was cut short: {why}", "truncated")
-
-
-def _as_bytes(data: object) -> bytes:
-    """The bytes of a bytes-like object; ``TypeError`` for anything else."""
-    if isinstance(data, str):
-        raise TypeError("a datagram is bytes (or bytearray, memoryview), not str")
-    try:
-        return memoryview(data).tobytes()  # type: ignore[arg-type]
-    except TypeError:
-        raise TypeError(
-            f"a datagram is bytes (or bytearray, memoryview), not {type(data).__name__}"
-        ) from None
 
 
 def is_envelope(descriptor: Descriptor) -> bool:

@@ -11,7 +11,9 @@ What it guarantees:
   ``sequence`` is the datagram's number in the recording, so gaps and order show across channels;
 - the file says where its schema came from (the tree, its git revision, a digest of the
   envelope's descriptors, ``<root>_size``) in a metadata record ``erc-codec`` written first, and
-  what it holds (counts by kind and by reason, senders) in ``erc-codec.summary`` written last;
+  what it holds (counts by kind and by reason, senders, and ``unkept.<number>``: datagrams whose
+  envelope carried field ``number``, unknown to the schema, beside the payload, which a payload
+  channel cannot hold) in ``erc-codec.summary`` written last;
 - memory stays flat: the writer streams chunks (zstd, CRCs on chunks and on the data section);
   what it keeps per datagram is counters.
 The file must be seekable (the library goes back to write its indexes).
@@ -20,8 +22,9 @@ The file must be seekable (the library goes back to write its indexes).
 import os
 import struct
 import zlib
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, BinaryIO, Literal, NamedTuple
 
 from google.protobuf.message import DecodeError as ProtobufDecodeError
@@ -55,6 +58,9 @@ class RecordingStats(NamedTuple):
 
     messages: dict[str, int]  # kind → messages
     drops: dict[str, int]  # reason → dropped datagrams
+    # field number → datagrams whose envelope carried that field, unknown to the schema, beside
+    # the payload: the payload is recorded on its channel, the field is not (``unkept``)
+    unkept: Mapping[int, int] = MappingProxyType({})
 
 
 class Recorded(NamedTuple):
@@ -117,6 +123,7 @@ class McapWriter:
         self._drops_channel = 0
         self._messages: dict[str, int] = {}
         self._drops: dict[str, int] = {}
+        self._unkept: dict[int, int] = {}
         self._senders: dict[tuple[str, str], int] = {}
         self._unlisted_senders = 0
         self._sequence = 0
@@ -133,12 +140,23 @@ class McapWriter:
     ) -> str | None:
         """Decode one datagram and write it as a message, or as a drop; its kind, or None."""
         try:
-            kind, message = self._decode(data)
+            decoded = self._decode(data)
         except DecodeError as error:
             self.drop(data, log_time, error.reason, str(error), source, destination)
             return None
-        self.message(kind, message, log_time, source)
+        if decoded.envelope_unknown_fields:  # a channel holds the payload alone: counted
+            self.unkept(field.number for field in decoded.envelope_unknown_fields)
+        kind = decoded.kind
+        self.message(kind, decoded.message, log_time, source)
         return kind
+
+    def unkept(self, numbers: Iterable[int]) -> None:
+        """Count a datagram whose envelope carried fields ``numbers`` beside its payload that
+        the schema does not know: its payload is written (``message``), they cannot be, and
+        the summary says so (``unkept.<number>``)."""
+        unkept = self._unkept
+        for number in set(numbers):
+            unkept[number] = unkept.get(number, 0) + 1
 
     def message(self, kind: str, payload: Message | bytes, log_time: int, source: str = "") -> None:
         """Write the payload of a decoded datagram of member ``kind`` (the message, or its exact
@@ -187,7 +205,7 @@ class McapWriter:
 
     def stats(self) -> RecordingStats:
         """Messages by kind and drops by reason, so far."""
-        return RecordingStats(dict(self._messages), dict(self._drops))
+        return RecordingStats(dict(self._messages), dict(self._drops), dict(self._unkept))
 
     def close(self, summary: Mapping[str, str] | None = None) -> None:
         """Write the summary (what was written, who sent it, and ``summary``'s own entries, such
@@ -225,6 +243,7 @@ class McapWriter:
         }
         summary.update({f"messages.{k}": str(n) for k, n in sorted(self._messages.items())})
         summary.update({f"drops.{r}": str(n) for r, n in sorted(self._drops.items())})
+        summary.update({f"unkept.{f}": str(n) for f, n in sorted(self._unkept.items())})
         senders: dict[str, list[tuple[int, str]]] = {}
         for (kind, source), count in self._senders.items():
             senders.setdefault(kind, []).append((count, source or "unknown"))

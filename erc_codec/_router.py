@@ -12,7 +12,9 @@ datagram goes there too, raw, as it arrived.
 Forms: each destination takes ``exact`` (prost and Google protobuf receivers, boards decoding
 with plain ``pb_decode`` on the datagram's length), ``strip`` (receivers that follow the envelope
 contract and restore the zeros) or ``pad``. A datagram is decoded once and encoded once, exact,
-with the metadata it carried (``timeout``); the stripped and padded forms are cut from that.
+with the metadata it carried (``timeout``) and the fields this schema does not know, the
+payload's and those beside it on the envelope, byte for byte (a newer sender's fields reach a
+newer receiver through an older relay); the stripped and padded forms are cut from that.
 
 Failsafe: for each ``Failsafe(kind, ...)`` (one per kind) the router watches ``kind`` with its
 configured timeout (a sender's advertised ``timeout`` metadata can shorten it, never lengthen it,
@@ -167,7 +169,9 @@ class Router:
             return self._drop("unrouted", data)
         metadata = decoded.metadata
         try:
-            if metadata:
+            if decoded.envelope_unknown_fields:  # sent on as they came, as protobuf relays do
+                exact = self._codec.reencode(decoded, "exact")
+            elif metadata:
                 exact = self._encode(decoded.message, "exact", **metadata)
             else:
                 exact = self._encode(decoded.message, "exact")
@@ -329,7 +333,7 @@ class Router:
         self._started = True
 
     def _form(self, exact: bytes, form: Mode) -> bytes:
-        """``Envelope._in_form``'s cut, kept in step with it by test_router's every-kind test."""
+        """``Forms.in_form``'s cut, kept in step with it by test_router's every-kind test."""
         if form == "exact":
             return exact
         if form == "strip":  # every trailing zero of an exact encoding is its last field's

@@ -34,7 +34,7 @@ from typing import Any
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from google.protobuf.message import Message
 
-from .schema import I32, I64, LEN, VARINT, Sizes, WireError, descriptor_of, next_field
+from .schema import I32, I64, LEN, VARINT, Sizes, WireError, descriptor_of, message_of, next_field
 
 __all__ = ["refusal"]
 
@@ -65,7 +65,7 @@ def _parsed_refusal(sizes: Sizes, message: Message) -> str | None:
             here = f"{path}.{field.name}"
             value = getattr(current, field.name)
             if field.is_repeated:
-                why = _count(sizes, field, here, len(value))
+                why = _count(sizes, field, here, len(value)) or _keys(sizes, field, here, value)
                 if why is not None:
                     return why
                 items = value.values() if hasattr(value, "values") else value
@@ -95,6 +95,18 @@ def _count(sizes: Sizes, field: FieldDescriptor, path: str, count: int) -> str |
     if count and count != limit and sizes.options(field).fixed_count:
         return f"{path} holds {count} items; fixed_count needs exactly {limit}"
     return None
+
+
+def _keys(sizes: Sizes, field: FieldDescriptor, path: str, value: Any) -> str | None:
+    """Why nanopb's decoder refuses a key of the map ``value`` (a key is a nanopb field too:
+    "string overflow"); ``None`` for any other repeated field."""
+    if not hasattr(value, "values"):
+        return None
+    key = message_of(field).fields_by_name["key"]
+    return next(
+        (why for name in value if (why := _value(sizes, key, f"{path} key {name!r}", name))),
+        None,
+    )
 
 
 def _value(sizes: Sizes, field: FieldDescriptor, path: str, value: Any) -> str | None:

@@ -11,13 +11,15 @@ from typing import NamedTuple
 from google.protobuf import unknown_fields as _protobuf_unknown
 from google.protobuf.message import Message
 
-__all__ = ["UnknownField", "unknown_fields"]
+__all__ = ["UnknownField", "own_unknown_fields", "unknown_fields"]
 
 
 class UnknownField(NamedTuple):
-    """A field the schema does not know: where (``path``, the field path of the message holding
-    it, ``""`` for the payload itself), its field ``number`` and its ``wire_type`` (0 varint,
-    1 64-bit, 2 length-delimited, 3/4 group, 5 32-bit)."""
+    """A field the schema does not know: where (``path``: the field path of the message holding
+    it, ``""`` for the payload itself, and the envelope's name as the schema spells it,
+    ``codec.root``, e.g. ``"PBEnvelope"``, for a field beside the payload, on the envelope
+    itself), its field ``number`` and its ``wire_type`` (0 varint, 1 64-bit, 2 length-delimited,
+    3/4 group, 5 32-bit)."""
 
     path: str
     number: int
@@ -31,11 +33,17 @@ def unknown_fields(message: Message) -> tuple[UnknownField, ...]:
     return tuple(found)
 
 
-def _walk(message: Message, path: str, found: list[UnknownField]) -> None:
+def own_unknown_fields(message: Message, path: str) -> tuple[UnknownField, ...]:
+    """The unknown fields of ``message`` itself, not of the messages inside it, at ``path``."""
     unknown = _protobuf_unknown.UnknownFieldSet(message)
-    for index in range(len(unknown)):
-        field = unknown[index]
-        found.append(UnknownField(path, field.field_number, field.wire_type))
+    return tuple(
+        UnknownField(path, unknown[i].field_number, unknown[i].wire_type)
+        for i in range(len(unknown))
+    )
+
+
+def _walk(message: Message, path: str, found: list[UnknownField]) -> None:
+    found += own_unknown_fields(message, path)
     for field, value in message.ListFields():
         if field.message_type is None:
             continue

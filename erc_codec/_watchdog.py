@@ -130,6 +130,11 @@ class Watchdog:
         watched = self._watched.get(kind)
         return Liveness.UNCONFIGURED if watched is None else watched.state
 
+    def last_seen(self, kind: str) -> float | None:
+        """When ``kind`` last arrived: the ``now`` of its last ``seen``, ``None`` before one."""
+        arrivals = self._arrivals.get(kind)
+        return arrivals[-1] if arrivals else None
+
     def rate(self, kind: str) -> float | None:
         """The measured arrival rate in Hz over the last arrivals, ``None`` before two."""
         arrivals = self._arrivals.get(kind)

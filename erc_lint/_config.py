@@ -1,6 +1,7 @@
 """``[tool.erc-lint]`` in a pyproject.toml: embedded roots and their size budgets, the rules to
 run (``use`` and ``except``, rule IDs or categories; ``ignore``, rule IDs; ``ignore_only``, rule
-IDs each with the paths it is not reported for), paths to exclude.
+IDs each with the paths it is not reported for), paths to exclude, and nanopb's generator inputs
+(``include`` folders, ``options_file``, ``settings``; paths relative to the file's folder).
 
 Every value is checked as it is read: a wrong type, a name that is no rule or category, a budget
 for a message that is not a root, is a ``ConfigError`` naming the file, the line and the key
@@ -14,7 +15,14 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, NamedTuple
 
-from erc_codec.schema import FileError, file_exists, read_text
+from erc_codec import SchemaError
+from erc_codec.schema import (
+    FileError,
+    file_exists,
+    given_options_file,
+    read_text,
+    resolve_options,
+)
 
 from ._errors import ConfigError
 from ._suggest import did_you_mean
@@ -22,6 +30,7 @@ from ._suggest import did_you_mean
 __all__ = [
     "CONFIG",
     "CONFIG_LIMIT",
+    "DEFAULT_OPTIONS_FILE",
     "LEDGER",
     "LEDGER_LIMIT",
     "Config",
@@ -40,8 +49,20 @@ LEDGER_LIMIT = 64 * 1024 * 1024
 _ROOTS = ("PBEnvelope",)  # embedded roots unless the configuration names others
 
 
-_KEYS = ("roots", "ignore", "exclude", "use", "except", "budget", "ignore_only")
-_LISTS = ("roots", "ignore", "exclude", "use", "except")
+_KEYS = (
+    "roots",
+    "ignore",
+    "exclude",
+    "use",
+    "except",
+    "budget",
+    "ignore_only",
+    "include",
+    "options_file",
+    "settings",
+)
+_LISTS = ("roots", "ignore", "exclude", "use", "except", "include", "settings")
+DEFAULT_OPTIONS_FILE = "%s.options"  # nanopb's generator's -f: each .proto's own, beside it
 
 
 class Config(NamedTuple):
@@ -56,6 +77,10 @@ class Config(NamedTuple):
     budget_line: int = 0  # the line that sets budget
     # rule ID → fnmatch patterns of paths (relative to a tree's root) it is not reported for
     ignore_only: Mapping[str, tuple[str, ...]] = MappingProxyType({})
+    # nanopb's generator inputs: import folders (-I), the options file (-f), settings (-s)
+    include: tuple[str, ...] = ()
+    options_file: str = DEFAULT_OPTIONS_FILE
+    settings: tuple[str, ...] = ()
 
     def ignored_at(self, rule: str, path: str) -> bool:
         """Whether ``ignore_only`` silences ``rule`` for the file at ``path`` (tree-relative)."""
@@ -88,9 +113,11 @@ def read_config(
     known_rules: Collection[str],
     explicit: bool = False,
     categories: Collection[str] = (),
+    base: Path | None = None,
 ) -> Config:
     """The configuration in ``path`` (defaults when None); an ``explicit`` file must have one.
-    ``use`` and ``except`` may name ``known_rules`` and ``categories``; ``ignore`` rules only."""
+    ``use`` and ``except`` may name ``known_rules`` and ``categories``; ``ignore`` rules only.
+    Its paths are relative to ``base``, else to its folder."""
     if path is None:
         return Config()
     table = _table(path)
@@ -119,6 +146,7 @@ def read_config(
                 + did_you_mean(strange[0], allowed)
             )
     roots = tuple(values["roots"]) if "roots" in table else _ROOTS
+    include, options_file, settings = _generator(path, base or path.parent, table, values)
     return Config(
         roots=roots,
         ignore=frozenset(values["ignore"]),
@@ -130,6 +158,40 @@ def read_config(
         budget=_budget(path, table.get("budget"), roots),
         budget_line=_line_of(path, "budget") if "budget" in table else 0,
         ignore_only=_ignore_only(path, table.get("ignore_only"), known_rules),
+        include=include,
+        options_file=options_file,
+        settings=settings,
+    )
+
+
+def _generator(
+    path: Path, here: Path, table: dict[str, Any], values: dict[str, list[str]]
+) -> tuple[tuple[str, ...], str, tuple[str, ...]]:
+    """nanopb's generator inputs: ``include`` folders (each there), ``options_file`` (a file
+    there taken from there) and ``settings`` (each read as nanopb reads it); ``here`` is where
+    paths are relative to."""
+    for folder in values["include"]:
+        if not (here / folder).is_dir():
+            raise ConfigError(
+                f"{_at(path, 'include')} [tool.erc-lint] include: {here / folder} is not a folder"
+            )
+    for setting in values["settings"]:
+        try:
+            resolve_options(here, (), settings=[setting])
+        except SchemaError as error:
+            raise ConfigError(
+                f"{_at(path, 'settings')} [tool.erc-lint] settings: {error}"
+            ) from None
+    options_file = table.get("options_file", DEFAULT_OPTIONS_FILE)
+    if not isinstance(options_file, str) or not options_file.strip():
+        raise ConfigError(
+            f"{_at(path, 'options_file')} [tool.erc-lint] options_file must be a file or a "
+            "pattern (%s.options)"
+        )
+    return (
+        tuple(str(here / folder) for folder in values["include"]),
+        given_options_file(options_file, here),
+        tuple(values["settings"]),
     )
 
 

@@ -16,7 +16,7 @@ asks, once per revision (and root).
 """
 
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
@@ -36,7 +36,7 @@ from erc_codec.schema import (
     declarations,
     declared_names,
     extensions,
-    file_exists,
+    options_path,
     read_file,
     resolve_options,
     services,
@@ -278,6 +278,8 @@ class Revision:
         "_files",
         "_has_options",
         "_nanopb",
+        "_options_file",
+        "_settings",
         "_sizes",
         "definitions",
         "enums",
@@ -287,8 +289,13 @@ class Revision:
         "tree",
     )
 
-    def __init__(self, tree: LoadedTree) -> None:
+    def __init__(
+        self, tree: LoadedTree, options_file: str = "%s.options", settings: Sequence[str] = ()
+    ) -> None:
         self.tree = tree
+        # nanopb's generator's -f and -s (its -I are the tree's include folders)
+        self._options_file = options_file
+        self._settings = tuple(settings)
         self.messages: dict[str, Message] = {}
         self.enums: dict[str, Enum] = {}
         self.services: dict[str, Service] = {}
@@ -359,17 +366,23 @@ class Revision:
         """nanopb's options for every message, field and oneof of the tree (and what it
         imports), resolved from ``.options`` files and annotations as the generator does."""
         if self._nanopb is None:
-            self._nanopb = resolve_options(self.root, tuple(self.tree.imported.values()))
+            self._nanopb = resolve_options(
+                self.root,
+                tuple(self.tree.imported.values()),
+                self.tree.includes,
+                self._options_file,
+                self._settings,
+            )
         return self._nanopb
 
     def has_nanopb_options(self) -> bool:
-        """Whether anything in the tree sets a nanopb option: a ``.options`` file beside one of
-        its files, or a file importing nanopb.proto (annotations). Without either, every option
-        of every field is nanopb's default, and resolving them would show nothing."""
+        """Whether anything sets a nanopb option: a generator setting, an options file of one of
+        the files (found as the generator finds it), or a file importing nanopb.proto
+        (annotations). Without any, every option of every field is nanopb's default, and
+        resolving them would show nothing."""
         if self._has_options is None:
-            self._has_options = any(
-                "nanopb.proto" in file.dependency
-                or (self.root / Path(file.name).with_suffix(".options")).is_file()
+            self._has_options = bool(self._settings) or any(
+                "nanopb.proto" in file.dependency or self._options_path(file.name) is not None
                 for file in self.tree.imported.values()
             )
         return self._has_options
@@ -430,7 +443,8 @@ class Revision:
         if files:
             set_ = descriptor_pb2.FileDescriptorSet(file=files.values())
             try:
-                size = Sizes(Schema(self.root, root, set_)).max_size(root)
+                schema = Schema(self.root, root, set_, self.tree.includes)
+                size = Sizes(schema, self._options_file, self._settings).max_size(root)
             except FileError:
                 raise  # a .options file that is no file stops the run; it is no missing size
             except SchemaError:
@@ -460,11 +474,15 @@ class Revision:
             if isinstance(proto, descriptor_pb2.DescriptorProto):
                 pending.extend(f.type_name.lstrip(".") for f in proto.field if f.type_name)
             if ("file", file.name) not in found:
-                options = self.root / Path(file.name).with_suffix(".options")
-                text = read_file(options) if file_exists(options) else None
+                options = self._options_path(file.name)
+                text = read_file(options) if options is not None else None
                 settings = file.options.SerializeToString(deterministic=True)
                 found["file", file.name] = (file.package, file.syntax, file.edition, settings, text)
         return found
+
+    def _options_path(self, name: str) -> Path | None:
+        """The options file nanopb's generator reads for file ``name``, if any."""
+        return options_path(self.root, self.tree.includes, self._options_file, name)
 
     def _root_files(self, root: str) -> _Files:
         """The file defining message ``root`` and every file it imports, each after its imports:
@@ -507,9 +525,12 @@ def allocation(field: Field, options: Options) -> str:
     return _ALLOCATIONS.get(kind, str(kind))
 
 
-def build(tree: LoadedTree) -> Revision:
-    """The model of a loaded tree."""
-    revision = Revision(tree)
+def build(
+    tree: LoadedTree, options_file: str = "%s.options", settings: Sequence[str] = ()
+) -> Revision:
+    """The model of a loaded tree, its nanopb options and sizes those of nanopb's generator run
+    with the tree's include folders, ``-f options_file`` and ``-s`` for each of ``settings``."""
+    revision = Revision(tree, options_file, settings)
     pending: list[tuple[Field, str]] = []  # extensions and the messages they extend
     for proto in tree.files.values():
         _add_file(revision, proto, pending)

@@ -6,9 +6,16 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
 
-from erc_codec.schema import GitSpec, Repository, TreeSource, file_exists, parse_tree_spec
+from erc_codec.schema import (
+    GitSpec,
+    Repository,
+    TreeSource,
+    file_exists,
+    parse_tree_spec,
+    resolve_options,
+)
 
-from ._config import LEDGER, Config
+from ._config import DEFAULT_OPTIONS_FILE, LEDGER, Config
 from ._errors import LintError
 from ._finding import Finding
 from ._inputs import baseline_keys, missing_folder, missing_in_git, opened, relocate
@@ -72,14 +79,19 @@ def compare(
     baseline: frozenset[str] = frozenset(),
 ) -> Outcome:
     """The findings of NEW against OLD (``None``: against nothing, which only tree rules see),
-    less those ``baseline`` holds."""
-    roots = [Path(folder) for folder in includes]
+    less those ``baseline`` holds. Both are loaded with ``includes`` (else the configuration's
+    ``include`` folders) and its nanopb ``options_file`` and ``settings``; a setting nanopb
+    cannot read, or an options file found nowhere, is a ``SchemaError``."""
+    roots = [Path(folder) for folder in includes or config.include]
+    nanopb = (config.options_file, config.settings)
+    if nanopb != (DEFAULT_OPTIONS_FILE, ()):  # checked now: sizes that cannot be are no finding
+        resolve_options(new.folder, (), roots, *nanopb)
     loaded = load_tree(new.folder, roots, config.exclude)
-    after = build(loaded)
+    after = build(loaded, *nanopb)
     if old is None:
-        before = build(LoadedTree(new.folder))
+        before = build(LoadedTree(new.folder), *nanopb)
     else:
-        before = build(load_tree(old.folder, roots, config.exclude))
+        before = build(load_tree(old.folder, roots, config.exclude), *nanopb)
     change = Change(before, after, config, find_ledger(new, ledger))
     found = run(change)
     sources = [new] if old is None else [old, new]
@@ -143,6 +155,7 @@ def update_ledger(
                 why = missing_in_git(repository, commits[-1], inside)
                 raise LintError(f"{tree}: no .proto file: {why}")
             config = settings(shown)
+            includes = includes or [Path(folder) for folder in config.include]
             leftovers = config.ignore_only.get("NAME_COLLISION", ())
             walker = History(repository, spec, includes, config.exclude, leftovers)
             added = walker.update(book, commits)
@@ -158,6 +171,7 @@ def update_ledger(
     target = path or spec / LEDGER
     book = Ledger.read(target) if _exists(target) else Ledger(str(target))
     config = settings(spec)
+    includes = includes or [Path(folder) for folder in config.include]
     loaded = load_tree(spec, list(includes), config.exclude)
     found, collided = recorded(
         loaded.files.values(), lambda path: config.ignored_at("NAME_COLLISION", path)

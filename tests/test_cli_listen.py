@@ -47,7 +47,9 @@ def test_watch_raises_an_alert_when_a_kind_goes_silent_and_when_it_is_back() -> 
     listener, port = start_listener("--format", "json", "--watch", "gps_info=0.1")
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
         sender.sendto(codec_datagram("gps_info"), ("127.0.0.1", port))
+        sent = time.monotonic()  # the listener's clock too: CLOCK_MONOTONIC is the system's
         time.sleep(1.0)  # three periods pass: silent
+        alerted = time.monotonic()  # the alert was printed by now
         sender.sendto(codec_datagram("gps_info"), ("127.0.0.1", port))
         time.sleep(0.2)
     listener.send_signal(signal.SIGTERM)
@@ -62,6 +64,9 @@ def test_watch_raises_an_alert_when_a_kind_goes_silent_and_when_it_is_back() -> 
     ]
     assert shown[1]["kind"] == "gps_info"
     assert shown[1]["period"] == 0.1
+    # Measured since the arrival (it was the timeout, 3 periods, whatever the clock said):
+    # more than the timeout that passed, less than the time the test waited for it.
+    assert 0.3 < shown[1]["silent_for"] < alerted - sent
     assert err.splitlines()[-1].startswith("counters: ")
     counters = json.loads(err.splitlines()[-1].removeprefix("counters: "))
     assert counters["handled"] == {"gps_info": 2}

@@ -1,6 +1,7 @@
 """erc-codec proton decode and listen: Proton bundles by name, as JSON lines, from the shell."""
 
 import json
+import signal
 import socket
 import struct
 import subprocess
@@ -286,6 +287,32 @@ def test_listen_prints_what_arrives() -> None:
         "bundles": {"heartbeat": 1, "command": 1},
         "undecodable": {"corrupt": 1},
     }
+
+
+@pytest.mark.parametrize("number", [signal.SIGTERM, signal.SIGINT])
+def test_listen_stopped_by_a_signal_prints_its_counters(number: signal.Signals) -> None:
+    """SIGTERM killed it (exit 143) with the counters unprinted, as erc-codec listen once did."""
+    listener = subprocess.Popen(
+        [sys.executable, "-m", "erc_codec", "proton", "listen", *CONFIG, "127.0.0.1:0"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert listener.stderr is not None
+    assert listener.stdout is not None
+    first = listener.stderr.readline()
+    assert first.startswith("listening on 127.0.0.1:"), first
+    port = int(first.rsplit(":", 1)[1])
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as board:
+        board.sendto(BEAT, ("127.0.0.1", port))
+    assert json.loads(listener.stdout.readline())["bundle"] == "heartbeat"  # it is listening
+    listener.send_signal(number)
+    out, err = listener.communicate(timeout=30)
+    assert listener.returncode == 0, err
+    assert out == ""
+    assert err.count("\n") == 1, err  # the counters alone: no traceback, no "Aborted!"
+    counters = json.loads(err.removeprefix("counters: "))
+    assert counters == {"received": 1, "bundles": {"heartbeat": 1}, "undecodable": {}}
 
 
 @pytest.mark.parametrize(

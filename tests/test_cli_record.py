@@ -100,6 +100,24 @@ def test_record_writes_what_arrives(codec: erc_codec.Codec, tmp_path: Path, stop
             assert read.message.data == message.SerializeToString()
 
 
+def test_record_counts_the_fields_beside_the_payload_it_cannot_keep(tmp_path: Path) -> None:
+    need("mcap")
+    out = tmp_path / "newer.mcap"
+    sent = [bytes.fromhex("6200a00101"), bytes.fromhex("6200c2020201ff"), bytes.fromhex("6200")]
+    recorder, port = start_recorder(out, "--count", str(len(sent)))
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
+        for data in sent:
+            sender.sendto(data, ("127.0.0.1", port))
+            time.sleep(0.002)
+        _, err = recorder.communicate(timeout=60)
+    assert recorder.returncode == 0, err
+    result = summary(err, "recorded: ")
+    assert (result["messages"], result["unkept"]) == ({"gps_info": 3}, {"20": 1, "40": 1})
+    assert [m.message.data for m in read_back(out)] == [b""] * 3
+    written = metadata(out)["erc-codec.summary"]
+    assert (written["unkept.20"], written["unkept.40"]) == ("1", "1")
+
+
 def test_record_refuses_to_overwrite_and_to_bind_twice(tmp_path: Path) -> None:
     need("mcap")
     out = tmp_path / "old.mcap"
@@ -431,6 +449,44 @@ def test_replay_decodes_json_lines(
     assert [data for _, data in got] == [codec.encode(codec.decode(d).message) for d in sent[:-2]]
     assert got[-1][0] - got[0][0] >= (len(sent) - 3) * 0.05 - 0.002  # "time" of decode --pcap
     assert result["skipped"] == {"drops_without_bytes": 2, "not_valid": 1}
+
+
+def test_replay_of_a_capture_sends_the_fields_beside_the_payload_on(
+    codec: erc_codec.Codec, tmp_path: Path, catcher: Catcher
+) -> None:
+    """A capture holds whole datagrams: what their envelopes carried is sent too; decode's JSON
+    lines name unknown fields but hold no bytes of them, and the summary says they went unsent."""
+    need("dpkt")
+    newer = [
+        bytes.fromhex("6200a00101"),  # field 20 as a varint beside gps_info
+        bytes.fromhex("4a00c2020201fff001ac02"),  # a stop, field 40, the timeout metadata
+        bytes.fromhex("62026805"),  # the payload's own unknown field
+    ]
+    capture = tmp_path / "newer.pcap"
+    write_pcap(capture, newer, step=0.01)
+    result = finished(replay(capture, catcher, "--as-fast-as-possible", "--mode", "exact"))
+    got = [data for _, data in catcher.take(len(newer))]
+    assert got == [
+        bytes.fromhex("6200a00101"),
+        bytes.fromhex("4a00f001ac02c2020201ff"),  # protobuf writes the fields it knows first
+        bytes.fromhex("62026805"),
+    ]
+    assert "unknown_fields_unsent" not in result
+    lines = tmp_path / "newer.jsonl"
+    decoded = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "decode", "--pcap", str(capture)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    lines.write_text(decoded.stdout)
+    result = finished(replay(lines, catcher, "--as-fast-as-possible", "--mode", "exact"))
+    assert [data for _, data in catcher.take(len(newer))] == [
+        bytes.fromhex("6200"),
+        bytes.fromhex("4a00"),
+        bytes.fromhex("6200"),
+    ]
+    assert result["unknown_fields_unsent"] == 3
 
 
 def test_a_recording_replayed_into_record_records_the_same(

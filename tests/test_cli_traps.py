@@ -5,11 +5,13 @@ filtered by port and kind, and output that goes away ends a command quietly."""
 
 import contextlib
 import json
+import os
 import socket
 import subprocess
 import sys
 import threading
 import time
+import tracemalloc
 from pathlib import Path
 from typing import IO
 
@@ -17,6 +19,7 @@ import pytest
 from test_cli_codec import ETHERNET, records, run, udp4, write_capture
 
 import erc_codec
+from erc_codec.cli._input import LINE_LIMIT, hex_lines
 
 
 @pytest.mark.parametrize("stdin", [b"", b"\n", b"  \n\t\n", b"\r\n"])
@@ -47,6 +50,54 @@ def test_odd_hex_on_stdin_is_not_raw_bytes() -> None:
         }
     ]
     assert done.err == "1 line not hex (raw bytes on standard input need --raw)\n"
+
+
+def test_a_line_longer_than_the_limit_is_an_error_naming_it() -> None:
+    """A 100 MB hex line made decode crawl; a line past LINE_LIMIT is skipped, named."""
+    at_limit = "0a" + "00" * (LINE_LIMIT // 2 - 1)  # the longest line still read
+    over = "0a" * (LINE_LIMIT // 2 + 1)
+    stdin = f"0a00\n{over}\n{at_limit}\n0a00\n{over}".encode()  # the last with no newline
+    done = run("decode", stdin=stdin)
+    assert done.code == 1
+    got = records(done.out)
+    assert [r.get("reason", r.get("kind")) for r in got] == [
+        "ph_info",
+        "line_too_long",
+        got[2].get("reason"),  # at the limit: read, and judged as a datagram
+        "ph_info",
+        "line_too_long",
+    ]
+    assert got[2].get("reason") not in ("line_too_long", "not_hex")
+    assert got[1] == {
+        "error": f"line 2 is longer than {LINE_LIMIT} characters: no datagram's hex is (a "
+        "datagram is at most 65535 bytes)",
+        "reason": "line_too_long",
+        "length": None,
+        "line": 2,
+    }
+    assert got[4]["line"] == 5
+    assert done.err.endswith(f"2 lines longer than {LINE_LIMIT} characters skipped\n")
+    assert done.err.count("\n") == 1
+
+
+def test_the_largest_datagram_spelled_with_separators_is_within_the_limit() -> None:
+    assert len(":".join(["ff"] * 65535)) <= LINE_LIMIT
+
+
+def test_a_long_line_is_not_held_in_memory() -> None:
+    """100 MB of hex in 64 KiB chunks, one line: read in bounded memory, reported once."""
+    chunk = b"ab" * (1 << 15)
+    long_lines: list[int] = []
+    tracemalloc.start()
+    try:
+        chunks = (chunk for _ in range(1600))
+        found = list(hex_lines([*[b"0a00\n"], *chunks, b"\n0a00\n"], print, long_lines.append))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert found == [b"\x0a\x00", b"\x0a\x00"]
+    assert long_lines == [2]
+    assert peak < 4 * LINE_LIMIT
 
 
 def test_raw_bytes_need_raw(codec: erc_codec.Codec) -> None:
@@ -178,3 +229,19 @@ def test_listen_into_a_closed_pipe_ends_quietly(codec: erc_codec.Codec) -> None:
     assert listener.wait(timeout=30) == 1
     assert b"Traceback" not in listener.stderr.read()
     listener.stderr.close()
+
+
+def test_protobufs_pure_python_runtime_is_refused_in_one_line() -> None:
+    # What a process that imported nanopb's generator hands to the processes it starts.
+    environment = {**os.environ, "PROTOCOL_BUFFERS_PYTHON_IMPLEMENTATION": "python"}
+    done = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "decode", "62026805"],
+        capture_output=True,
+        text=True,
+        env=environment,
+        check=False,
+    )
+    assert (done.returncode, done.stdout) == (2, "")
+    assert done.stderr.count("\n") == 1
+    assert "PROTOCOL_BUFFERS_PYTHON_IMPLEMENTATION=python" in done.stderr
+    assert "needs its compiled one (upb)" in done.stderr

@@ -179,6 +179,60 @@ def test_a_folder_above_the_import_root_is_a_one_line_hint(tmp_path: Path) -> No
     assert run("sizes", "--proto", "X/vendor", "--root", "Env", cwd=tmp_path).returncode == 0
 
 
+def test_a_folder_holding_the_tree_in_a_subfolder_is_a_one_line_hint(tmp_path: Path) -> None:
+    """--proto X, the team's tree in X/ERC-Protobufs (components/*/*.proto, importing
+    components/...): no folder holds a file directly where the imports begin, and protoc's
+    every line (about 5,000 characters) came out instead of the hint."""
+    shutil.copytree(PROTO / "components", tmp_path / "X" / "ERC-Protobufs" / "components")
+    done = run("sizes", "--proto", "X", cwd=tmp_path)
+    assert done.returncode == 2
+    assert done.stderr == (
+        "Error: X: its files import each other as components/..., so the import root is the "
+        f"folder above {Path('ERC-Protobufs', 'components')}: give {Path('X', 'ERC-Protobufs')} "
+        "(root PBEnvelope)\n"
+    )
+    assert run("sizes", "--proto", "X/ERC-Protobufs", cwd=tmp_path).returncode == 0
+
+
+def test_a_git_revision_inside_the_import_root_gets_the_git_spelling(tmp_path: Path) -> None:
+    """--proto 'REPO#ref=main,subdir=proto/components': the hint is a git spelling to give."""
+    repo = Repo(tmp_path / "repo")
+    shutil.copytree(PROTO / "components", repo.root / "proto" / "components")
+    repo.commit("the packaged tree")
+    shutil.rmtree(repo.root / "proto")  # only the commit holds it: no folder to point at
+    given = f"{repo.root}#ref=main,subdir=proto/components"
+    done = run("sizes", "--proto", given, cwd=tmp_path)
+    assert done.returncode == 2
+    assert done.stderr == (
+        f"Error: {given}: its files import each other as components/..., so the import root "
+        f"is the folder above it: give {repo.root}#ref=main,subdir=proto (root PBEnvelope)\n"
+    )
+    fixed = run("sizes", "--proto", f"{repo.root}#ref=main,subdir=proto", cwd=tmp_path)
+    assert fixed.returncode == 0, fixed.stderr
+
+
+def test_a_git_revision_above_the_import_root_gets_the_git_spelling(tmp_path: Path) -> None:
+    """--proto 'REPO#ref=main', the tree in REPO/vendor/ERC-Protobufs: a subdir= to add."""
+    repo = Repo(tmp_path / "repo")
+    tree = repo.root / "vendor" / "ERC-Protobufs"
+    tree.mkdir(parents=True)
+    (tree / "b.proto").write_text('syntax = "proto3";\nmessage Ping { uint32 s = 1; }\n')
+    (tree / "a.proto").write_text(
+        'syntax = "proto3";\nimport "ERC-Protobufs/b.proto";\n'
+        "message Env { oneof payload { Ping ping = 1; } }\n"
+    )
+    repo.commit("vendored")
+    done = run("sizes", "--proto", f"{repo.root}#ref=HEAD", "--root", "Env", cwd=tmp_path)
+    assert done.returncode == 2
+    assert done.stderr == (
+        f"Error: {repo.root}#ref=HEAD: its files import each other as ERC-Protobufs/..., so "
+        f"the import root is the folder above {Path('vendor', 'ERC-Protobufs')}: give "
+        f"{repo.root}#ref=HEAD,subdir=vendor (root Env)\n"
+    )
+    fixed = f"{repo.root}#ref=HEAD,subdir=vendor"
+    assert run("sizes", "--proto", fixed, "--root", "Env", cwd=tmp_path).returncode == 0
+
+
 def test_include_folders_from_the_configuration_are_searched(tmp_path: Path) -> None:
     (tmp_path / "tree").mkdir()
     (tmp_path / "shared").mkdir()
@@ -196,3 +250,71 @@ def test_include_folders_from_the_configuration_are_searched(tmp_path: Path) -> 
     assert codec.kinds() == {1: "ping"}
     assert codec.max_size("Envelope") == 8
     assert [m.full_name for m in codec.schema.messages()] == ["Envelope"]  # the tree's own
+
+
+def test_codec_default_sees_a_new_commit_on_a_moving_ref(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    repo = Repo(tmp_path / "repo")
+    ping = "message Ping { uint32 s = 1; }\n"
+    first = repo.commit("one", envelope=ping + "message PBEnvelope { oneof p { Ping ping = 1; } }")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv(ENVIRONMENT, repo.spec("main"))
+    codec = erc_codec.Codec.default()
+    assert codec.kinds() == {1: "ping"}
+    assert erc_codec.Codec.default() is codec  # nothing moved: the loaded one
+    repo.commit(
+        "two", envelope=ping + "message PBEnvelope { oneof p { Ping ping = 1; Ping pong = 2; } }"
+    )
+    assert erc_codec.Codec.default().kinds() == {1: "ping", 2: "pong"}
+    monkeypatch.setenv(ENVIRONMENT, repo.spec("HEAD"))
+    assert erc_codec.Codec.default().kinds() == {1: "ping", 2: "pong"}
+    monkeypatch.setenv(ENVIRONMENT, repo.spec(first))  # the same commit, spelled by its id
+    assert erc_codec.Codec.default() is codec
+
+
+def test_codec_default_sees_an_edited_folder_and_configuration(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.delenv(ENVIRONMENT, raising=False)
+    for name in ("one", "two"):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "envelope.proto").write_text(
+            'syntax = "proto3";\nmessage Ping { uint32 s = 1; }\n'
+            f"message Env {{ oneof p {{ Ping {name} = 1; }} }}\n"
+        )
+    configured(tmp_path, 'proto = "one"\nroot = "Env"')
+    monkeypatch.chdir(tmp_path)
+    codec = erc_codec.Codec.default()
+    assert codec.kinds() == {1: "one"}
+    assert erc_codec.Codec.default() is codec
+    (tmp_path / "one" / "envelope.proto").write_text(
+        'syntax = "proto3";\nmessage Ping { uint32 s = 1; }\n'
+        "message Env { oneof p { Ping one = 1; Ping added = 2; } }\n"
+    )
+    assert erc_codec.Codec.default().kinds() == {1: "one", 2: "added"}
+    assert erc_codec.Codec.default().max_size("Ping") == 6
+    (tmp_path / "one" / "envelope.options").write_text("Ping.s int_size:IS_8\n")
+    assert erc_codec.Codec.default().max_size("Ping") == 3  # a tag, 255 in two bytes
+    configured(tmp_path, 'proto = "two"\nroot = "Env"')  # the configuration edited
+    assert erc_codec.Codec.default().kinds() == {1: "two"}
+
+
+def test_codec_default_sees_an_edited_include_folder_beside_a_git_revision(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.delenv(ENVIRONMENT, raising=False)
+    repo = Repo(tmp_path / "repo")
+    repo.commit(
+        "one", envelope='import "common.proto";\nmessage Env { oneof p { Ping ping = 1; } }'
+    )
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    (shared / "common.proto").write_text('syntax = "proto3";\nmessage Ping { uint32 s = 1; }\n')
+    configured(tmp_path, 'proto = "repo#ref=HEAD,subdir=proto"\nroot = "Env"\ninclude = ["shared"]')
+    monkeypatch.chdir(tmp_path)
+    assert erc_codec.Codec.default().max_size("Ping") == 6
+    (shared / "common.proto").write_text(
+        'syntax = "proto3";\nmessage Ping { uint32 s = 1; uint32 t = 2; }\n'
+    )
+    assert erc_codec.Codec.default().max_size("Ping") == 12

@@ -35,6 +35,19 @@ def test_handlers_get_their_payloads() -> None:
     assert imu.__name__ == "imu"  # the decorator returns the function itself
 
 
+def test_fields_beside_the_payload_are_counted_not_lost_without_a_word() -> None:
+    """A handler takes the payload; an unknown field on the envelope has nowhere to go."""
+    seen: list[Message] = []
+    dispatcher = erc_codec.Dispatcher(CODEC)
+    dispatcher.register("gps_info", seen.append)
+    assert dispatcher.feed(h("62 00 a0 01 01"))  # field 20 as a varint, beside gps_info
+    assert dispatcher.feed(h("a0 01 01 62 00 c2 02 02 01 ff a0 01 02"))  # 20 twice, and 40
+    assert dispatcher.feed(h("62 02 68 05"))  # the payload's own: the handler has it
+    assert seen == [GPS()] * 2 + [CODEC.decode(h("62 02 68 05")).message]
+    stats = dispatcher.stats()
+    assert (stats.handled, stats.unkept, stats.dropped) == ({"gps_info": 3}, {20: 2, 40: 1}, 0)
+
+
 def test_unknown_kinds_cannot_be_registered() -> None:
     with pytest.raises(erc_codec.SchemaError, match="'gps' is not a payload kind of PBEnvelope"):
         erc_codec.Dispatcher(CODEC).register("gps", print)

@@ -396,3 +396,29 @@ def test_record_without_the_mcap_extra_one_line_names_it(tmp_path: Path) -> None
         "Error: writing MCAP needs the mcap package: pip install 'erc-codec[mcap]'\n",
     )
     assert not out.exists()
+
+
+def test_fields_beside_the_payload_that_a_channel_cannot_hold_are_counted(
+    codec: erc_codec.Codec, tmp_path: Path
+) -> None:
+    """An envelope's unknown field has no place on a payload's channel: the payload is written,
+    the field counted in the summary (and the stats), never dropped without a word."""
+    need("dpkt")
+    need("mcap")
+    beside = [bytes.fromhex("6200a00101"), bytes.fromhex("6200a00101c2020201ff")]
+    capture, out = tmp_path / "newer.pcap", tmp_path / "newer.mcap"
+    write_pcap(capture, [*beside, bytes.fromhex("6200")], start=1_700_000_000.0, step=0.25)
+    done = run("decode", "--pcap", str(capture), "--mcap", str(out))
+    assert done.returncode == 0, done.stderr
+    assert done.stderr == (
+        f"3 datagrams, 0 undecodable, 0 packets skipped; {out}: 3 messages on 1 channel, "
+        "0 drops; not recorded: fields PBEnvelope does not know beside the payload: "
+        "20 (2), 40 (1)\n"
+    )
+    assert [m.message.data for m in read_back(out)] == [b""] * 3  # the payloads, all of them
+    summary = metadata(out)["erc-codec.summary"]
+    assert (summary["unkept.20"], summary["unkept.40"]) == ("2", "1")
+    with erc_codec.McapWriter(io.BytesIO(), codec) as writer:
+        assert writer.write(beside[1], T0) == "gps_info"
+        writer.write(bytes.fromhex("62026805"), T0)  # the payload's own: kept on its channel
+        assert writer.stats().unkept == {20: 1, 40: 1}

@@ -33,6 +33,7 @@ def outcomes(tmp_path: Path, require: bool) -> dict[str, tuple[str, str]]:
     env = {k: v for k, v in os.environ.items() if k != "ERC_REQUIRE_INTEROP"}
     env["PYTHONPATH"] = str(tmp_path)
     env["PATH"] = str(Path(sys.executable).parent)  # no tshark (nor anything but Python)
+    env["ERC_HYPOTHESIS_PROFILE"] = "ci-quick"  # outcomes are read here, not searched for
     if require:
         env["ERC_REQUIRE_INTEROP"] = "1"
     pytest_args = ["-q", "-p", "no:cacheprovider", "-p", "erc_hide_tools", "--junitxml"]

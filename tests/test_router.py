@@ -65,6 +65,26 @@ def test_the_timeout_metadata_travels_in_every_form(codec: Codec) -> None:
     assert logger.data == exact + bytes(MAX - len(exact))
 
 
+def test_unknown_fields_beside_the_payload_travel_byte_for_byte_in_every_form(
+    codec: Codec,
+) -> None:
+    """A newer sender's envelope field reaches a newer receiver through this relay: re-encoding
+    the payload alone dropped it."""
+    router = Router(codec, FORMS, [Route(("base", "jetson", "logger"))])
+    # drive_motor (a stop), field 40 (length-delimited, PBEnvelope lacks it), the timeout
+    newer = h("4a 00 c2 02 02 01 ff f0 01 ac 02")
+    base, jetson, logger = router.route(newer, "board", 0.0)
+    exact = h("4a 00 f0 01 ac 02 c2 02 02 01 ff")  # protobuf writes the fields it knows first
+    assert base.data == jetson.data == exact
+    assert logger.data == exact + bytes(MAX - len(exact))
+    assert codec.decode(base.data).envelope_unknown_fields == codec.decode(newer).unknown_fields
+    assert codec.decode(base.data).timeout == 300
+    # and one that ends in zeros beside the payload is stripped as its own last field
+    zero_ended = h("4a 00 a0 01 00")  # field 20 as the varint 0
+    assert router.route(zero_ended, "board", 0.0)[1] == Outgoing("jetson", h("4a 00 a0 01"))
+    assert router.stats().dropped == {}
+
+
 @pytest.mark.parametrize(
     ("data", "reason"),
     [

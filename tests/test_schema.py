@@ -4,6 +4,7 @@ are not envelopes, shared payload types, subfolder imports)."""
 
 import os
 import re
+import sys
 import tempfile
 from pathlib import Path
 from typing import Any, cast
@@ -14,7 +15,7 @@ from google.protobuf.descriptor import Descriptor
 
 import erc_codec
 from erc_codec import Codec, Decoded, DecodeError, EncodeError, MessageCodec, SchemaError
-from erc_codec.schema import compile_files
+from erc_codec.schema import ProtocError, compile_files
 
 TREES = Path(__file__).resolve().parent / "schema_trees"
 ENVELOPE_PROTO = PROTO / "components" / "common" / "envelope.proto"
@@ -381,12 +382,15 @@ def test_loading_never_writes_into_the_tree() -> None:
     assert after == before
 
 
+@pytest.mark.parametrize("where", ["memory", "disk"])
 def test_protoc_scratch_files_leave_nothing_behind(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, where: str
 ) -> None:
-    """protoc's scratch files (its output, its diagnostics, descriptors it is given) go to a
-    temporary folder, which is gone when the compilation ends, failed or not, and no descriptor
-    stays open."""
+    """protoc's scratch files (its output, its diagnostics, descriptors it is given), in memory
+    or in a temporary folder, are gone when the compilation ends, failed or not, and no
+    descriptor stays open."""
+    if where == "disk":
+        monkeypatch.delattr(os, "memfd_create", raising=False)
     monkeypatch.setenv("TMPDIR", str(tmp_path))
     monkeypatch.setattr("tempfile.tempdir", None)  # read TMPDIR again
     assert tempfile.gettempdir() == str(tmp_path)
@@ -399,6 +403,36 @@ def test_protoc_scratch_files_leave_nothing_behind(
     assert [f.name for f in known.file][-1] == "env.proto"
     if opened:
         assert set(os.listdir("/proc/self/fd")) <= opened
+    assert list(tmp_path.iterdir()) == []
+
+
+def compiled_both_ways() -> list[bytes | list[str]]:
+    """The packaged tree, a tree given known files, and protoc's diagnostics for a broken tree."""
+    compiled = compile_files(PROTO, ["components/common/envelope.proto"])
+    known = compile_files(TREES / "subdir", ["env.proto"], known=compiled, retain_options=True)
+    with pytest.raises(ProtocError) as failed:
+        compile_files(TREES / "broken", ["env.proto"])
+    assert failed.value.lines
+    return [compiled.SerializeToString(), known.SerializeToString(), failed.value.lines]
+
+
+def test_scratch_files_in_memory_give_what_a_scratch_folder_gives(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """bench_lint's speed trick (protoc's scratch files in memory on Linux) against the plain
+    version (a temporary folder): the same bytes, the same diagnostics. With no temporary folder
+    to be had, the memory files still work, and the folder is really what the plain version
+    uses."""
+    monkeypatch.setattr("tempfile.tempdir", str(tmp_path / "absent"))
+    if sys.platform == "linux":  # where memfd_create is
+        in_memory = compiled_both_ways()
+    monkeypatch.delattr(os, "memfd_create", raising=False)
+    with pytest.raises(FileNotFoundError):
+        compile_files(PROTO, ["components/common/envelope.proto"])
+    monkeypatch.setattr("tempfile.tempdir", str(tmp_path))
+    on_disk = compiled_both_ways()
+    if sys.platform == "linux":
+        assert in_memory == on_disk
     assert list(tmp_path.iterdir()) == []
 
 

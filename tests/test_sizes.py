@@ -451,15 +451,3 @@ def test_envelope_reaching_an_unsized_field_is_a_schema_error(
     assert re.search(rf"(^|[\s/]){re.escape(file)}:{line}\b", message), message
     assert re.search(rf"\b{re.escape(field)}\b", message), message
     assert re.search(rf"\b{re.escape(reached_as)}\b", message), message
-
-
-def test_a_proto2_group_has_no_size(tmp_path: Path) -> None:
-    """nanopb's generator refuses groups (NotImplementedError): no size, said in a SchemaError
-    naming the group, never a crash."""
-    (tmp_path / "g.proto").write_text(
-        'syntax = "proto2";\nmessage G { optional group Item = 1 { optional int32 x = 2; } }\n'
-    )
-    sizes = Sizes(load_schema(tmp_path, root="G"))
-    assert sizes.all() == {"G": None, "G.Item": 11}
-    with pytest.raises(erc_codec.SchemaError, match=r"G\.item: proto2 group"):
-        sizes.max_size("G")

@@ -80,7 +80,9 @@ def test_a_script_using_the_messages_rightly_passes_mypy_strict(tmp_path: Path) 
     done = stubs_and_mypy(tmp_path, RIGHT)
     assert done.returncode == 0, done.stdout
     stub = (tmp_path / "stubs" / "erc_messages.pyi").read_text()
-    assert "class GPSFixQuality(builtins.int):\n    NO_FIX: ClassVar[builtins.int]" in stub
+    assert (
+        "class GPSFixQuality(_builtins.int):\n    NO_FIX: _typing.ClassVar[_builtins.int]" in stub
+    )
 
 
 AWKWARD = """\
@@ -164,3 +166,160 @@ def test_fields_named_like_builtins_or_the_receiver_type_check(tmp_path: Path) -
     assert 'tool.py:17: error: Incompatible types in assignment (expression has type "int"' in (
         done.stdout
     )
+
+
+NAMES = """\
+syntax = "proto3";
+
+import "nanopb.proto";
+
+// Messages named like what the stub imports or uses; fields named like those, like builtins, like
+// their own class and like other messages; nested types named like top-level ones.
+message Mapping { int32 Any = 1; int32 ClassVar = 2; }
+message Any { Mapping Mapping = 1; int32 Iterable = 2; }
+message ClassVar { int32 ClassVar = 1; Any Mapping = 2; }
+message Iterable {
+  repeated int32 builtins = 1 [(nanopb).max_count = 2];
+  Any Any = 2;
+  repeated Mapping Iterable = 3 [(nanopb).max_count = 2];
+}
+message builtins {
+  int32 int = 1;
+  string str = 2 [(nanopb).max_size = 8];
+  bytes bytes = 3 [(nanopb).max_size = 8];
+  float float = 4;
+  bool bool = 5;
+  Mapping Message = 6;
+}
+message Message { builtins Message = 1; builtins builtins = 2; int32 erc_codec = 3; }
+message Outer {
+  message Ping { int32 Literal = 1; Outer_Ping overload = 2; }
+  Ping ping = 1;
+  Ping Outer_Ping = 2;
+  Outer.Ping Any = 3;
+}
+message Outer_Ping {  // and fields named like what protobuf's Message has
+  int32 overload = 1;
+  int32 Optional = 2;
+  int32 Clear = 3;
+  int32 DESCRIPTOR = 4;
+  int32 Extensions = 5;
+}
+message Ping { int32 s = 1; Outer.Ping Outer = 2; }
+message Palette {
+  enum Color { ClassVar = 0; builtins = 1; int = 2; Mapping = 3; None = 4; }
+  Color Palette = 1;
+}
+message TypedCodec {
+  Palette.Color Color = 1;
+  repeated Ping Ping = 2 [(nanopb).max_count = 2];
+  map<int32, Ping> MutableMapping = 3 [(nanopb).max_count = 2];
+  int32 RepeatedCompositeFieldContainer = 4;
+  int32 RepeatedScalarFieldContainer = 5;
+  int32 self = 6;
+  int32 TypeAlias = 7;
+}
+message Env {
+  oneof payload {
+    Mapping mapping = 1;
+    Any any = 2;
+    ClassVar class_var = 3;
+    Iterable iterable = 4;
+    builtins builtins = 5;
+    Message message = 6;
+    Outer outer = 7;
+    Outer_Ping outer_ping = 8;
+    Ping ping = 9;
+    TypedCodec typed_codec = 10;
+    Palette palette = 11;
+  }
+}
+"""
+
+NAMES_SCRIPT = """\
+from pathlib import Path
+from typing import TYPE_CHECKING, cast
+
+import erc_codec
+
+if TYPE_CHECKING:
+    from erc_messages import Palette_Color, TypedCodec
+
+codec = cast("TypedCodec", erc_codec.Codec.from_path(Path("tree"), root="Env"))
+m = codec.message_class("mapping")(Any=1, ClassVar=2)
+a = codec.message_class("Any")(Mapping=m, Iterable=3)
+c = codec.message_class("class_var")(ClassVar=1, Mapping={"Iterable": 2})
+it = codec.message_class("iterable")(builtins=[1, 2], Any=a, Iterable=[m, {"Any": 1}])
+b = codec.message_class("builtins")(int=1, str="s", bytes=b"b", float=1.5, bool=True, Message=m)
+msg = codec.message_class("message")(Message=b, builtins=b, erc_codec=4)
+o = codec.message_class("outer")(ping={"Literal": 1}, Any={"overload": {"overload": 2}})
+p = codec.message_class("ping")(s=1, Outer=o.ping)
+t = codec.message_class("typed_codec")(Color="Mapping", Ping=[p], MutableMapping={1: p}, self=5)
+numbers: list[int] = [
+    a.Mapping.Any + a.Iterable + c.ClassVar + c.Mapping.Iterable,
+    it.builtins[0] + it.Iterable[0].ClassVar + it.Iterable[1].Any + it.Any.Mapping.ClassVar,
+    b.int + b.Message.Any + msg.erc_codec,
+    o.ping.Literal + o.Any.overload.overload + o.Outer_Ping.Literal,
+    codec.message_class("outer_ping")(Clear=3, DESCRIPTOR=4).DESCRIPTOR + p.Outer.Literal,
+    t.Ping[0].s + t.MutableMapping[1].s + t.self + t.Color + t.TypeAlias,
+    codec.message_class("palette")(Palette="int").Palette,
+]
+texts: list[str] = [b.str, msg.Message.str, msg.builtins.str]
+rest: tuple[bytes, float, bool] = (b.bytes, b.float, b.bool)
+print(numbers, texts, rest)
+if TYPE_CHECKING:
+    shades: int = Palette_Color.ClassVar + Palette_Color.builtins + Palette_Color.int
+    wrong_text: str = b.int
+    codec.message_class("Any")(Mapping=5)
+    print(t.Ping[0].no_such_field)
+    wrong_number: int = o.Outer_Ping
+"""
+
+
+def test_names_like_what_the_stub_uses_shadow_nothing(tmp_path: Path) -> None:
+    """Messages, fields and enum values named ``Mapping``, ``Any``, ``ClassVar``, ``Iterable``,
+    ``builtins``, ``int``, ``Message``, ``TypedCodec``, a field named like its own class, like
+    what protobuf's Message has (``Clear``, ``DESCRIPTOR``) and a nested type named like a
+    top-level one: the stub passes mypy --strict, every field keeps its
+    type, and the script runs."""
+    tree = tmp_path / "tree"
+    tree.mkdir()
+    (tree / "names.proto").write_text(NAMES)
+    out = tmp_path / "stubs"
+    written = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "stubs", str(out), "--proto", "tree", "--root", "Env"],
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd=tmp_path,
+    )
+    assert written.returncode == 0, written.stderr
+    (tmp_path / "tool.py").write_text(NAMES_SCRIPT)
+    done = subprocess.run(
+        [sys.executable, "-m", "mypy", "--strict", "--no-incremental", "tool.py"],
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd=tmp_path,
+        env={"MYPYPATH": str(out), "PATH": "/usr/bin:/bin"},
+    )
+    # the errors are the four the script makes, each typed through the right class
+    assert done.stdout.splitlines() == [
+        'tool.py:33: error: Incompatible types in assignment (expression has type "int", '
+        'variable has type "str")  [assignment]',
+        'tool.py:34: error: Argument "Mapping" to "Any" has incompatible type "int"; expected '
+        '"erc_messages.Mapping | typing.Mapping[str, Any] | None"  [arg-type]',
+        'tool.py:35: error: "Ping" has no attribute "no_such_field"  [attr-defined]',
+        "tool.py:36: error: Incompatible types in assignment (expression has type "
+        '"Outer_Ping_", variable has type "int")  [assignment]',
+        "Found 4 errors in 1 file (checked 1 source file)",
+    ]
+    ran = subprocess.run(
+        [sys.executable, "tool.py"], capture_output=True, text=True, check=False, cwd=tmp_path
+    )
+    assert ran.returncode == 0, ran.stderr
+    assert ran.stdout == "[7, 6, 6, 3, 5, 10, 2] ['s', 's', 's'] (b'b', 1.5, True)\n"
+    stub = (out / "erc_messages.pyi").read_text()
+    assert "class TypedCodec(_erc_codec.Codec):" in stub  # the message so named gave way
+    assert "class TypedCodec_(_message.Message):" in stub
+    assert "    None:" not in stub  # an enum value named like a keyword cannot be an attribute

@@ -35,6 +35,18 @@ def test_a_stopped_stream_times_out_once_and_recovers() -> None:
     assert dog.state("drive_motor") is Liveness.ACTIVE
 
 
+def test_last_seen_is_the_last_arrival_watched_or_not() -> None:
+    dog, _ = recorder()
+    dog.watch("drive_motor", period=0.2)
+    assert dog.last_seen("drive_motor") is None
+    for now in (5.0, 5.2, 5.4):
+        dog.seen("drive_motor", now)
+    dog.seen("gps_info", 7.5)
+    assert dog.poll(9.0) == ["drive_motor"]
+    assert (dog.last_seen("drive_motor"), dog.last_seen("gps_info")) == (5.4, 7.5)
+    assert dog.last_seen("never") is None
+
+
 def test_nothing_fires_before_the_first_arrival() -> None:
     dog, events = recorder()
     dog.watch("gps_info", period=1.0, timeout=2.0)

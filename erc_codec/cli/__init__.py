@@ -1,14 +1,16 @@
 """The command lines' shell: ``OneLineGroup``, the click group both ``erc-codec`` and ``erc-lint``
-are made of (every error one line, exit statuses as documented), and ``main``, the ``erc-codec``
+are made of (every error one line, exit statuses as documented), ``generator_options``, the
+nanopb generator inputs both take (``-I``, ``-f``, ``-s``), and ``main``, the ``erc-codec``
 command itself (``erc_codec.cli._main``: one module per command group beside it), loaded only
 when asked for: erc-lint, which imports this package for its group, does not pay for the
 commands."""
 
 from typing import Any
 
+from ._generator import generator_options
 from ._group import OneLineGroup
 
-__all__ = ["OneLineGroup", "main"]
+__all__ = ["OneLineGroup", "generator_options", "main"]
 
 
 def __getattr__(name: str) -> Any:

@@ -111,8 +111,9 @@ def decode(
     An undecodable datagram is an "error" object on stdout (reason: empty,
     too_long, no_payload, unknown_member, truncated, corrupt or
     unknown_fields; not_hex, with "line", for a line of standard input that
-    is not hex), so the stream stays one JSON object a line, and decoding
-    goes on with the next datagram. With
+    is not hex; line_too_long, with "line", for one longer than 262144
+    characters, dropped unread), so the stream stays one JSON object a line,
+    and decoding goes on with the next datagram. With
     --pcap every object starts with "time", "src" and "dst" (address:port);
     --pcap and --framed end with a summary line on stderr (packets skipped
     and why; frames rejected and why, bytes discarded between frames), and
@@ -128,10 +129,11 @@ def decode(
     \b
     Exit status: 0 every datagram decoded (frames rejected or bytes discarded
     between frames show in the summary only, if a frame decoded); 1 at least
-    one did not, a line was not hex, or there was nothing to decode (empty
-    input, no frame); 2 usage error (HEX that spells no bytes or odd digits,
-    unknown --kind), unreadable or damaged capture (after decoding what comes
-    before the damage), schema that does not load, or --pcap without dpkt.
+    one did not, a line was not hex or too long, or there was nothing to
+    decode (empty input, no frame); 2 usage error (HEX that spells no bytes
+    or odd digits, unknown --kind), unreadable or damaged capture (after
+    decoding what comes before the damage), schema that does not load, or
+    --pcap without dpkt.
     Every error is one line.
     """
     codec = load(tree, root)

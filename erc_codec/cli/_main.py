@@ -24,10 +24,11 @@ __all__ = ["main"]
 def main(tree: str | None, root: str | None) -> None:
     """Encode, decode and size the ERC rover's PBEnvelope datagrams.
 
-    --proto and --root here hold for the command that follows, unless it
-    gives its own. Without them, the schema is found (erc-codec schema says
-    which): $ERC_CODEC_PROTO, else [tool.erc-codec] in the nearest
-    pyproject.toml from here up, else the packaged one.
+    --proto, --root and nanopb's generator inputs -I, -f and -s here hold
+    for the command that follows, unless it gives its own. Without them, the
+    schema is found (erc-codec schema says which): $ERC_CODEC_PROTO, else
+    [tool.erc-codec] in the nearest pyproject.toml from here up, else the
+    packaged one.
     """
 
 

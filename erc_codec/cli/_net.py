@@ -10,6 +10,7 @@ datagram is then mostly the message's conversion to JSON (``benchmarks/bench_lis
 
 import contextlib
 import json
+import math
 import signal
 import socket
 import sys
@@ -380,21 +381,23 @@ class _Listening:
     def _silent(self, kind: str) -> None:
         self.silent.add(kind)
         if self._view is None:
-            last = self.rates.last.get(kind)
             record = {"alert": "silent", "kind": kind, "period": self.watches[kind]}
-            self._show({**record, "silent_for": self._silent_for(kind, last)})
+            self._show({**record, "silent_for": self._silent_for(kind)})
 
     def _back(self, kind: str) -> None:
         self.silent.discard(kind)
         if self._view is None:
             self._show({"alert": "back", "kind": kind, "period": self.watches[kind]})
 
-    def _silent_for(self, kind: str, last: float | None) -> float | None:
-        """Seconds since ``kind`` last arrived (JSON lines do not measure rates: the
-        watchdog's timeout is what it says then)."""
-        if last is not None:
-            return round(time.monotonic() - last, 3)
-        return round(3 * self.watches[kind], 3)
+    def _silent_for(self, kind: str) -> float | None:
+        """Seconds since ``kind`` last arrived, by the clock the watchdog was told the arrival
+        on (``open_udp``'s, ``time.monotonic``), rounded up to the millisecond: never less than
+        the timeout that passed. ``None`` if it never arrived (the watchdog then stays quiet)."""
+        assert self.watchdog is not None  # only its timeouts call this
+        last = self.watchdog.last_seen(kind)
+        if last is None:
+            return None
+        return math.ceil((time.monotonic() - last) * 1000) / 1000
 
 
 class _Table:

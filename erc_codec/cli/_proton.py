@@ -14,6 +14,7 @@ import base64
 import contextlib
 import json
 import math
+import signal
 import struct
 from collections.abc import Callable
 from pathlib import Path
@@ -181,7 +182,8 @@ def decode(
       {"bundle": "status", "id": 256, "length": 31, "signals": {...}}
       {"error": "...", "reason": "unknown_bundle", "length": 5}
     (reasons: empty, corrupt, unknown_bundle, unsupported_operation; not_hex,
-    with "line", for a line of standard input that is not hex). A message
+    with "line", for a line of standard input that is not hex, line_too_long
+    for one longer than 262144 characters). A message
     with fields Proton does not define decodes without them, listed in
     "unknown_fields". With --pcap every object starts with "time", "src" and
     "dst"; --pcap and --framed end with a summary line on stderr (--framed:
@@ -190,8 +192,8 @@ def decode(
     \b
     Exit status: 0 every message decoded (rejected frames, discarded bytes and
     a cut-off last frame show in the summary only, as for erc-codec decode
-    --framed); 1 at least one did not, a line was not hex, or there was
-    nothing to decode; 2 usage error, a configuration
+    --framed); 1 at least one did not, a line was not hex or too long, or
+    there was nothing to decode; 2 usage error, a configuration
     that does not load (one line naming its file, line and key), unreadable
     or damaged capture, or --pcap without dpkt.
     """
@@ -218,10 +220,11 @@ def listen(
 
     One JSON line per datagram, as decode prints them, each with "from"
     (address:port). Port 0 takes any free port; the address actually bound is
-    the first line on stderr. It stops after --count datagrams, --seconds, or
-    Ctrl-C, and prints its counters on stderr. Exit status 0; 1 when standard
-    output goes away (| head); 2 for a usage error, a configuration that does
-    not load, an address it cannot bind or output it cannot write.
+    the first line on stderr. It stops after --count datagrams, --seconds,
+    Ctrl-C or SIGTERM, and prints its counters on stderr. Exit status 0; 1
+    when standard output goes away (| head); 2 for a usage error, a
+    configuration that does not load, an address it cannot bind or output it
+    cannot write.
     """
     import asyncio
 
@@ -241,12 +244,21 @@ def listen(
 async def _listen(
     printer: _Printer, local: tuple[Any, ...], count: int | None, seconds: float | None
 ) -> None:
-    """Print what arrives until --count or --seconds; output that cannot be written (a reader
-    gone away, a full disk) ends it, raised here for the command group to report."""
+    """Print what arrives until --count, --seconds, Ctrl-C or SIGTERM; output that cannot be
+    written (a reader gone away, a full disk) ends it, raised here for the command group to
+    report."""
     import asyncio
 
     loop = asyncio.get_running_loop()
     finished = loop.create_future()
+
+    def stop() -> None:  # Ctrl-C or SIGTERM: as --count, the counters then printed
+        if not finished.done():
+            finished.set_result(None)
+
+    for number in (signal.SIGINT, signal.SIGTERM):
+        with contextlib.suppress(NotImplementedError, RuntimeError):  # not on every system
+            loop.add_signal_handler(number, stop)
 
     def heard(data: bytes, sender: Any) -> None:
         if finished.done():

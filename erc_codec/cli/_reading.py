@@ -17,7 +17,7 @@ from typing import Any, TypeVar
 import click
 
 from .._framing import Deframer
-from ._input import hex_lines, read_stdin
+from ._input import LINE_LIMIT, hex_lines, read_stdin
 from ._pcap import Capture
 from ._shared import Fatal, emit, one_line, plural, unhex
 
@@ -35,6 +35,7 @@ class Printer:
         self.datagrams = 0  # handed to ``datagram`` or ``payload``
         self.failed = 0  # of those, did not decode
         self.bad_lines = 0  # lines of standard input that are not hex
+        self.long_lines = 0  # lines of standard input longer than LINE_LIMIT
         self.other_kinds = 0  # of those, decoded but of a kind not asked for (--kind)
 
     def datagram(self, data: bytes, where: dict[str, object] | None = None) -> None:
@@ -50,6 +51,19 @@ class Printer:
             {
                 "error": f"line {line} is not hex: {problem}",
                 "reason": "not_hex",
+                "length": None,
+                "line": line,
+            }
+        )
+
+    def too_long(self, line: int) -> None:
+        """A line longer than any datagram's hex: one error object, and on to the next."""
+        self.long_lines += 1
+        emit(
+            {
+                "error": f"line {line} is longer than {LINE_LIMIT} characters: no datagram's "
+                "hex is (a datagram is at most 65535 bytes)",
+                "reason": "line_too_long",
                 "length": None,
                 "line": line,
             }
@@ -115,7 +129,7 @@ def decode_input(
     if summary:
         click.echo(summary, err=True)
     nothing = not printer.datagrams and capture is None
-    sys.exit(1 if printer.failed or printer.bad_lines or nothing else 0)
+    sys.exit(1 if printer.failed or printer.bad_lines or printer.long_lines or nothing else 0)
 
 
 def check_usage(
@@ -147,6 +161,7 @@ def _each(printer: Printer, chunks: Iterator[bytes], raw: bool) -> str:
         parts.append(
             f"{plural(printer.bad_lines, 'line')} not hex (raw bytes on standard input need --raw)"
         )
+    parts += _too_long(printer)
     if not printer.datagrams and not parts:
         return "standard input holds no datagram: it is empty or only whitespace"
     return ", ".join(parts)
@@ -157,6 +172,13 @@ def _not_shown(printer: Printer) -> list[str]:
     if not printer.other_kinds:
         return []
     return [f"{plural(printer.other_kinds, 'datagram')} of other kinds not shown"]
+
+
+def _too_long(printer: Printer) -> list[str]:
+    """The summary's part for the lines of standard input too long to read, if any were."""
+    if not printer.long_lines:
+        return []
+    return [f"{plural(printer.long_lines, 'line')} longer than {LINE_LIMIT} characters skipped"]
 
 
 def _given(data: tuple[str, ...], raw: bool, printer: Printer) -> Iterator[bytes]:
@@ -170,7 +192,7 @@ def _given(data: tuple[str, ...], raw: bool, printer: Printer) -> Iterator[bytes
             raise click.BadParameter("it spells no bytes: give a datagram in hex", param_hint="HEX")
         return iter([given])
     chunks = read_stdin()
-    return chunks if raw else hex_lines(chunks, printer.not_hex)
+    return chunks if raw else hex_lines(chunks, printer.not_hex, printer.too_long)
 
 
 def _deframe(printer: Printer, chunks: Iterable[bytes], deframer: Deframer) -> str:
@@ -191,7 +213,7 @@ def _deframe(printer: Printer, chunks: Iterable[bytes], deframer: Deframer) -> s
         parts.append(f"{plural(unfinished, 'byte')} left in an unfinished frame")
     if printer.bad_lines:
         parts.append(f"{plural(printer.bad_lines, 'line')} not hex")
-    return ", ".join(parts)
+    return ", ".join([*parts, *_too_long(printer)])
 
 
 def _from_capture(printer: Printer, capture: Capture) -> str:

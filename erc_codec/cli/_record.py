@@ -19,7 +19,7 @@ import socket
 import struct
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any, BinaryIO, NamedTuple, cast
 
@@ -30,7 +30,7 @@ from google.protobuf.message import Message
 
 from .._codec import Codec
 from .._dispatch import Dispatcher, Drop
-from .._envelope import Mode
+from .._envelope import Decoded, Mode
 from .._errors import CodecError, EncodeError
 from .._mcap import McapWriter, recorded_payloads
 from .._recording import nanoseconds
@@ -111,11 +111,20 @@ def capture_to_mcap(capture: Capture, codec: Codec, output: Path) -> tuple[int, 
         + (f" ({reasons})" if reasons else "")
         + f"; {output}: {plural(messages, 'message')} on {plural(len(stats.messages), 'channel')}"
         + f", {plural(failed, 'drop')}"
+        + _unkept(stats.unkept, codec.root)
     )
     if capture.damage:
         click.echo(summary, err=True)
         raise Fatal(one_line(capture.damage))
     return failed, summary
+
+
+def _unkept(unkept: Mapping[int, int], root: str) -> str:
+    """The summary's words for fields beside the payloads that the recording could not keep."""
+    if not unkept:
+        return ""
+    fields = ", ".join(f"{number} ({count})" for number, count in sorted(unkept.items()))
+    return f"; not recorded: fields {root} does not know beside the payload: {fields}"
 
 
 # -- record --------------------------------------------------------------------------------------
@@ -262,6 +271,8 @@ class _Recording:
         extra = {"received": str(self.received)}
         if kernel is not None:
             extra["dropped_by_kernel"] = str(kernel)
+        unkept = self.dispatcher.stats().unkept  # the writer sees payloads only
+        extra.update({f"unkept.{number}": str(n) for number, n in sorted(unkept.items())})
         if self._failure is not None:
             raise self._failure
         written, size = self._writer.close(extra)
@@ -273,6 +284,8 @@ class _Recording:
             "file": str(self._output),
             "bytes": size,
         }
+        if unkept:  # fields beside the payloads, unknown to the schema, which no channel holds
+            self.summary["unkept"] = {str(number): n for number, n in sorted(unkept.items())}
 
     def _guarded(self, step: Callable[[], None]) -> None:
         """Run a hand-over; a writer that failed stops the recording with its error."""
@@ -329,6 +342,10 @@ class _Entry(NamedTuple):
     kind: str | None  # the envelope member; None for a datagram that did not decode
     message: Message | None  # the payload (kind given)
     data: bytes | None  # a drop's bytes as received (None where the source did not keep them)
+    # a capture's datagram as decoded: re-encoded whole, with what its envelope carried beside
+    # the payload (metadata, fields the schema does not know); None where only payloads are kept
+    decoded: Decoded | None = None
+    unsent: bool = False  # a JSON line listing unknown fields, which it cannot hold
 
 
 @click.command()
@@ -378,13 +395,16 @@ def replay(
     pcapng capture (every UDP datagram in it, needs the pcap extra), or
     decode's JSON lines (with --pcap's "time"; a line without one is sent
     right after the one before). Each payload is re-encoded in --mode (the
-    fleet's strip by default); a datagram that did not decode is sent as
-    received only with --drops. The last line on stderr says what was sent
-    (by kind), how late the latest send ran ("latest_ms"), and what was
-    skipped: "drops" (without --drops), "drops_without_bytes" (JSON lines
-    keep none), "other_kinds" (--kind), "unknown_kind" (not in this schema),
-    "not_valid" (a payload or line that does not parse) or "not_sendable"
-    (a payload a fixed-size receiver would drop).
+    fleet's strip by default), a capture's with all its envelope carried
+    (metadata, fields the schema does not know); a datagram that did not
+    decode is sent as received only with --drops. The last line on stderr
+    says what was sent (by kind), how late the latest send ran
+    ("latest_ms"), and what was skipped: "drops" (without --drops),
+    "drops_without_bytes" (JSON lines keep none), "other_kinds" (--kind),
+    "unknown_kind" (not in this schema), "not_valid" (a payload or line that
+    does not parse) or "not_sendable" (a payload a fixed-size receiver would
+    drop); "unknown_fields_unsent" counts the JSON lines sent without the
+    unknown fields they list (decode's JSON names them, it holds no bytes).
 
     \b
     Exit status: 0 sent; 1 the file ends in damage after what was sent, or
@@ -439,6 +459,7 @@ class _Player:
         self._speed = speed
         self.sent: dict[str, int] = {}
         self.skipped: dict[str, int] = {}
+        self.unsent = 0  # datagrams sent without the unknown fields their source listed
         self.bytes = 0
         self.late = 0.0  # the latest a send ran behind its time, in seconds
         self.first: int | None = None
@@ -485,15 +506,19 @@ class _Player:
         if self._kinds and entry.kind not in self._kinds:
             self.skip("other_kinds")
             return None
-        envelope = self._envelope()
-        assert entry.message is not None
-        getattr(envelope, entry.kind).CopyFrom(entry.message)
         try:
-            data = self._codec.encode(envelope, self._mode)
+            if entry.decoded is not None:
+                data = self._codec.reencode(entry.decoded, self._mode)
+            else:
+                envelope = self._envelope()
+                assert entry.message is not None
+                getattr(envelope, entry.kind).CopyFrom(entry.message)
+                data = self._codec.encode(envelope, self._mode)
         except EncodeError:
             self.skip("not_sendable")
             return None
         self.sent[entry.kind] = self.sent.get(entry.kind, 0) + 1
+        self.unsent += entry.unsent
         return data
 
     def summary(self) -> dict[str, Any]:
@@ -503,6 +528,7 @@ class _Player:
             "by_kind": dict(sorted(self.sent.items())),
             "bytes": self.bytes,
             "skipped": dict(sorted(self.skipped.items())),
+            **({"unknown_fields_unsent": self.unsent} if self.unsent else {}),
             "seconds": round(self.elapsed, 3),
             "recorded_seconds": round(span, 3),
             "latest_ms": round(self.late * 1e3, 3),
@@ -552,11 +578,11 @@ def _from_capture(capture: Capture, codec: Codec) -> Iterator[_Entry]:
         decode = codec.decode
         for datagram in capture.datagrams():
             try:
-                kind, message = decode(datagram.data)
+                decoded = decode(datagram.data)
             except CodecError:
                 yield _Entry(nanoseconds(datagram.time), None, None, datagram.data)
                 continue
-            yield _Entry(nanoseconds(datagram.time), kind, message, b"")
+            yield _Entry(nanoseconds(datagram.time), decoded.kind, decoded.message, b"", decoded)
         if capture.damage:
             raise CodecError(capture.damage)
 
@@ -596,4 +622,4 @@ def _from_json_lines(path: Path, codec: Codec, skip: Callable[[str], None]) -> I
             except json_format.ParseError:
                 skip("not_valid")
                 continue
-            yield _Entry(at, kind, message, b"")
+            yield _Entry(at, kind, message, b"", unsent=bool(record.get("unknown_fields")))

@@ -5,7 +5,7 @@ import json
 import click
 
 from .._codec import Codec
-from .._discovery import ENVIRONMENT, load_source
+from .._discovery import DEFAULT_OPTIONS_FILE, ENVIRONMENT, load_source
 from .._errors import CodecError
 from ..schema import TreeSource, load_schema
 from ._shared import Fatal, one_line, schema_options, source, text_or_json
@@ -29,7 +29,9 @@ def schema(tree: str | None, root: str | None, output: str) -> None:
     The first of these wins: --proto TREE; the environment variable
     ERC_CODEC_PROTO; [tool.erc-codec] proto = "TREE" (with root = "NAME" and
     include = ["FOLDER", ...]) in the nearest pyproject.toml from the working
-    folder up, its paths relative to that file; the packaged rover schema.
+    folder up, its paths relative to that file, with nanopb's options_file = "FILE"
+    and settings = ["OPTION=VALUE", ...]; the packaged rover schema. -I, -f and -s
+    replace the configuration's include, options_file and settings.
     Codec.default() finds its schema the same way. TREE is a folder (the
     import root) or a git revision GITDIR#ref=REF[,subdir=PATH].
 
@@ -40,7 +42,7 @@ def schema(tree: str | None, root: str | None, output: str) -> None:
 
     def loaded(opened: TreeSource) -> tuple[str | None, Codec]:
         schema = load_schema(opened.folder, found.root, found.include, opened.shown)
-        return opened.revision, Codec(schema)
+        return opened.revision, Codec.from_schema(schema, found.options_file, found.settings)
 
     try:
         commit, codec = load_source(found, loaded)
@@ -54,6 +56,8 @@ def schema(tree: str | None, root: str | None, output: str) -> None:
             "revision": commit,
             "root": codec.root,
             "include": list(found.include),
+            "options_file": found.options_file,
+            "settings": list(found.settings),
             "members": len(codec.kinds()),
             "max_size": size,
         }
@@ -65,3 +69,7 @@ def schema(tree: str | None, root: str | None, output: str) -> None:
     click.echo(f"root     {codec.root}: {len(codec.kinds())} members, {codec.root}_size {size}")
     if found.include:
         click.echo(f"include  {', '.join(found.include)}")
+    if found.options_file != DEFAULT_OPTIONS_FILE:
+        click.echo(f"options  {found.options_file}")
+    if found.settings:
+        click.echo(f"settings {' '.join(found.settings)}")

@@ -16,6 +16,7 @@ from .._discovery import SchemaSource, find_schema
 from .._errors import CodecError, EncodeError
 from .._json import load_json
 from .._json import to_dict as _to_dict
+from ._generator import generator_options
 
 __all__ = [
     "FINITE",
@@ -57,11 +58,15 @@ def plural(count: int, noun: str) -> str:
 
 
 def schema_options(command: _Command) -> _Command:
-    """``--proto TREE`` and ``--root NAME``: the schema revision a command works with."""
+    """``--proto TREE`` and ``--root NAME``, the schema revision a command works with, and
+    nanopb's generator inputs ``-I``, ``-f`` and ``-s``, which ``source`` reads (the command is
+    not given them)."""
+    command = generator_options(_remember)(command)
     command = click.option(
         "--root",
         metavar="NAME",
-        help="The envelope message. Default: the configuration's root, else PBEnvelope.",
+        help="The root message: an envelope, or any message (named in full). Default: the "
+        "configuration's root, else PBEnvelope.",
     )(command)
     return click.option(
         "--proto",
@@ -74,17 +79,43 @@ def schema_options(command: _Command) -> _Command:
     )(command)
 
 
+_GIVEN = "erc_codec.generator."  # ctx.meta keys of the generator inputs given
+
+
+def _remember(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
+    """Keep a generator input the command line gives (a command's after its group's, so the
+    command's wins) for ``source``."""
+    if value:
+        ctx.meta[_GIVEN + str(param.name)] = value
+    return value
+
+
 def source(tree: str | None, root: str | None) -> SchemaSource:
-    """The schema ``--proto`` and ``--root`` name, or the one found (see ``find_schema``); a
-    configuration that cannot be read is exit 2. Options given before the command
-    (``erc-codec --proto TREE decode``) hold where the command gives none."""
+    """The schema ``--proto`` and ``--root`` name, or the one found (see ``find_schema``), with
+    the ``-I``, ``-f`` and ``-s`` given (each replaces the configuration's); a configuration that
+    cannot be read is exit 2. Options given before the command (``erc-codec --proto TREE
+    decode``) hold where the command gives none."""
     context = click.get_current_context(silent=True)
+    given: dict[str, Any] = {}
     if context is not None:
-        given = context.find_root().params
-        tree = tree if tree is not None else given.get("tree")
-        root = root if root is not None else given.get("root")
+        params = context.find_root().params
+        tree = tree if tree is not None else params.get("tree")
+        root = root if root is not None else params.get("root")
+        given = {
+            key.removeprefix(_GIVEN): value
+            for key, value in context.meta.items()
+            if key.startswith(_GIVEN)
+        }
+    includes = given.get("includes")
+    settings = given.get("generator_settings")
     try:
-        return find_schema(tree, root)
+        return find_schema(
+            tree,
+            root,
+            include=None if includes is None else [str(folder) for folder in includes],
+            options_file=given.get("options_file"),
+            settings=None if settings is None else list(settings),
+        )
     except CodecError as error:
         raise Fatal(one_line(str(error))) from None
 

@@ -15,11 +15,13 @@ the ``_pb2`` modules protoc generates; erc_codec's classes come from a descripto
 such modules, so those stubs would type no class a codec hands out.)
 """
 
+import functools
 import keyword
 from pathlib import Path
 
 import click
 from google.protobuf.descriptor import Descriptor, EnumDescriptor, FieldDescriptor
+from google.protobuf.message import Message
 
 from .._codec import Codec
 from ._shared import Fatal, load, schema_options
@@ -27,56 +29,130 @@ from ._shared import Fatal, load, schema_options
 __all__ = ["render_stubs", "stubs"]
 
 _T = FieldDescriptor
-# Qualified: a field named ``int`` would shadow the builtin in the annotations after it.
 _SCALARS = {
-    _T.CPPTYPE_INT32: "builtins.int",
-    _T.CPPTYPE_INT64: "builtins.int",
-    _T.CPPTYPE_UINT32: "builtins.int",
-    _T.CPPTYPE_UINT64: "builtins.int",
-    _T.CPPTYPE_DOUBLE: "builtins.float",
-    _T.CPPTYPE_FLOAT: "builtins.float",
-    _T.CPPTYPE_BOOL: "builtins.bool",
+    _T.CPPTYPE_INT32: "int",
+    _T.CPPTYPE_INT64: "int",
+    _T.CPPTYPE_UINT32: "int",
+    _T.CPPTYPE_UINT64: "int",
+    _T.CPPTYPE_DOUBLE: "float",
+    _T.CPPTYPE_FLOAT: "float",
+    _T.CPPTYPE_BOOL: "bool",
 }
+# The modules the stub refers to, each imported under an alias no name of the schema has: a
+# field, enum value or message named ``Mapping``, ``Any``, ``builtins`` or ``int`` shadows
+# nothing the annotations use.
+_MODULES = {
+    "_builtins": "builtins",
+    "_abc": "collections.abc",
+    "_typing": "typing",
+    "_containers": "google.protobuf.internal.containers",
+    "_message": "google.protobuf.message",
+    "_erc_codec": "erc_codec",
+}
+# What protobuf's Message has (its methods, DESCRIPTOR, and Extensions in types-protobuf): a
+# field so named replaces it on the class, which mypy calls an incompatible override.
+_MESSAGE_NAMES = frozenset(
+    {name for name in dir(Message) if not name.startswith("_")} | {"Extensions"}
+)
+_CODEC = "TypedCodec"  # the documented name: a message so named gives way
+_Described = Descriptor | EnumDescriptor
 
 
-def _name(descriptor: Descriptor | EnumDescriptor) -> str:
-    return descriptor.full_name.replace(".", "_")
+class _Names:
+    """Every name the stub module defines, chosen so that none hides another.
+
+    Class-body names (fields, enum values, ``message_class``) hide module names in the
+    annotations after them, so an annotation never spells a name any class body defines: the
+    modules go by aliases no class body uses, and a class whose name some class body uses is
+    referred to by such an alias of it. Each message and enum class is named by its full name
+    (``Outer.Ping`` as ``Outer_Ping``); where two would meet, or meet ``TypedCodec`` or a
+    keyword, the one nested deeper (else later in name order) takes a trailing ``_``."""
+
+    def __init__(self, described: list[_Described]) -> None:
+        self.members = {"message_class"}  # what class bodies define
+        for descriptor in described:
+            if isinstance(descriptor, Descriptor):
+                self.members.update(field.name for field in descriptor.fields)
+            else:
+                self.members.update(value.name for value in descriptor.values)
+        self.classes: dict[str, str] = {}  # full name -> class name
+        taken = {_CODEC}
+        for descriptor in sorted(described, key=lambda d: (d.full_name.count("."), d.full_name)):
+            name = self._free(descriptor.full_name.replace(".", "_"), taken)
+            self.classes[descriptor.full_name] = name
+            taken.add(name)
+        taken |= self.members
+        self.modules = {}  # alias in _MODULES -> alias in this stub
+        for alias in _MODULES:
+            self.modules[alias] = self._free(alias, taken)
+            taken.add(self.modules[alias])
+        self.aliases: dict[str, str] = {}  # class name -> the alias annotations spell
+        for name in sorted(set(self.classes.values()) & self.members):
+            self.aliases[name] = self._free(f"_{name}", taken)
+            taken.add(self.aliases[name])
+
+    @staticmethod
+    def _free(name: str, taken: set[str]) -> str:
+        while name in taken or keyword.iskeyword(name):
+            name += "_"
+        return name
+
+    def of(self, module: str, name: str) -> str:
+        """``name`` of one of ``_MODULES`` (by its alias there), as the stub spells it."""
+        return f"{self.modules[module]}.{name}"
+
+    def type_of(self, descriptor: _Described) -> str:
+        """The class of ``descriptor`` as an annotation spells it."""
+        name = self.classes[descriptor.full_name]
+        return self.aliases.get(name, name)
 
 
-def _value(field: FieldDescriptor) -> tuple[str, str]:
+def _value(field: FieldDescriptor, names: _Names) -> tuple[str, str]:
     """A field's type as an attribute, and what its constructor argument takes."""
+    builtin = functools.partial(names.of, "_builtins")
     if field.message_type is not None:
-        name = _name(field.message_type)
-        return name, f"{name} | Mapping[builtins.str, Any]"
+        name = names.type_of(field.message_type)
+        mapping = f"{names.of('_abc', 'Mapping')}[{builtin('str')}, {names.of('_typing', 'Any')}]"
+        return name, f"{name} | {mapping}"
     if field.enum_type is not None:
-        return "builtins.int", "builtins.int | builtins.str"
+        return builtin("int"), f"{builtin('int')} | {builtin('str')}"
     if field.cpp_type == _T.CPPTYPE_STRING:
-        kind = "builtins.bytes" if field.type == _T.TYPE_BYTES else "builtins.str"
+        kind = builtin("bytes" if field.type == _T.TYPE_BYTES else "str")
         return kind, kind
-    kind = _SCALARS[field.cpp_type]
+    kind = builtin(_SCALARS[field.cpp_type])
     return kind, kind
 
 
-def _field(field: FieldDescriptor) -> tuple[str, str]:
+def _field(field: FieldDescriptor, names: _Names) -> tuple[str, str]:
     """``(attribute annotation, constructor annotation)`` of a field, lists and maps too."""
     entry = field.message_type
     if entry is not None and entry.GetOptions().map_entry:
-        key, _ = _value(entry.fields_by_name["key"])
-        value, given = _value(entry.fields_by_name["value"])
-        return f"MutableMapping[{key}, {value}]", f"Mapping[{key}, {given}] | None"
-    value, given = _value(field)
+        key, _ = _value(entry.fields_by_name["key"], names)
+        value, given = _value(entry.fields_by_name["value"], names)
+        return (
+            f"{names.of('_abc', 'MutableMapping')}[{key}, {value}]",
+            f"{names.of('_abc', 'Mapping')}[{key}, {given}] | None",
+        )
+    value, given = _value(field, names)
     if field.is_repeated:
         container = "RepeatedCompositeFieldContainer" if entry else "RepeatedScalarFieldContainer"
-        return f"{container}[{value}]", f"Iterable[{given}] | None"
+        return (
+            f"{names.of('_containers', container)}[{value}]",
+            f"{names.of('_abc', 'Iterable')}[{given}] | None",
+        )
     return value, f"{given} | None"
 
 
-def _message(descriptor: Descriptor) -> list[str]:
-    lines = [f"class {_name(descriptor)}(Message):"]
+def _message(descriptor: Descriptor, names: _Names) -> list[str]:
+    base = names.of("_message", "Message")
+    lines = [f"class {names.classes[descriptor.full_name]}({base}):"]
     fields = [f for f in descriptor.fields if not keyword.iskeyword(f.name)]
     for field in fields:
-        lines.append(f"    {field.name}: {_field(field)[0]}")
-    arguments = ", ".join(f"{f.name}: {_field(f)[1]} = ..." for f in fields)
+        line = f"    {field.name}: {_field(field, names)[0]}"
+        if field.name in _MESSAGE_NAMES:  # the field is what protobuf's class has by that name
+            line += "  # type: ignore[assignment, unused-ignore]"
+        lines.append(line)
+    arguments = ", ".join(f"{f.name}: {_field(f, names)[1]} = ..." for f in fields)
     receiver = "self"  # positional-only, and named apart from every field (one may be ``self``)
     while receiver in descriptor.fields_by_name:
         receiver += "_"
@@ -85,10 +161,13 @@ def _message(descriptor: Descriptor) -> list[str]:
     return lines
 
 
-def _enum(descriptor: EnumDescriptor) -> list[str]:
-    lines = [f"class {_name(descriptor)}(builtins.int):"]
-    lines += [f"    {value.name}: ClassVar[builtins.int]" for value in descriptor.values]
-    return lines or ["    pass"]
+def _enum(descriptor: EnumDescriptor, names: _Names) -> list[str]:
+    integer = names.of("_builtins", "int")
+    lines = [f"class {names.classes[descriptor.full_name]}({integer}):"]
+    annotation = f"{names.of('_typing', 'ClassVar')}[{integer}]"
+    values = [value for value in descriptor.values if not keyword.iskeyword(value.name)]
+    lines += [f"    {value.name}: {annotation}" for value in values]
+    return lines if values else [*lines, "    pass"]
 
 
 def _reachable(codec: Codec) -> tuple[dict[str, Descriptor], dict[str, EnumDescriptor]]:
@@ -118,38 +197,42 @@ def _reachable(codec: Codec) -> tuple[dict[str, Descriptor], dict[str, EnumDescr
 def render_stubs(codec: Codec) -> str:
     """The stub module's text for ``codec``'s schema."""
     messages, enums = _reachable(codec)
+    names = _Names([*messages.values(), *enums.values()])
     out = [
         f"# Typing stubs for the messages of {codec.root}'s schema, by erc-codec stubs: for",
         "# mypy only (see erc_codec.cli._stubs); write them again when the schema changes.",
-        "import builtins",
-        "from collections.abc import Iterable, Mapping, MutableMapping",
-        "from typing import Any, ClassVar, Literal, overload",
-        "",
-        "from google.protobuf.internal.containers import (",
-        "    RepeatedCompositeFieldContainer,",
-        "    RepeatedScalarFieldContainer,",
-        ")",
-        "from google.protobuf.message import Message",
-        "",
-        "import erc_codec",
+        "# Modules go by aliases no name of the schema has.",
+        *(f"import {module} as {names.modules[alias]}" for alias, module in _MODULES.items()),
         "",
     ]
-    for enum in sorted(enums.values(), key=_name):
-        out += [*_enum(enum), ""]
-    for descriptor in sorted(messages.values(), key=_name):
-        out += [*_message(descriptor), ""]
-    names: dict[str, list[str]] = {name: [name] for name in messages}
+    for enum in sorted(enums.values(), key=lambda d: names.classes[d.full_name]):
+        out += [*_enum(enum, names), ""]
+    for descriptor in sorted(messages.values(), key=lambda d: names.classes[d.full_name]):
+        out += [*_message(descriptor, names), ""]
+    for name, alias in names.aliases.items():  # classes some class body names otherwise
+        out.append(f"{alias} = {name}")
+    if names.aliases:
+        out.append("")
+    spellings: dict[str, list[str]] = {name: [name] for name in messages}
     for member in codec.members():
-        names[member.message].insert(0, member.kind)
-    out.append("class TypedCodec(erc_codec.Codec):")
-    for full_name, spelled in sorted(names.items()):
+        if member.kind != member.message:
+            spellings[member.message].insert(0, member.kind)
+    overload = f"    @{names.of('_typing', 'overload')}"
+    literal_type = names.of("_typing", "Literal")
+    out.append(f"class {_CODEC}({names.of('_erc_codec', 'Codec')}):")
+    for full_name, spelled in sorted(spellings.items()):
         literal = ", ".join(f'"{name}"' for name in spelled)
         out += [
-            "    @overload",
-            f"    def message_class(self, name: Literal[{literal}]) -> "
-            f"type[{_name(messages[full_name])}]: ...",
+            overload,
+            f"    def message_class(self, name: {literal_type}[{literal}]) -> "
+            f"type[{names.type_of(messages[full_name])}]: ...",
         ]
-    out += ["    @overload", "    def message_class(self, name: str) -> type[Message]: ...", ""]
+    out += [
+        overload,
+        f"    def message_class(self, name: {names.of('_builtins', 'str')}) -> "
+        f"type[{names.of('_message', 'Message')}]: ...",
+        "",
+    ]
     return "\n".join(out)
 
 

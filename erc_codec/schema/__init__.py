@@ -19,9 +19,12 @@ sizes and nanopb limits. Nothing here encodes envelopes or talks to a network.
   and trailing comment);
 - a loaded schema: ``load_schema`` and ``Schema`` (descriptor pool, classes, locations, include
   folders, and the messages protobuf's Python runtime refuses to build, with why);
-- nanopb: ``resolve_options`` (``.options`` files, found as the generator finds them, its ``-f``
-  and ``-s``, and annotations) and ``Sizes`` (``<Message>_size`` as the generator computes it, the
-  fixed-size contract's limits);
+- nanopb: ``resolve_options`` (``.options`` files, found as the generator finds them
+  (``options_path``), its ``-f`` (``given_options_file``: one as a user gives it) and ``-s``,
+  and annotations; patterns match ``nanopb_name``, the name under ``mangle_names``, and
+  ``nanopb_finds`` says whether a field's type is found under them) and ``Sizes``
+  (``<Message>_size`` as the generator computes it, by the rules of one of ``NANOPB_VERSIONS``,
+  the fixed-size contract's limits);
 - the wire: varints, wire types, ``MAX_FIELD_NUMBER`` and ``next_field``, the one tag walker.
 """
 
@@ -37,10 +40,18 @@ from ._descriptors import (
 )
 from ._files import SOURCE_LIMIT, FileError, file_exists, proto_files, read_file, read_text
 from ._git import MAX_DEPTH, MAX_FILES, MAX_LINK_STEPS, MAX_PATH_TEXT, GitError, Repository
-from ._options import Options, ResolvedOptions, options_class, resolve_options
+from ._names import nanopb_finds, nanopb_name
+from ._options import (
+    Options,
+    ResolvedOptions,
+    given_options_file,
+    options_class,
+    options_path,
+    resolve_options,
+)
 from ._protoc import ProtocError, compile_files
 from ._schema import Schema, descriptor_of, enum_of, load_schema, message_of
-from ._sizes import Sizes
+from ._sizes import NANOPB_VERSIONS, Sizes
 from ._text import declared_names, imports
 from ._tree import TREE_LIMIT, GitSpec, TreeSource, open_tree, parse_tree_spec
 from ._wire import (
@@ -70,6 +81,7 @@ __all__ = [
     "MAX_FILES",
     "MAX_LINK_STEPS",
     "MAX_PATH_TEXT",
+    "NANOPB_VERSIONS",
     "SGROUP",
     "SOURCE_LIMIT",
     "TREE_LIMIT",
@@ -100,12 +112,16 @@ __all__ = [
     "enum_of",
     "extensions",
     "file_exists",
+    "given_options_file",
     "imports",
     "load_schema",
     "message_of",
+    "nanopb_finds",
+    "nanopb_name",
     "next_field",
     "open_tree",
     "options_class",
+    "options_path",
     "parse_tree_spec",
     "proto_files",
     "read_file",

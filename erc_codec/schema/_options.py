@@ -10,6 +10,11 @@ name); and in-file annotations (``[(nanopb).max_size = 32]``, ``option (nanopb_m
 ``option (nanopb_fileopt)...``). Every message, nested or not, starts from its file's options; a
 field or oneof starts from its message's. At each level matching options lines merge in file
 order, then the annotation, which wins.
+
+A pattern matches the name nanopb gives an element under its file's ``mangle_names`` and
+``(nanopb_fileopt).package`` (``nanopb_name``: ``Outer.Inner`` for ``pkg.Outer.Inner`` under
+``M_STRIP_PACKAGE``, ...); a field or oneof is matched as that name and its own. Options stay
+keyed by the real full names.
 """
 
 import functools
@@ -27,10 +32,18 @@ from google.protobuf.message import Message
 from .._errors import SchemaError
 from ._descriptors import declarations
 from ._files import file_exists, read_text
+from ._names import nanopb_name
 from ._protoc import FALLBACK_INCLUDE, compile_files
 from ._wire import LEN, WireError, next_field
 
-__all__ = ["Options", "ResolvedOptions", "options_class", "resolve_options"]
+__all__ = [
+    "Options",
+    "ResolvedOptions",
+    "given_options_file",
+    "options_class",
+    "options_path",
+    "resolve_options",
+]
 
 _EXTENSION = 1010  # (nanopb), (nanopb_msgopt), (nanopb_fileopt) on the descriptor options
 _COMMENTS = re.compile(r"/\*.*?\*/|//.*$|#.*$")
@@ -42,9 +55,11 @@ Rules = list[tuple[str, Options]]
 
 class ResolvedOptions:
     """nanopb options resolved for a schema, by full name: ``messages["Msg"]``,
-    ``fields["Msg.f"]``, ``oneofs["Msg.o"]``, ``enums["Msg.Kind"]``."""
+    ``fields["Msg.f"]``, ``oneofs["Msg.o"]``, ``enums["Msg.Kind"]``, and each file's own by its
+    name, ``files["a/b.proto"]`` (its ``mangle_names`` and ``package`` among them)."""
 
     def __init__(self) -> None:
+        self.files: dict[str, Options] = {}
         self.messages: dict[str, Options] = {}
         self.fields: dict[str, Options] = {}
         self.oneofs: dict[str, Options] = {}
@@ -88,29 +103,37 @@ def resolve_options(
     nanopb's generator run in ``tree`` with ``-I`` for each of ``include``, ``-f options_file``
     and ``-s`` for each of ``settings`` resolves them. As the generator does, every message
     starts from its file's options, a nested enum from its message's (``enum_intsize``,
-    ``long_names``, ...)."""
+    ``long_names``, ...).
+
+    The settings are checked, and an ``options_file`` without ``%s`` (one file for all) must be
+    found, even for no ``files``: either is a ``SchemaError`` (nanopb's generator warns of a
+    missing one and sizes without it)."""
     resolved = ResolvedOptions()
     top = _settings(settings)
+    if _one_file(options_file) and options_path(tree, include, options_file, "") is None:
+        where = ", ".join(str(folder) for folder in (tree, *include))
+        raise SchemaError(f"options file {options_file}: not found (looked in {where})")
     for proto in files:
-        rules = _read_rules(_options_path(tree, include, options_file, proto.name))
-        base = _merge(top, rules, proto.name, proto.options)
+        rules = _read_rules(options_path(tree, include, options_file, proto.name))
+        base = resolved.files[proto.name] = _merge(top, rules, proto.name, proto.options)
         for declaration in declarations(proto):
             message = declaration.proto
             name = declaration.name
+            seen = nanopb_name(proto.package, base, name)  # what the patterns are matched with
             if not isinstance(message, descriptor_pb2.DescriptorProto):
                 parent = resolved.messages[declaration.parent] if declaration.parent else base
                 annotated = message.options if message.HasField("options") else None
-                resolved.enums[name] = _merge(parent, rules, name, annotated)
+                resolved.enums[name] = _merge(parent, rules, seen, annotated)
                 continue
-            own = resolved.messages[name] = _merge(base, rules, name, message.options)
+            own = resolved.messages[name] = _merge(base, rules, seen, message.options)
             for field in message.field:
                 options = field.options if field.HasField("options") else None
-                dotted = f"{name}.{field.name}"
-                resolved.fields[dotted] = _merge(own, rules, dotted, options)
+                dotted = f"{seen}.{field.name}"
+                resolved.fields[f"{name}.{field.name}"] = _merge(own, rules, dotted, options)
             for oneof in message.oneof_decl:
                 # oneofs carry no (nanopb) annotation: only .options lines reach them
-                dotted = f"{name}.{oneof.name}"
-                resolved.oneofs[dotted] = _merge(own, rules, dotted, None)
+                dotted = f"{seen}.{oneof.name}"
+                resolved.oneofs[f"{name}.{oneof.name}"] = _merge(own, rules, dotted, None)
     return resolved
 
 
@@ -131,10 +154,22 @@ def _settings(settings: Sequence[str]) -> Options:
     return top
 
 
-def _options_path(tree: Path, include: Sequence[Path], pattern: str, name: str) -> Path | None:
-    """Where the generator reads the options of file ``name`` from, if anywhere: ``pattern``
-    with ``%s`` the name without its suffix (a pattern without ``%s`` names one file for all),
-    under ``tree``, then under each include folder, the first that holds it."""
+def _one_file(pattern: str) -> bool:
+    """Whether an options file pattern names one file for every .proto (it has no ``%s``)."""
+    try:
+        pattern % ""
+    except TypeError:
+        return True
+    except ValueError:
+        return False  # options_path says what is wrong with it
+    return False
+
+
+def options_path(tree: Path, include: Sequence[Path], pattern: str, name: str) -> Path | None:
+    """Where nanopb's generator reads the options of file ``name`` (tree-relative) from, if
+    anywhere: ``pattern`` (``-f``) with ``%s`` the name without its suffix (a pattern without
+    ``%s`` names one file for all), under ``tree``, then under each include folder, the first
+    that holds it (an absolute pattern is itself)."""
     try:
         wanted = pattern % os.path.splitext(name)[0]
     except TypeError:  # no %s in it (the generator's own test)
@@ -146,6 +181,16 @@ def _options_path(tree: Path, include: Sequence[Path], pattern: str, name: str) 
         if file_exists(path):
             return path
     return None
+
+
+def given_options_file(options_file: str, here: Path) -> str:
+    """An options file as given where paths are relative to ``here`` (the working folder, a
+    configuration's folder): one file (no ``%s``) that is there, as that path; anything else as
+    given, for nanopb's search under the tree and its include folders."""
+    if "%" in options_file or Path(options_file).is_absolute():
+        return options_file
+    beside = here / options_file
+    return str(beside.absolute()) if beside.is_file() else options_file
 
 
 def _merge(parent: Options, rules: Rules, dotted: str, options: Message | None) -> Options:

@@ -58,6 +58,8 @@ class Schema:
             _add(self.pool, proto, self.refused)
         self.root: Descriptor = self.pool.FindMessageTypeByName(root)
         self._classes: dict[str, type[Message]] = {}
+        # full message name -> its longest chain of message fields: length, first field
+        self._depths: dict[str, tuple[int, FieldDescriptor | None]] = {}
 
     @functools.cached_property
     def _declared(self) -> dict[str, tuple[SourceIndex, tuple[int, ...]]]:
@@ -104,6 +106,7 @@ class Schema:
             descriptor = self.descriptor(name)
             if self.refused:
                 self._buildable(descriptor)
+            self._decodable(descriptor)
             try:
                 cls = message_factory.GetMessageClass(descriptor)
             except RecursionError:  # the runtime builds the classes a message reaches recursively
@@ -113,6 +116,62 @@ class Schema:
                 ) from None
             self._classes[name] = cls
         return cls
+
+    def _decodable(self, descriptor: Descriptor) -> None:
+        """``SchemaError`` if messages nest deeper in ``descriptor`` than protobuf's runtime
+        decodes (upb and the pure-Python runtime alike stop at ``_LIMIT_DEPTH``: "Exceeded
+        upb_DecodeOptions_MaxDepth"). nanopb decodes any depth, so such a codec would send what
+        it cannot read back; refusing it at load names the path once instead of failing on the
+        first deep datagram. Lifting the limit is no way out: upb's only switch,
+        ``SetAllowOversizeProtos``, is global to the process (every other user of protobuf in it)
+        and the other runtimes have none."""
+        chain = self._deepest(descriptor)
+        if len(chain) <= _LIMIT_DEPTH:
+            return
+        names = [field.name for field in chain]
+        shown = ".".join(names[:3]) + f".(... {len(names) - 5} more ...)." + ".".join(names[-2:])
+        raise SchemaError(
+            f"{self.where(chain[-1].full_name)}: {descriptor.full_name} nests messages too deeply "
+            f"for protobuf's Python runtime to decode: {descriptor.full_name}.{shown} is "
+            f"{len(chain)} messages deep, it decodes at most {_LIMIT_DEPTH} (nanopb's sizes "
+            "still hold)"
+        )
+
+    def _deepest(self, descriptor: Descriptor) -> list[FieldDescriptor]:
+        """The longest chain of message fields from ``descriptor`` (a field leading back into
+        the chain, a message containing itself, is not followed)."""
+        best = self._depths
+        pending: list[tuple[Descriptor, bool]] = [(descriptor, False)]
+        open_now: set[str] = set()  # on the current path, without recursion: nesting is deep
+        while pending:
+            message, inside_done = pending.pop()
+            name = message.full_name
+            if inside_done:
+                open_now.discard(name)
+                deepest: tuple[int, FieldDescriptor | None] = (0, None)
+                for field in message.fields:
+                    sub = field.message_type
+                    below = best.get(sub.full_name) if sub is not None else None
+                    if below is not None and below[0] + 1 > deepest[0]:
+                        deepest = (below[0] + 1, field)
+                best[name] = deepest
+            elif name not in best and name not in open_now:
+                open_now.add(name)
+                pending.append((message, True))
+                for field in message.fields:
+                    sub = field.message_type
+                    if (
+                        sub is not None
+                        and sub.full_name not in best
+                        and sub.full_name not in open_now
+                    ):
+                        pending.append((sub, False))
+        chain: list[FieldDescriptor] = []
+        step = best[descriptor.full_name][1]
+        while step is not None:
+            chain.append(step)
+            step = best[message_of(step).full_name][1]
+        return chain
 
     def _buildable(self, descriptor: Descriptor) -> None:
         """``SchemaError`` if ``descriptor`` is, or reaches, a message the runtime refused."""
@@ -174,11 +233,16 @@ def load_schema(
             raise SchemaError(f"{folder}: include folder is not a directory")
     file, colon, root = root.rpartition(":")
     short = root.rpartition(".")[2]
+    # A map's entry type (Msg.CountsEntry: nanopb generates it, with its size) is written in no
+    # file's text: the message holding the map is.
+    outer = root.rpartition(".")[0].rpartition(".")[2] if short.endswith("Entry") else short
     names = [file] if colon else proto_files(base)
     if colon and not (base / file).is_file():
         raise SchemaError(f"{base / file}: no such .proto file in the tree")
     candidates = [
-        name for name in names if short in declared_names(read_text(base / name, errors="replace"))
+        name
+        for name in names
+        if {short, outer} & declared_names(read_text(base / name, errors="replace"))
     ]
     found: list[tuple[str, descriptor_pb2.FileDescriptorSet]] = []
     failure: SchemaError | None = None
@@ -218,6 +282,7 @@ def _hint(base: Path, root: str) -> str:
 
 _PACKAGE = re.compile(r"^\s*package\s+([\w.]+)\s*;", re.MULTILINE)
 _LIMIT_REQUIRED = 63  # upb's mini tables hold at most this many required fields per message
+_LIMIT_DEPTH = 100  # protobuf's runtimes decode messages nested at most this deep
 
 
 def _add(

@@ -8,7 +8,19 @@ bytes ``varint(max_size) + max_size``, repeated fields ``(tag + item) * max_coun
 string, bytes or repeated field with no limit, a callback or pointer field, a type that contains
 itself) has no size, exactly where nanopb writes "depends on runtime parameters". nanopb reads the
 descriptors as written: an editions field with ``message_encoding = DELIMITED`` is sized as the
-message field it is written as, and a proto2 ``group`` has no size (the generator refuses groups).
+message field it is written as (which ``require_fixed`` refuses: see ``_DELIMITED``). nanopb's
+generator refuses a file holding a proto2 ``group`` it must generate (``NotImplementedError``: it
+has no groups), and with it every file importing that file: their messages have no size and are
+not listed.
+
+Generator versions differ in one rule (``NANOPB_VERSIONS``): up to 0.4.9.1 (``"0.4.9"``, the rules
+of every 0.4.x release) a ``FT_CALLBACK`` or ``FT_POINTER`` field has no size; nanopb's master
+after 0.4.9.1 (``"1.0.0-dev"``, as its headers name it; the ERC firmware pins commit d68cd4e) sizes
+every field whose bound is known whatever its allocation (its ``Field.encoded_size`` asks
+``can_be_static``: a ``max_count`` for a repeated field, a ``max_size`` or ``max_length`` for a
+string or bytes), so a callback or pointer field counts as the static field it could have been.
+A type that contains itself still has no size there (master writes an expression naming the
+message's own size, which no compiler can evaluate).
 """
 
 from collections.abc import Sequence
@@ -17,12 +29,16 @@ from google.protobuf import descriptor_pb2
 from google.protobuf.descriptor import Descriptor, FieldDescriptor, OneofDescriptor
 
 from .._errors import SchemaError
-from ._descriptors import declarations
+from ._descriptors import declarations, extensions
+from ._names import nanopb_finds
 from ._options import Options, ResolvedOptions, resolve_options
 from ._schema import Schema, enum_of, message_of
 from ._wire import varint_size
 
-__all__ = ["Sizes"]
+__all__ = ["NANOPB_VERSIONS", "Sizes"]
+
+# The generator rules a ``Sizes`` can follow, the default first (see the module's docstring).
+NANOPB_VERSIONS = ("0.4.9", "1.0.0-dev")
 
 _T = FieldDescriptor
 _FT_CALLBACK, _FT_STATIC, _FT_IGNORE, _FT_POINTER = 1, 2, 3, 4
@@ -45,6 +61,16 @@ _SIZED_VARINTS = {
     _T.TYPE_UINT64: {0: 10, 8: 2, 16: 3, 32: 5, 64: 10},
     _T.TYPE_SINT64: {0: 10, 8: 2, 16: 3, 32: 5, 64: 10},
 }
+# A field protobuf writes as a group where nanopb's generator, taking the descriptor as written,
+# has a length-prefixed message: an editions DELIMITED field (or a proto2 group whose nanopb
+# type_override is TYPE_MESSAGE). nanopb's C library answers protobuf's bytes "wrong wire type"
+# and protobuf keeps nanopb's as an unknown field, so no bytes are right for both: the codec
+# refuses it rather than pick one side. Without the feature nanopb's code is the same.
+_DELIMITED = (
+    "protobuf writes it delimited (a group: wire types 3 and 4) and nanopb as a length-prefixed "
+    "message (wire type 2), so each side refuses or drops the other's bytes; make it a "
+    "length-prefixed message field (nanopb's generated code stays the same)"
+)
 # nanopb's int_size values (IS_8 .. IS_64; IS_DEFAULT is 0) as bits.
 _INT_BITS = {8: 8, 16: 16, 32: 32, 64: 64}
 # Varint integer types: how nanopb's decoder reads them (pb_dec_varint), and their own width.
@@ -103,27 +129,77 @@ class Sizes:
         schema: Schema,
         options_file: str = "%s.options",
         settings: Sequence[str] = (),
+        nanopb_version: str = NANOPB_VERSIONS[0],
     ) -> None:
         """nanopb's sizes for ``schema``, its generator run from the tree's root with the
         schema's include folders (``-I``), ``-f options_file`` and ``-s`` for each setting
-        (``"max_size:61"``)."""
+        (``"max_size:61"``), by the rules of generator ``nanopb_version`` (``NANOPB_VERSIONS``;
+        another value is a ``SchemaError``)."""
+        if nanopb_version not in NANOPB_VERSIONS:
+            raise SchemaError(
+                f"nanopb_version {nanopb_version!r}: erc-codec knows the generator rules of "
+                f"{' and '.join(NANOPB_VERSIONS)} (0.4.x up to 0.4.9.1, and master after it)"
+            )
+        self.nanopb_version = nanopb_version
+        # master after 0.4.9.1 sizes callback and pointer fields whose bound is known
+        self._any_allocation = nanopb_version != NANOPB_VERSIONS[0]
         self._schema = schema
         self._options: ResolvedOptions = resolve_options(
             schema.tree, schema.files, schema.include, options_file, settings
         )
         self._optional: set[str] = set()  # proto3 `optional` fields (not in a real oneof)
-        # proto2 groups (an editions DELIMITED field reads as one)
-        self._proto2_groups: set[str] = set()
         for proto in schema.files:
             for declaration in declarations(proto):
                 if isinstance(declaration.proto, descriptor_pb2.DescriptorProto):
                     for field in declaration.proto.field:
-                        dotted = f"{declaration.name}.{field.name}"
                         if field.proto3_optional:
-                            self._optional.add(dotted)
-                        if field.type == _T.TYPE_GROUP:
-                            self._proto2_groups.add(dotted)
+                            self._optional.add(f"{declaration.name}.{field.name}")
+        self._refused = self._refused_files()
         self._memo: dict[str, int | None] = {}
+        self._lookups: dict[str, bool] = {}  # field -> whether nanopb finds its type
+
+    def _refused_files(self) -> dict[str, str]:
+        """File name -> why nanopb's generator writes no code for it: a message it generates holds
+        a proto2 group it does not leave out (by ``FT_IGNORE``, ``discard_deprecated`` or a
+        ``type_override``), or the file imports such a file (the generator parses every import)."""
+        refused: dict[str, str] = {}
+        for proto in self._schema.files:  # protoc lists a file's imports before the file
+            for declaration in declarations(proto):
+                message = declaration.proto
+                if not isinstance(message, descriptor_pb2.DescriptorProto):
+                    continue
+                if proto.name in refused or not self._wanted(
+                    self._schema.descriptor(declaration.name)
+                ):
+                    continue
+                for field in message.field:  # as written: a DELIMITED field is TYPE_MESSAGE here
+                    dotted = f"{declaration.name}.{field.name}"
+                    options = self._options.fields[dotted]
+                    kind = (
+                        options.type_override if options.HasField("type_override") else field.type
+                    )
+                    left_out = options.type == _FT_IGNORE or (
+                        options.discard_deprecated and field.options.deprecated
+                    )
+                    if kind == _T.TYPE_GROUP and not left_out:
+                        refused[proto.name] = (
+                            f"{self._schema.where(dotted)}: {dotted} is a proto2 group, which "
+                            "nanopb's generator does not implement"
+                        )
+                        break
+            # An extension that is a group fails the generator too. (Its FT_IGNORE, which would
+            # spare the file, is not looked for: options are resolved for messages' own fields.)
+            grouped = (e for e in extensions(proto) if e.proto.type == _T.TYPE_GROUP)
+            extension = next(grouped, None)
+            if extension is not None and proto.name not in refused:
+                refused[proto.name] = (
+                    f"{self._schema.shown / proto.name}: extension {extension.name} is a proto2 "
+                    "group, which nanopb's generator does not implement"
+                )
+            imported = next((name for name in proto.dependency if name in refused), None)
+            if imported is not None and proto.name not in refused:
+                refused[proto.name] = f"it imports {imported}, and {refused[imported]}"
+        return refused
 
     # -- field limits --------------------------------------------------------------------------
 
@@ -260,6 +336,7 @@ class Sizes:
     def max_size(self, name: str) -> int:
         """nanopb's ``<name>_size``; ``SchemaError`` when nanopb has none for it."""
         descriptor = self._schema.descriptor(name)
+        self._require_generated(descriptor)
         size = self._size(descriptor)
         if size is None:
             self.require_fixed(descriptor)
@@ -277,13 +354,29 @@ class Sizes:
         }
 
     def _generated(self, message: Descriptor) -> bool:
+        return message.file.name not in self._refused and self._wanted(message)
+
+    def _wanted(self, message: Descriptor) -> bool:
+        """Whether the generator makes code for ``message`` where it takes its file."""
         options = self._options.messages[message.full_name]
         if options.skip_message:
             return False
         return not (options.discard_deprecated and message.GetOptions().deprecated)
 
+    def _require_generated(self, message: Descriptor) -> None:
+        """``SchemaError`` when nanopb's generator refuses the file of ``message``."""
+        why = self._refused.get(message.file.name)
+        if why is not None:
+            raise SchemaError(
+                f"nanopb's generator refuses {message.file.name} ({why}): it writes no code "
+                f"for {message.full_name}, so no size"
+            )
+
     def require_fixed(self, root: Descriptor) -> None:
-        """``SchemaError`` naming the first field, and its path from ``root``, nanopb can't size."""
+        """``SchemaError`` naming the first field, and its path from ``root``, nanopb can't size;
+        else the first field whose bytes nanopb and protobuf disagree on (``_DELIMITED``)."""
+        self._require_generated(root)  # the files root reaches are all imported by its own
+        delimited: tuple[FieldDescriptor, str] | None = None
         # Depth first with a stack of its own: messages nest as deeply as protoc lets them.
         pending: list[tuple[Descriptor, str, tuple[str, ...]]] = [
             (root, root.full_name, (root.full_name,))
@@ -295,6 +388,8 @@ class Sizes:
                 if self.ignored(field):
                     continue
                 here = f"{path}.{field.name}"
+                if field.type == _T.TYPE_GROUP and delimited is None:  # in a file nanopb takes
+                    delimited = field, here
                 problem = self._problem(field)
                 if field.message_type is not None and problem is None:
                     sub = message_of(field)
@@ -308,20 +403,35 @@ class Sizes:
                         f"nanopb cannot size it (reached from {stack[0]} as {here})"
                     )
             pending.extend(reversed(inner))
+        if delimited is not None:
+            field, here = delimited
+            raise SchemaError(
+                f"{self._schema.where(field.full_name)}: {field.full_name}: {_DELIMITED} "
+                f"(reached from {root.full_name} as {here})"
+            )
 
     def _problem(self, field: FieldDescriptor) -> str | None:
         """Why ``field`` itself (not what it contains) has no static size, if it hasn't."""
-        if field.full_name in self._proto2_groups:
-            return "proto2 group (nanopb's generator refuses groups)"
         options = self.options(field)
-        if options.type in (_FT_CALLBACK, _FT_POINTER):
-            return f"nanopb type {'FT_CALLBACK' if options.type == _FT_CALLBACK else 'FT_POINTER'}"
+        if options.type in (_FT_CALLBACK, _FT_POINTER) and not self._any_allocation:
+            kind = "FT_CALLBACK" if options.type == _FT_CALLBACK else "FT_POINTER"
+            return f"nanopb type {kind} (sized from nanopb_version 1.0.0-dev on, if bounded)"
         if self.repeated(field) and self.max_count(field) is None:
             return "repeated field without nanopb max_count"
         sub = field.message_type
         if sub is not None and not self._generated(sub):
             # the generator writes "#if defined(Sub_size)" around a size that never is defined
             return f"its type {sub.full_name} is not generated (skip_message, or deprecated)"
+        if sub is not None and not self._found(field):
+            return (
+                f"nanopb's generator does not find its type {sub.full_name}: the two files' "
+                "mangle_names or (nanopb_fileopt).package disagree"
+            )
+        if field.enum_type is not None and self._enum_stops_generator(field):
+            return (
+                f"nanopb's generator does not find its enum type {field.enum_type.full_name} (the "
+                "two files' mangle_names or (nanopb_fileopt).package disagree) and stops"
+            )
         if field.type in (_T.TYPE_STRING, _T.TYPE_BYTES) and self.max_bytes(field) is None:
             kind = "string" if field.type == _T.TYPE_STRING else "bytes"
             return f"{kind} field without nanopb max_size"
@@ -403,6 +513,8 @@ class Sizes:
             assert limit is not None  # _problem said otherwise
             array = limit + 1 if kind == _T.TYPE_STRING else limit
             payload = varint_size(array) + limit
+        elif kind == _T.TYPE_ENUM and not self._found(field):
+            payload = 10  # the generator's guess for an enum it does not find (see _names)
         elif kind == _T.TYPE_ENUM:
             payload = max(varint_size(value.number) for value in enum_of(field).values)
         elif kind in _SIZED_VARINTS:
@@ -416,6 +528,35 @@ class Sizes:
             return tag + payload
         count = int(options.max_count)
         return (tag + payload) * count + (1 if count == 1 else 0)
+
+    def _enum_stops_generator(self, field: FieldDescriptor) -> bool:
+        """Whether an enum field whose type nanopb does not find stops its generator ("Could not
+        find enum type", raised while it writes the defaults of singular static fields); in a
+        oneof, repeated, a callback or a pointer it counts as a guessed 10 bytes instead."""
+        return (
+            not self._found(field)
+            and not self.repeated(field)
+            and field.containing_oneof is None
+            and self.options(field).type not in (_FT_CALLBACK, _FT_POINTER)
+        )
+
+    def _found(self, field: FieldDescriptor) -> bool:
+        """Whether nanopb's generator finds the message or enum type of ``field`` under the
+        mangle_names and package options of the file that refers to it and of the one that
+        declares it (always, where the two agree)."""
+        found = self._lookups.get(field.full_name)
+        if found is None:
+            kind = field.message_type or field.enum_type
+            assert kind is not None, field.full_name
+            assert field.containing_type is not None, field.full_name
+            referring, defining = field.containing_type.file, kind.file
+            files = self._options.files
+            found = self._lookups[field.full_name] = nanopb_finds(
+                (referring.package, files[referring.name]),
+                (defining.package, files[defining.name]),
+                kind.full_name,
+            )
+        return found
 
     def _oneof_options(self, oneof: OneofDescriptor) -> Options:
         return self._options.oneofs[oneof.full_name]

@@ -47,16 +47,24 @@ def diff(
     severity: str,
     baseline: Path | None,
     allow_empty_old: bool,
-    includes: Sequence[Path],
     config: Path | None,
+    includes: Sequence[Path],
+    options_file: str | None,
+    generator_settings: Sequence[str],
     ledger: Path | None,
 ) -> None:
     """Compare two revisions of a proto tree and report what breaks the wire."""
+    generator = (includes, options_file, generator_settings)
     with guard():
         accepted, given = baseline_keys(baseline)
         with opened(old, "OLD", allow_empty_old) as before, opened(new, "NEW") as after:
             outcome = compare(
-                before, after, settings(config, after.folder), includes, ledger, accepted
+                before,
+                after,
+                settings(config, after.folder, *generator, shown=after.shown),
+                includes,
+                ledger,
+                accepted,
             )
         report(outcome, output, severity, given)
 
@@ -73,17 +81,25 @@ def check(
     output: str,
     severity: str,
     baseline: Path | None,
-    includes: Sequence[Path],
     config: Path | None,
+    includes: Sequence[Path],
+    options_file: str | None,
+    generator_settings: Sequence[str],
     ledger: Path | None,
 ) -> None:
     """Lint one tree on its own: compile errors, name collisions, what embedded roots reach
     (fixed sizes), and reused numbers if there is a ledger."""
+    generator = (includes, options_file, generator_settings)
     with guard():
         accepted, given = baseline_keys(baseline)
         with opened(tree, "TREE") as source:
             outcome = compare(
-                None, source, settings(config, source.folder), includes, ledger, accepted
+                None,
+                source,
+                settings(config, source.folder, *generator, shown=source.shown),
+                includes,
+                ledger,
+                accepted,
             )
         report(outcome, output, severity, given)
 
@@ -106,24 +122,39 @@ def baseline(
     trees: tuple[str, ...],
     target: Path,
     allow_empty_old: bool,
-    includes: Sequence[Path],
     config: Path | None,
+    includes: Sequence[Path],
+    options_file: str | None,
+    generator_settings: Sequence[str],
     ledger: Path | None,
 ) -> None:
     """Write every current finding of `erc-lint OLD NEW` (or of `erc-lint check TREE`) to a
     baseline file: later runs given it report only findings it does not hold."""
     if len(trees) > 2:
         raise click.UsageError("give NEW, or OLD and NEW")
+    generator = (includes, options_file, generator_settings)
     with guard():
         if len(trees) == 1:
             with opened(trees[0], "TREE") as source:
-                outcome = compare(None, source, settings(config, source.folder), includes, ledger)
+                outcome = compare(
+                    None,
+                    source,
+                    settings(config, source.folder, *generator, shown=source.shown),
+                    includes,
+                    ledger,
+                )
         else:
             with (
                 opened(trees[0], "OLD", allow_empty_old) as before,
                 opened(trees[1], "NEW") as after,
             ):
-                outcome = compare(before, after, settings(config, after.folder), includes, ledger)
+                outcome = compare(
+                    before,
+                    after,
+                    settings(config, after.folder, *generator, shown=after.shown),
+                    includes,
+                    ledger,
+                )
         target.write_text(render_baseline(outcome.keys), encoding="utf-8")
     count = len(set(outcome.keys))
     click.echo(f"{target}: {count} finding{'s' * (count != 1)} baselined", err=True)

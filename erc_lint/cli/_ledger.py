@@ -40,12 +40,20 @@ def update(
     history: bool,
     path: Path | None,
     check: bool,
-    includes: Sequence[Path],
     config: Path | None,
+    includes: Sequence[Path],
+    options_file: str | None,
+    generator_settings: Sequence[str],
 ) -> None:
     """Record every number TREE's messages and enums use (a folder or GITDIR#ref=REF)."""
     with guard():
-        done = update_ledger(tree, path, history, includes, lambda f: settings(config, f))
+        done = update_ledger(
+            tree,
+            path,
+            history,
+            includes,
+            lambda f: settings(config, f, includes, options_file, generator_settings),
+        )
         for name in done.failed:
             click.echo(f"{tree}: {name} does not compile; nothing of it recorded", err=True)
         for name in done.collided:

@@ -3,7 +3,7 @@ failures (exit 2) and the report (exit 1 when it holds an error)."""
 
 import os
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TypeVar
@@ -11,6 +11,7 @@ from typing import Any, TypeVar
 import click
 
 from erc_codec import CodecError
+from erc_codec.cli import generator_options
 from erc_codec.schema import file_exists
 
 from .._baseline import BASELINE, read_baseline
@@ -46,32 +47,20 @@ class Failure(click.ClickException):
     exit_code = 2
 
 
-_FOLDER = click.Path(exists=True, file_okay=False, path_type=Path)
 FILE = click.Path(dir_okay=False, path_type=Path)
 
 
 def common_options(command: _Command) -> _Command:
-    """The options every linting command takes."""
-    for option in reversed(
-        [
-            click.option(
-                "-I",
-                "--include",
-                "includes",
-                multiple=True,
-                type=_FOLDER,
-                help="Another folder imports are resolved against (repeatable).",
-            ),
-            click.option(
-                "--config",
-                type=FILE,
-                help="A pyproject.toml with [tool.erc-lint]. Default: the tree's, else the "
-                "working directory's.",
-            ),
-        ]
-    ):
-        command = option(command)
-    return command
+    """The options every linting command takes: ``--config`` and nanopb's generator inputs
+    (``-I``, ``-f``, ``-s``: ``includes``, ``options_file``, ``generator_settings``), which
+    replace the configuration's ``include``, ``options_file`` and ``settings`` (``settings``)."""
+    command = click.option(
+        "--config",
+        type=FILE,
+        help="A pyproject.toml with [tool.erc-lint]. Default: the tree's, else the "
+        "working directory's.",
+    )(command)
+    return generator_options()(command)
 
 
 LEDGER_OPTION = click.option(
@@ -84,11 +73,33 @@ FORMAT_OPTION = click.option(
 )
 
 
-def settings(config: Path | None, folder: Path | None) -> Config:
-    """``--config``, else the configuration in the tree's folder (if it has one), else here."""
+def settings(
+    config: Path | None,
+    folder: Path | None,
+    includes: Sequence[Path] = (),
+    options_file: str | None = None,
+    generator_settings: Sequence[str] = (),
+    shown: Path | None = None,
+) -> Config:
+    """``--config``, else the configuration in the tree's folder (if it has one), else here;
+    with the ``-I``, ``-f`` and ``-s`` given in place of its own. ``shown`` is where the tree's
+    folder is shown (a git revision's scratch copy: in the repository), which the paths of a
+    configuration found in it are relative to."""
     folders = [folder] if folder is not None and folder.is_dir() else []
     found = config or find_config(*folders, Path.cwd())
-    return read_config(found, set(RULES), explicit=config is not None, categories=set(CATEGORIES))
+    copied = found is not None and shown is not None and found.parent == folder
+    read = read_config(
+        found,
+        set(RULES),
+        explicit=config is not None,
+        categories=set(CATEGORIES),
+        base=shown if copied else None,
+    )
+    return read._replace(
+        include=tuple(map(str, includes)) or read.include,
+        options_file=read.options_file if options_file is None else options_file,
+        settings=tuple(generator_settings) or read.settings,
+    )
 
 
 SEVERITY_OPTION = click.option(
