@@ -262,11 +262,10 @@ class Envelope:
         try:
             body = serialize(message)
         except ProtobufEncodeError:  # an unset proto2 required field: the check names it
-            if check is None:
-                raise EncodeError(
-                    f"{message.DESCRIPTOR.full_name}: unset required fields"
-                ) from None
-            check(message)  # nanopb does not require it (label_override): send it unset
+            # No check, or one that passes: nanopb does not require it (label_override), and
+            # the contract, which asks nanopb's field model, has a check wherever it requires one.
+            if check is not None:
+                check(message)
             body = message.SerializePartialToString()
         if check is not None and (screen is None or screen(body)):
             check(message)
@@ -356,7 +355,7 @@ class Envelope:
                 setattr(envelope, name, value)
             except (TypeError, ValueError) as error:
                 raise EncodeError(f"{self._name}.{name} cannot be {value!r}: {error}") from None
-        data = envelope.SerializeToString()
+        data = envelope.SerializePartialToString()  # the payload is checked: encode did
         if len(data) > self._max_size:
             raise self._too_long(envelope, [b""], data)
         return data

@@ -159,3 +159,31 @@ def test_an_envelope_sends_a_proto2_required_field_nanopb_does_not_require(tmp_p
         assert codec.decode(data, strict=True) == ("two", payload)
     with pytest.raises(erc_codec.EncodeError, match=r"Overrides2\.must is required"):
         codec.encode(codec.message_class("Overrides2")(words=["w"]))
+
+
+def test_an_envelope_sends_an_unrequired_field_unset_when_nothing_else_is_checked(
+    tmp_path: Path,
+) -> None:
+    """A payload whose only rule is a required field made optional (label_override) has no
+    contract check at all: sent without it, with and without metadata, not refused as "unset
+    required fields" (nor by protobuf's serializer when the metadata is set)."""
+    (tmp_path / "loose.proto").write_text(
+        'syntax = "proto2";\nimport "nanopb.proto";\n'
+        "message Loose {\n"
+        "  required int32 a = 1 [(nanopb).label_override = LABEL_OPTIONAL];\n"
+        "  optional int32 b = 2;\n}\n"
+    )
+    (tmp_path / "env.proto").write_text(
+        'syntax = "proto3";\nimport "loose.proto";\n'
+        "message Env {\n  oneof payload {\n    Loose loose = 1;\n  }\n  uint32 timeout = 5;\n}\n"
+    )
+    codec = erc_codec.Codec.from_path(tmp_path, root="Env")
+    payload = codec.message_class("Loose")(b=1)
+    envelope = codec.message_class("Env")(loose=payload)
+    data = codec.encode(payload, "exact")
+    assert data == envelope.SerializePartialToString() == bytes.fromhex("0a021001")
+    assert codec.decode(data, strict=True) == ("loose", payload)
+    with_timeout = codec.encode(payload, "exact", timeout=3)
+    assert with_timeout == bytes.fromhex("0a0210012803")
+    decoded = codec.decode(with_timeout, strict=True)
+    assert (decoded.kind, decoded.message, decoded.metadata) == ("loose", payload, {"timeout": 3})
