@@ -68,7 +68,7 @@ class Codec(Envelope):
             schema.message_class(self.root),
             self._sizes.max_size(self.root),
             functools.partial(contract, self._sizes),
-            functools.partial(refusal, self._sizes),
+            functools.partial(refusal, self._sizes, schema.root),
         )
 
     def _load(
@@ -257,7 +257,7 @@ class MessageCodec(Plain, Codec):
             schema.message_class(self.root),
             self._sizes.max_size(self.root),
             functools.partial(contract, self._sizes),
-            functools.partial(refusal, self._sizes),
+            functools.partial(refusal, self._sizes, schema.root),
         )
 
 

@@ -39,9 +39,10 @@ from operator import attrgetter
 from typing import Any, NamedTuple
 
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
+from google.protobuf.descriptor_pb2 import FieldDescriptorProto
 from google.protobuf.message import Message
 
-from ._errors import EncodeError
+from ._errors import EncodeError, SchemaError
 from ._paths import entry_path
 from .schema import Sizes, encode_varint, enum_of, message_of
 
@@ -87,9 +88,10 @@ def _enum_tags(sizes: Sizes, descriptor: Descriptor, tags: dict[bytes, set[bytes
             continue
         if (
             field.is_repeated
+            or sizes.repeated(field)
             or field.type in (_T.TYPE_STRING, _T.TYPE_BYTES)
             or sizes.int_range(field) is not None
-            or field.is_required
+            or sizes.required(field)
         ):
             return False
         if field.type == _T.TYPE_ENUM:
@@ -116,17 +118,19 @@ def checker(sizes: Sizes, descriptor: Descriptor) -> Check | None:
 
 
 def _required_check(sizes: Sizes, descriptor: Descriptor) -> Check | None:
-    """A check that every proto2 ``required`` field is set, in the message and in each
-    submessage it holds (a submessage that is absent is sent as nothing, so is not asked)."""
-    wanted: dict[str, list[str]] = {}  # message full name -> its required fields
+    """A check that every field nanopb requires (proto2 ``required``, or ``label_override``
+    ``LABEL_REQUIRED``) is sent, in the message and in each submessage it holds (a submessage
+    that is absent is sent as nothing, so is not asked). A required field that protobuf
+    repeats is the count check's (exactly one item)."""
+    wanted: dict[str, list[FieldDescriptor]] = {}  # message full name -> its required fields
     pending, seen = [descriptor], {descriptor.full_name}
     while pending:
         message = pending.pop()
         for field in message.fields:
             if sizes.ignored(field):
                 continue
-            if field.is_required:
-                wanted.setdefault(message.full_name, []).append(field.name)
+            if sizes.required(field) and not field.is_repeated:
+                wanted.setdefault(message.full_name, []).append(field)
             sub = field.message_type
             if sub is not None and sub.full_name not in seen:
                 seen.add(sub.full_name)
@@ -138,12 +142,28 @@ def _required_check(sizes: Sizes, descriptor: Descriptor) -> Check | None:
         stack: list[tuple[Message, str]] = [(root, top)]
         while stack:
             message, path = stack.pop()
-            for name in wanted.get(message.DESCRIPTOR.full_name, ()):
-                if not message.HasField(name):
-                    raise EncodeError(f"{path}.{name} is required (proto2) but not set")
+            for field in wanted.get(message.DESCRIPTOR.full_name, ()):
+                if not _sent(message, field):
+                    raise EncodeError(f"{path}.{field.name} is {_why_required(field)}")
             stack.extend(_submessages(message, path))
 
     return check
+
+
+def _sent(message: Message, field: FieldDescriptor) -> bool:
+    """Whether protobuf writes single field ``field`` of ``message``: set, if it has presence;
+    else holding other than its default (proto3 sends no default)."""
+    if field.has_presence:
+        return message.HasField(field.name)
+    return any(listed.number == field.number for listed, _ in message.ListFields())
+
+
+def _why_required(field: FieldDescriptor) -> str:
+    if field.is_required:
+        return "required (proto2) but not set"
+    if field.has_presence:
+        return "required (nanopb label_override) but not set"
+    return "required (nanopb label_override) but holds its default, which protobuf does not send"
 
 
 def _submessages(message: Message, path: str) -> Iterator[tuple[Message, str]]:
@@ -202,6 +222,11 @@ class _Source:
         for field in descriptor.fields:
             if self._sizes.ignored(field):
                 continue
+            mismatch = self._sizes.wire_mismatch(field)
+            if mismatch is not None:
+                raise SchemaError(
+                    f"{field.full_name}: {mismatch}; erc-codec cannot send it as nanopb reads it"
+                )
             path = prefix + field.name
             read = (
                 f"getattr({var}, {field.name!r})"
@@ -246,7 +271,7 @@ def _checked_when_set(sizes: Sizes, field: FieldDescriptor) -> bool:
     """Whether a field's value is checked only when set: ``fixed_length`` bytes with presence,
     whose unset value (``b""``) is sent as nothing."""
     return (
-        field.type == _T.TYPE_BYTES
+        sizes.field_type(field) == _T.TYPE_BYTES
         and not field.is_repeated
         and field.has_presence
         and bool(sizes.options(field).fixed_length)
@@ -259,18 +284,21 @@ def _field_check(sizes: Sizes, field: FieldDescriptor, path: str) -> Callable[[A
     element = _element_check(sizes, field)
     if not field.is_repeated:
         return lambda value, prefix: element(value, f"{prefix}.{path}")
-    count = sizes.max_count(field)
-    fixed = count is not None and bool(sizes.options(field).fixed_count)
+    if sizes.repeated(field):
+        count = sizes.max_count(field)
+        fixed = count is not None and bool(sizes.options(field).fixed_count)
+        limit, need = f"its max_count {count}", "fixed_count needs"
+    else:  # label_override: nanopb holds one value (a required one exactly one)
+        count, fixed = 1, sizes.required(field)
+        limit, need = "the one nanopb holds (label_override)", "label_override REQUIRED needs"
     key = _key_check(sizes, field)
 
     def check(value: Any, prefix: str) -> None:
         where = f"{prefix}.{path}"
         if count is not None and len(value) > count:
-            raise EncodeError(f"{where} holds {len(value)} items, more than its max_count {count}")
+            raise EncodeError(f"{where} holds {len(value)} items, more than {limit}")
         if fixed and len(value) != count:
-            raise EncodeError(
-                f"{where} holds {len(value)} items; fixed_count needs exactly {count}"
-            )
+            raise EncodeError(f"{where} holds {len(value)} items; {need} exactly {count}")
         if isinstance(value, Mapping):
             for name, item in value.items():
                 if key is not None:
@@ -305,13 +333,19 @@ def _element_check(sizes: Sizes, field: FieldDescriptor) -> Callable[[Any, str],
         return _enum_item(field)
     if field.type in (_T.TYPE_STRING, _T.TYPE_BYTES):
         limit = sizes.max_bytes(field)
+        kind = sizes.field_type(field)  # as nanopb types it: a type_override decides
         # fixed_length bytes without presence too: protobuf sends b"" as nothing, which nanopb
         # reads as max_size zeros (and sends as such), not as the b"" that was meant.
-        exact = field.type == _T.TYPE_BYTES and bool(sizes.options(field).fixed_length)
-        return _sized_item(limit, field.type == _T.TYPE_STRING, exact)
+        exact = kind == _T.TYPE_BYTES and bool(sizes.options(field).fixed_length)
+        return _sized_item(limit, kind == _T.TYPE_STRING, exact)
     bounds = sizes.int_range(field)
     if bounds is not None:
-        return _ranged_item(*bounds)
+        reason = (
+            "nanopb int_size"
+            if sizes.options(field).int_size
+            else "nanopb's type_override " + FieldDescriptorProto.Type.Name(sizes.field_type(field))  # type: ignore[arg-type]
+        )
+        return _ranged_item(*bounds, reason)
     if field.type == _T.TYPE_MESSAGE:
         nested = checker(sizes, message_of(field))
         if nested is not None:
@@ -331,24 +365,29 @@ def _enum_item(field: FieldDescriptor) -> Callable[[Any, str], None]:
 
 
 def _sized_item(limit: int | None, text: bool, exact: bool = False) -> Callable[[Any, str], None]:
+    """Check a string or bytes value (a ``str`` or ``bytes`` in Python, as declared) that nanopb
+    holds as a string (``text``: NUL-terminated) or as bytes."""
+
     def sized_item(value: Any, path: str) -> None:
-        length = len(value.encode("utf-8")) if text else len(value)
+        length = len(value.encode("utf-8")) if isinstance(value, str) else len(value)
         if limit is not None and length > limit:
             raise EncodeError(f"{path} is {length} bytes long, more than the {limit} allowed")
         if exact and length != limit:
             raise EncodeError(f"{path} is {length} bytes long; fixed_length needs exactly {limit}")
-        if text and "\0" in value:
+        nul = "\0" if isinstance(value, str) else b"\0"
+        if text and nul in value:
+            unit = "character" if isinstance(value, str) else "byte"
             raise EncodeError(
-                f"{path} holds a NUL at character {value.index(chr(0))}: nanopb stores strings "
+                f"{path} holds a NUL at {unit} {value.index(nul)}: nanopb stores strings "
                 "NUL-terminated, so it would arrive cut there"
             )
 
     return sized_item
 
 
-def _ranged_item(low: int, high: int) -> Callable[[Any, str], None]:
+def _ranged_item(low: int, high: int, reason: str) -> Callable[[Any, str], None]:
     def ranged_item(value: Any, path: str) -> None:
         if not low <= value <= high:
-            raise EncodeError(f"{path} = {value} does not fit nanopb int_size ({low}..{high})")
+            raise EncodeError(f"{path} = {value} does not fit {reason} ({low}..{high})")
 
     return ranged_item

@@ -152,7 +152,7 @@ class Envelope:
         envelope: type[Message],
         max_size: int,
         contract: Callable[[Descriptor], Contract | None],
-        refusal: Callable[[Message], str | None] | None = None,
+        refusal: Callable[[Message, bytes], str | None] | None = None,
     ) -> None:
         descriptor = descriptor_of(envelope)
         self._refusal = refusal  # what nanopb's decoder refuses, for strict decodes
@@ -262,9 +262,11 @@ class Envelope:
         try:
             body = serialize(message)
         except ProtobufEncodeError:  # an unset proto2 required field: the check names it
+            # No check, or one that passes: nanopb does not require it (label_override), and
+            # the contract, which asks nanopb's field model, has a check wherever it requires one.
             if check is not None:
                 check(message)
-            raise EncodeError(f"{message.DESCRIPTOR.full_name}: unset required fields") from None
+            body = message.SerializePartialToString()
         if check is not None and (screen is None or screen(body)):
             check(message)
         try:
@@ -309,7 +311,7 @@ class Envelope:
             rules = self._contracts[kind]
             if rules is not None:
                 rules.check(getattr(message, kind))
-            data = message.SerializeToString()
+            data = message.SerializePartialToString()  # required fields: the check's, as nanopb's
             if len(data) > self._max_size:
                 raise self._too_long(message, [b""], data)
             datagram = self._forms.in_form(data, mode)
@@ -334,7 +336,7 @@ class Envelope:
         headers, _, check, _ = member
         if check is not None:
             check(message)
-        body = message.SerializeToString()
+        body = message.SerializePartialToString()  # required fields: the check's, as nanopb's
         if len(body) >= len(headers):
             raise self._too_long(message, headers, body)
         return self._forms.in_form(headers[len(body)] + body, mode)
@@ -353,7 +355,7 @@ class Envelope:
                 setattr(envelope, name, value)
             except (TypeError, ValueError) as error:
                 raise EncodeError(f"{self._name}.{name} cannot be {value!r}: {error}") from None
-        data = envelope.SerializeToString()
+        data = envelope.SerializePartialToString()  # the payload is checked: encode did
         if len(data) > self._max_size:
             raise self._too_long(envelope, [b""], data)
         return data
@@ -473,6 +475,7 @@ class Envelope:
         error = strict_error(
             len(data),
             decoded.message,
+            self._forms.restore(data),  # what nanopb reads: the exact bytes, the envelope's
             f"{decoded.kind} payload",
             self._refusal,
             decoded.envelope_unknown_fields,

@@ -155,14 +155,17 @@ class Forms:
 def strict_error(
     size: int,
     message: Message,
+    exact: bytes,
     subject: str,
-    refusal: Callable[[Message], str | None] | None,
+    refusal: Callable[[Message, bytes], str | None] | None,
     around: tuple[UnknownField, ...] = (),
 ) -> DecodeError | None:
     """What a strict decode refuses in ``message``, decoded from a datagram of ``size`` bytes
-    (``subject`` names it: ``"gps_info payload"``, ``"Probe"``): fields its schema does not know,
-    with ``around``, those the envelope around it does not know (their path is its name), before
-    them; then what nanopb's decoder refuses (``refusal``); ``None`` if nothing."""
+    whose exact encoding (the root's: the envelope's, for a payload) is ``exact`` (``subject``
+    names it: ``"gps_info payload"``, ``"Probe"``): fields its schema does not know, with
+    ``around``, those the envelope around it does not know (their path is its name), before
+    them; then what nanopb's decoder refuses (``refusal``, given the message and the exact
+    bytes, which it reads as nanopb does); ``None`` if nothing."""
     found = []
     if around:
         found.append(_not_known("envelope", around[0].path, around, around[0].path))
@@ -173,7 +176,7 @@ def strict_error(
         return DecodeError(
             f"datagram of {size} bytes: {'; '.join(found)} (another schema?)", "unknown_fields"
         )
-    why = refusal(message) if refusal is not None else None
+    why = refusal(message, exact) if refusal is not None else None
     if why is not None:
         return DecodeError(f"nanopb's decoder refuses the {subject}: {why}")
     return None

@@ -37,7 +37,7 @@ class Plain:
         cls: type[Message],
         max_size: int,
         contract: Callable[[Descriptor], Contract | None],
-        refusal: Callable[[Message], str | None] | None = None,
+        refusal: Callable[[Message, bytes], str | None] | None = None,
     ) -> None:
         descriptor = descriptor_of(cls)
         self._refusal = refusal
@@ -102,7 +102,8 @@ class Plain:
         received = as_bytes(data)
         message = self._forms.parse(received)
         if strict:
-            error = strict_error(len(received), message, self._name, self._refusal)
+            exact = self._forms.restore(received)  # what nanopb reads: the exact bytes
+            error = strict_error(len(received), message, exact, self._name, self._refusal)
             if error is not None:
                 raise error
         return Decoded(self._name, message)

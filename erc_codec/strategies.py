@@ -6,8 +6,12 @@ back equal: declared enum values only, every integer over its full range (or its
 NaN makes equality useless), strings without NUL (nanopb stores them NUL-terminated) and bytes
 within their nanopb ``max_size`` (``fixed_length`` bytes exactly that long), repeated fields within
 ``max_count`` (``fixed_count`` ones exactly that many), proto2 ``required`` fields always set, and
-every submessage, oneof member and ``optional`` field both present and absent. Test your own
-handlers with it.
+every submessage, oneof member and ``optional`` field both present and absent. Fields are drawn as
+nanopb's generator types them (``Sizes.field_type``, ``repeated``, ``required``): a repeated field
+whose ``label_override`` makes it single holds at most one item (a required one exactly one, a
+required proto3 scalar never its default, which protobuf would not send), a string whose
+``type_override`` is bytes may hold NULs and ``max_length + 1`` bytes, bytes overridden to a
+string hold no NUL. Test your own handlers with it.
 """
 
 from typing import Any
@@ -74,8 +78,11 @@ class _Builder:
             if oneof is not None:
                 member = st.fixed_dictionaries({field.name: self._field(field)})
                 oneofs.setdefault(oneof.name, [st.just({})]).append(member)
-            elif field.has_presence and not field.is_required:  # submessages, `optional`s
+            elif field.has_presence and not sizes.required(field):  # submessages, `optional`s
                 optional[field.name] = self._field(field)
+            elif sizes.required(field) and not field.is_repeated and not field.has_presence:
+                # a proto3 scalar nanopb requires (label_override): protobuf sends no default
+                required[field.name] = self._field(field).filter(bool)
             else:
                 required[field.name] = self._field(field)
         fields = st.fixed_dictionaries(required, optional=optional)
@@ -89,6 +96,9 @@ class _Builder:
         value = self._scalar(field)
         if not field.is_repeated:
             return value
+        if not self._codec.nanopb.repeated(field):  # label_override: nanopb holds one value
+            least = 1 if self._codec.nanopb.required(field) else 0
+            return st.lists(value, min_size=least, max_size=1)
         count = self._codec.nanopb.max_count(field)
         if count is not None and self._codec.nanopb.options(field).fixed_count:
             return st.lists(value, min_size=count, max_size=count)
@@ -120,15 +130,22 @@ class _Builder:
         if kind == _T.TYPE_MESSAGE:
             return self.message(message_of(field))
         limit = self._codec.nanopb.max_bytes(field)
+        room = _UNBOUNDED_TEXT if limit is None else limit
+        # nanopb's type decides what a value may hold; protobuf's, what Python holds it in
+        string = self._codec.nanopb.field_type(field) == _T.TYPE_STRING
+        exact = not string and limit is not None and self._codec.nanopb.options(field).fixed_length
         if kind == _T.TYPE_BYTES:
-            if limit is not None and self._codec.nanopb.options(field).fixed_length:
-                return st.binary(min_size=limit, max_size=limit)
-            return st.binary(max_size=_UNBOUNDED_TEXT if limit is None else limit)
+            if exact:
+                return st.binary(min_size=room, max_size=room)
+            if string:  # no NUL: nanopb's string would end there
+                return st.binary(max_size=room).map(lambda value: value.replace(b"\0", b"\1"))
+            return st.binary(max_size=room)
         if kind == _T.TYPE_STRING:
-            room = _UNBOUNDED_TEXT if limit is None else limit
+            if exact:  # a string written as fixed_length bytes: ASCII fills them exactly
+                return st.text(st.characters(max_codepoint=0x7F), min_size=room, max_size=room)
             # codec="utf-8" leaves out the surrogates (category Cs): str, but no UTF-8
-            text = st.text(st.characters(codec="utf-8", exclude_characters="\0"), max_size=room)
-            return text.map(lambda value: _fit_utf8(value, room))
+            characters = st.characters(codec="utf-8", exclude_characters="\0" if string else "")
+            return st.text(characters, max_size=room).map(lambda value: _fit_utf8(value, room))
         raise SchemaError(f"{field.full_name}: a group, which nanopb does not support")
 
 

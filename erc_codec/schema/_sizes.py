@@ -71,8 +71,54 @@ _DELIMITED = (
     "message (wire type 2), so each side refuses or drops the other's bytes; make it a "
     "length-prefixed message field (nanopb's generated code stays the same)"
 )
-_SIGNED = {_T.TYPE_INT32, _T.TYPE_INT64, _T.TYPE_SINT32, _T.TYPE_SINT64}
-_UNSIGNED = {_T.TYPE_UINT32, _T.TYPE_UINT64}
+# nanopb's int_size values (IS_8 .. IS_64; IS_DEFAULT is 0) as bits.
+_INT_BITS = {8: 8, 16: 16, 32: 32, 64: 64}
+# Varint integer types: how nanopb's decoder reads them (pb_dec_varint), and their own width.
+_VARINT_KIND = {
+    _T.TYPE_INT32: ("signed", 32),
+    _T.TYPE_INT64: ("signed", 64),
+    _T.TYPE_UINT32: ("unsigned", 32),
+    _T.TYPE_UINT64: ("unsigned", 64),
+    _T.TYPE_SINT32: ("zigzag", 32),
+    _T.TYPE_SINT64: ("zigzag", 64),
+}
+# What protobuf's Python runtime lets an integer field hold.
+_PYTHON_RANGE = {
+    _T.TYPE_INT32: (-(2**31), 2**31 - 1),
+    _T.TYPE_SINT32: (-(2**31), 2**31 - 1),
+    _T.TYPE_SFIXED32: (-(2**31), 2**31 - 1),
+    _T.TYPE_INT64: (-(2**63), 2**63 - 1),
+    _T.TYPE_SINT64: (-(2**63), 2**63 - 1),
+    _T.TYPE_SFIXED64: (-(2**63), 2**63 - 1),
+    _T.TYPE_UINT32: (0, 2**32 - 1),
+    _T.TYPE_FIXED32: (0, 2**32 - 1),
+    _T.TYPE_UINT64: (0, 2**64 - 1),
+    _T.TYPE_FIXED64: (0, 2**64 - 1),
+}
+# Types written alike on the wire: a type_override within one class changes no byte.
+_WIRE_CLASS = {
+    **dict.fromkeys((_T.TYPE_INT64, _T.TYPE_UINT32, _T.TYPE_UINT64, _T.TYPE_BOOL), _T.TYPE_INT32),
+    _T.TYPE_ENUM: _T.TYPE_INT32,
+    _T.TYPE_SINT64: _T.TYPE_SINT32,
+    **dict.fromkeys((_T.TYPE_SFIXED32, _T.TYPE_FLOAT), _T.TYPE_FIXED32),
+    **dict.fromkeys((_T.TYPE_SFIXED64, _T.TYPE_DOUBLE), _T.TYPE_FIXED64),
+    _T.TYPE_BYTES: _T.TYPE_STRING,
+}
+_UNPACKABLE = {_T.TYPE_STRING, _T.TYPE_BYTES, _T.TYPE_MESSAGE, _T.TYPE_GROUP}
+_TYPE_NAMES = {
+    number: name[len("TYPE_") :]
+    for name, number in vars(_T).items()
+    if name.startswith("TYPE_") and isinstance(number, int)
+}
+
+
+def _packed_enum_bits(values: list[int], signed: bool) -> int:
+    """The width of a ``packed_enum``'s C type: GCC's smallest holding every value."""
+    for bits in (8, 16, 32):
+        low, high = (-(2 ** (bits - 1)), 2 ** (bits - 1) - 1) if signed else (0, 2**bits - 1)
+        if low <= min(values) and max(values) <= high:
+            return bits
+    return 64
 
 
 class Sizes:
@@ -183,24 +229,107 @@ class Sizes:
         return int(options.max_count) if options.HasField("max_count") else None
 
     def max_bytes(self, field: FieldDescriptor) -> int | None:
-        """The most bytes a string (without its NUL) or bytes value may hold."""
+        """The most bytes a string (without its NUL) or bytes value may hold, as nanopb types
+        the field (``field_type``): a string's ``max_length`` sizes its C array (length + 1)
+        whatever its ``type_override``."""
         options = self.options(field)
-        if field.type == _T.TYPE_STRING:
-            if options.HasField("max_length"):
-                return int(options.max_length)
-            return int(options.max_size) - 1 if options.HasField("max_size") else None
-        return int(options.max_size) if options.HasField("max_size") else None
+        if field.type == _T.TYPE_STRING and options.HasField("max_length"):
+            limit = int(options.max_length) + 1
+        elif options.HasField("max_size"):
+            limit = int(options.max_size)
+        else:
+            return None
+        return limit - 1 if self.field_type(field) == _T.TYPE_STRING else limit
+
+    # -- the field as nanopb's generator sees it -----------------------------------------------
+    # The one model of a field's nanopb-effective cardinality and type: sizes, the contract,
+    # strict decoding and erc_codec.strategies all ask these, never the raw descriptor.
+
+    def field_type(self, field: FieldDescriptor) -> int:
+        """The type nanopb gives ``field``: its ``type_override``, else the declared type."""
+        options = self.options(field)
+        return int(options.type_override) if options.HasField("type_override") else field.type
+
+    def repeated(self, field: FieldDescriptor) -> bool:
+        """Whether nanopb sees ``field`` as repeated (its ``label_override``, else the label)."""
+        options = self.options(field)
+        if options.HasField("label_override"):
+            return bool(options.label_override == _T.LABEL_REPEATED)
+        return field.is_repeated
+
+    def required(self, field: FieldDescriptor) -> bool:
+        """Whether nanopb's decoder demands ``field`` ("missing required field"): a proto2
+        ``required`` field, or any field whose ``label_override`` is ``LABEL_REQUIRED``."""
+        options = self.options(field)
+        if options.HasField("label_override"):
+            return bool(options.label_override == _T.LABEL_REQUIRED)
+        return field.is_required
+
+    def wire_mismatch(self, field: FieldDescriptor) -> str | None:
+        """Why protobuf's runtime, following the declaration, writes ``field`` in bytes nanopb's
+        decoder, following its overrides, reads otherwise or refuses; ``None`` when they agree
+        (a ``type_override`` within one wire encoding, a ``label_override`` on a field protobuf
+        does not pack)."""
+        declared, nanopb = field.type, self.field_type(field)
+        if _WIRE_CLASS.get(declared, declared) != _WIRE_CLASS.get(nanopb, nanopb):
+            return (
+                f"type_override {_TYPE_NAMES[nanopb]} of a {_TYPE_NAMES[declared]} field: "
+                "the two are written differently on the wire"
+            )
+        if field.is_repeated and not self.repeated(field) and field.is_packed:
+            return (
+                "label_override makes a packed repeated field single: protobuf writes it "
+                "packed, which nanopb refuses for a single value (wrong wire type)"
+            )
+        if not field.is_repeated and self.repeated(field) and nanopb not in _UNPACKABLE:
+            return (
+                "label_override makes a single number an array: nanopb writes it packed, "
+                "which protobuf does not read into a single field"
+            )
+        return None
+
+    def c_integer(self, field: FieldDescriptor) -> tuple[str, int] | None:
+        """How nanopb's decoder stores a varint field's value, for its "integer too large":
+        ``("unsigned", bits)`` (uint32, uint64, an enum without negative values), ``("zigzag",
+        bits)`` (sint32, sint64) or ``("signed", bits)`` (int32, int64, an enum with negative
+        values), ``bits`` the width of the C type (``int_size``, else the type's own; an enum's
+        C type: ``enum_intsize``, else an ``int``, or the smallest type holding its values
+        when ``packed_enum``). ``None`` for a field that is no such integer (bool included)."""
+        kind = self.field_type(field)
+        if kind == _T.TYPE_ENUM and field.enum_type is not None:
+            values = [value.number for value in enum_of(field).values]
+            enum = self._options.enums[enum_of(field).full_name]
+            signed = min(values) < 0
+            bits = _INT_BITS.get(int(enum.enum_intsize), 0)
+            if not bits:
+                bits = _packed_enum_bits(values, signed) if enum.packed_enum else 32
+            return ("signed" if signed else "unsigned"), bits
+        if kind not in _VARINT_KIND:
+            return None
+        family, natural = _VARINT_KIND[kind]
+        return family, _INT_BITS.get(int(self.options(field).int_size), 0) or natural
 
     def int_range(self, field: FieldDescriptor) -> tuple[int, int] | None:
-        """The values a varint field with nanopb ``int_size`` can hold, else ``None``."""
-        bits = int(self.options(field).int_size)
-        if not bits:
+        """The values of an integer field nanopb's decoder takes unchanged, when narrower than
+        what protobuf's runtime lets the field hold (an ``int_size``, a ``type_override`` to a
+        narrower or unsigned type), else ``None``."""
+        if field.type not in _PYTHON_RANGE:
             return None
-        if field.type in _SIGNED:
-            return -(2 ** (bits - 1)), 2 ** (bits - 1) - 1
-        if field.type in _UNSIGNED:
-            return 0, 2**bits - 1
-        return None
+        declared = _PYTHON_RANGE[field.type]
+        stored = self.c_integer(field) if self.field_type(field) != _T.TYPE_ENUM else None
+        if self.field_type(field) == _T.TYPE_BOOL:
+            effective = (0, 1)
+        elif stored is None:
+            return None
+        else:
+            family, bits = stored
+            effective = (
+                (0, 2**bits - 1)
+                if family == "unsigned"
+                else (-(2 ** (bits - 1)), 2 ** (bits - 1) - 1)
+            )
+        low, high = max(declared[0], effective[0]), min(declared[1], effective[1])
+        return None if (low, high) == declared else (low, high)
 
     # -- sizes ---------------------------------------------------------------------------------
 
@@ -287,7 +416,7 @@ class Sizes:
         if options.type in (_FT_CALLBACK, _FT_POINTER) and not self._any_allocation:
             kind = "FT_CALLBACK" if options.type == _FT_CALLBACK else "FT_POINTER"
             return f"nanopb type {kind} (sized from nanopb_version 1.0.0-dev on, if bounded)"
-        if self._repeated(field) and self.max_count(field) is None:
+        if self.repeated(field) and self.max_count(field) is None:
             return "repeated field without nanopb max_count"
         sub = field.message_type
         if sub is not None and not self._generated(sub):
@@ -370,30 +499,20 @@ class Sizes:
                 groups.append((oneof, unions[oneof.full_name]))
         return groups
 
-    def _repeated(self, field: FieldDescriptor) -> bool:
-        """Whether nanopb sees ``field`` as repeated (its ``label_override``, else the label)."""
-        options = self.options(field)
-        if options.HasField("label_override"):
-            return bool(options.label_override == _T.LABEL_REPEATED)
-        return field.is_repeated
-
     def _field_size(self, field: FieldDescriptor) -> int | None:
         if self._problem(field) is not None:
             return None
         options = self.options(field)
-        kind = options.type_override if options.HasField("type_override") else field.type
+        kind = self.field_type(field)
         payload: int | None
         if kind in (_T.TYPE_MESSAGE, _T.TYPE_GROUP):  # a group here: written DELIMITED
             sub = self._memo.get(message_of(field).full_name)  # absent: open, contains itself
             payload = None if sub is None else sub + varint_size(sub)
         elif kind in (_T.TYPE_STRING, _T.TYPE_BYTES):
-            # max_length sizes a field written as a string, whatever its type_override
-            limit = (
-                options.max_length + 1
-                if field.type == _T.TYPE_STRING and options.HasField("max_length")
-                else options.max_size
-            )
-            payload = varint_size(limit) + limit - (1 if kind == _T.TYPE_STRING else 0)
+            limit = self.max_bytes(field)  # the C array's size, less a string's NUL
+            assert limit is not None  # _problem said otherwise
+            array = limit + 1 if kind == _T.TYPE_STRING else limit
+            payload = varint_size(array) + limit
         elif kind == _T.TYPE_ENUM and not self._found(field):
             payload = 10  # the generator's guess for an enum it does not find (see _names)
         elif kind == _T.TYPE_ENUM:
@@ -405,7 +524,7 @@ class Sizes:
         if payload is None:
             return None
         tag = varint_size(field.number << 3)
-        if not self._repeated(field):
+        if not self.repeated(field):
             return tag + payload
         count = int(options.max_count)
         return (tag + payload) * count + (1 if count == 1 else 0)
@@ -416,7 +535,7 @@ class Sizes:
         oneof, repeated, a callback or a pointer it counts as a guessed 10 bytes instead."""
         return (
             not self._found(field)
-            and not self._repeated(field)
+            and not self.repeated(field)
             and field.containing_oneof is None
             and self.options(field).type not in (_FT_CALLBACK, _FT_POINTER)
         )
