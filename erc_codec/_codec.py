@@ -120,13 +120,14 @@ class Codec(Envelope):
     def from_source(cls, source: SchemaSource) -> "Codec":
         """Load the schema ``source`` names (``find_schema``): a folder, or a git revision
         ``GITDIR#ref=REF[,subdir=PATH]`` read without a checkout, with its include folders,
-        options file and generator settings."""
+        options file, generator settings and the generator version whose sizing rules apply."""
         return load_source(
             source,
             lambda tree: cls.from_schema(
                 load_schema(tree.folder, source.root, source.include, tree.shown),
                 source.options_file,
                 source.settings,
+                source.nanopb_version,
             ),
         )
 

@@ -3,13 +3,14 @@
 The first of these that is there wins:
 1. the tree a caller names (``--proto TREE``);
 2. the environment variable ``ERC_CODEC_PROTO``;
-3. ``[tool.erc-codec] proto = "..."`` (with ``root``, ``include``, ``options_file`` and
-   ``settings``) in the nearest ``pyproject.toml`` from the working folder up (paths there
-   relative to that file's folder);
+3. ``[tool.erc-codec] proto = "..."`` (with ``root``, ``include``, ``options_file``,
+   ``settings`` and ``nanopb_version``) in the nearest ``pyproject.toml`` from the working
+   folder up (paths there relative to that file's folder);
 4. the packaged rover schema.
 
-nanopb's generator inputs (include folders ``-I``, the options file ``-f``, settings ``-s``) come
-with the source: given by the caller (a command line), each replaces the configuration's.
+nanopb's generator inputs (include folders ``-I``, the options file ``-f``, settings ``-s``, the
+generator version whose sizing rules apply) come with the source: given by the caller (a command
+line), each replaces the configuration's.
 
 A tree is a folder or a git revision in erc-lint's spelling, ``GITDIR#ref=REF[,subdir=PATH]``,
 read from the repository's objects (``erc_codec.schema.open_tree``), never checked out. What a
@@ -26,6 +27,7 @@ from typing import Any, NamedTuple, TypeVar
 
 from ._errors import SchemaError
 from .schema import (
+    NANOPB_VERSIONS,
     FileError,
     GitError,
     GitSpec,
@@ -60,7 +62,8 @@ class SchemaSource(NamedTuple):
     """A schema to load: its ``tree`` (a folder or a git revision, as spelled), the envelope
     message ``root``, further import folders ``include``, and ``origin``: ``"--proto"``,
     ``"ERC_CODEC_PROTO"``, the path of the ``pyproject.toml`` that named it, or ``"packaged"``;
-    and nanopb's generator's ``options_file`` (``-f``) and ``settings`` (``-s``)."""
+    and nanopb's generator's ``options_file`` (``-f``) and ``settings`` (``-s``), and the
+    ``nanopb_version`` whose sizing rules apply (one of ``erc_codec.schema.NANOPB_VERSIONS``)."""
 
     tree: str
     root: str
@@ -68,6 +71,7 @@ class SchemaSource(NamedTuple):
     origin: str
     options_file: str = DEFAULT_OPTIONS_FILE
     settings: tuple[str, ...] = ()
+    nanopb_version: str = NANOPB_VERSIONS[0]
 
 
 @functools.cache
@@ -89,17 +93,18 @@ def find_schema(
     include: Sequence[str] | None = None,
     options_file: str | None = None,
     settings: Sequence[str] | None = None,
+    nanopb_version: str | None = None,
 ) -> SchemaSource:
     """The schema to use: ``tree`` if given, else ``ERC_CODEC_PROTO`` in ``environ`` (the
     process's environment), else the nearest ``pyproject.toml`` from ``start`` (the working
     folder) up that has a ``[tool.erc-codec]`` table, else the packaged one. ``root``,
-    ``include``, ``options_file`` and ``settings``, where given (not ``None``), replace what the
-    source names (``PBEnvelope``, no include folder, ``%s.options`` and no setting unless a
-    configuration says otherwise).
+    ``include``, ``options_file``, ``settings`` and ``nanopb_version``, where given (not
+    ``None``), replace what the source names (``PBEnvelope``, no include folder, ``%s.options``,
+    no setting and ``0.4.9``'s rules unless a configuration says otherwise).
 
     A configuration that cannot be read or holds what it should not is a ``SchemaError`` naming
     the file and the key."""
-    given = _Given(root, include, options_file, settings)
+    given = _Given(root, include, options_file, settings, nanopb_version)
     if tree is not None:
         return given.over(SchemaSource(tree, "PBEnvelope", (), "--proto"))
     value = (os.environ if environ is None else environ).get(ENVIRONMENT, "")
@@ -126,6 +131,7 @@ class _Given(NamedTuple):
     include: Sequence[str] | None
     options_file: str | None
     settings: Sequence[str] | None
+    nanopb_version: str | None
 
     def over(self, source: SchemaSource) -> SchemaSource:
         return source._replace(
@@ -133,6 +139,7 @@ class _Given(NamedTuple):
             include=source.include if self.include is None else tuple(self.include),
             options_file=source.options_file if self.options_file is None else self.options_file,
             settings=source.settings if self.settings is None else tuple(self.settings),
+            nanopb_version=self.nanopb_version or source.nanopb_version,
         )
 
 
@@ -156,7 +163,7 @@ def _table(path: Path) -> dict[str, Any] | None:
     return table
 
 
-_KEYS = ("proto", "root", "include", "options_file", "settings")
+_KEYS = ("proto", "root", "include", "options_file", "settings", "nanopb_version")
 
 
 def _configured(path: Path, table: dict[str, Any]) -> SchemaSource:
@@ -168,6 +175,7 @@ def _configured(path: Path, table: dict[str, Any]) -> SchemaSource:
     proto, named_root = table.get("proto"), table.get("root", "PBEnvelope")
     include, settings = table.get("include", []), table.get("settings", [])
     options_file = table.get("options_file", DEFAULT_OPTIONS_FILE)
+    nanopb_version = table.get("nanopb_version", NANOPB_VERSIONS[0])
     if not isinstance(proto, str) or not proto.strip():
         raise SchemaError(
             f"{path}: [tool.{_TABLE}] proto must be a tree: a folder or GITDIR#ref=REF"
@@ -184,6 +192,11 @@ def _configured(path: Path, table: dict[str, Any]) -> SchemaSource:
         raise SchemaError(
             f'{path}: [tool.{_TABLE}] settings must be a list of generator settings ("max_size=61")'
         )
+    if nanopb_version not in NANOPB_VERSIONS:
+        raise SchemaError(
+            f"{path}: [tool.{_TABLE}] nanopb_version must be one of "
+            f"{', '.join(map(repr, NANOPB_VERSIONS))}, not {nanopb_version!r}"
+        )
     here = path.parent
     return SchemaSource(
         _beside(here, proto),
@@ -192,6 +205,7 @@ def _configured(path: Path, table: dict[str, Any]) -> SchemaSource:
         str(path),
         given_options_file(options_file, here),
         tuple(settings),
+        nanopb_version,
     )
 
 

@@ -1,7 +1,8 @@
 """``[tool.erc-lint]`` in a pyproject.toml: embedded roots and their size budgets, the rules to
 run (``use`` and ``except``, rule IDs or categories; ``ignore``, rule IDs; ``ignore_only``, rule
 IDs each with the paths it is not reported for), paths to exclude, and nanopb's generator inputs
-(``include`` folders, ``options_file``, ``settings``; paths relative to the file's folder).
+(``include`` folders, ``options_file``, ``settings``; paths relative to the file's folder) with
+the ``nanopb_version`` whose sizing rules apply.
 
 Every value is checked as it is read: a wrong type, a name that is no rule or category, a budget
 for a message that is not a root, is a ``ConfigError`` naming the file, the line and the key
@@ -17,6 +18,7 @@ from typing import Any, NamedTuple
 
 from erc_codec import SchemaError
 from erc_codec.schema import (
+    NANOPB_VERSIONS,
     FileError,
     file_exists,
     given_options_file,
@@ -60,6 +62,7 @@ _KEYS = (
     "include",
     "options_file",
     "settings",
+    "nanopb_version",
 )
 _LISTS = ("roots", "ignore", "exclude", "use", "except", "include", "settings")
 DEFAULT_OPTIONS_FILE = "%s.options"  # nanopb's generator's -f: each .proto's own, beside it
@@ -81,6 +84,7 @@ class Config(NamedTuple):
     include: tuple[str, ...] = ()
     options_file: str = DEFAULT_OPTIONS_FILE
     settings: tuple[str, ...] = ()
+    nanopb_version: str = NANOPB_VERSIONS[0]  # whose generator's sizing rules apply
 
     def ignored_at(self, rule: str, path: str) -> bool:
         """Whether ``ignore_only`` silences ``rule`` for the file at ``path`` (tree-relative)."""
@@ -161,7 +165,19 @@ def read_config(
         include=include,
         options_file=options_file,
         settings=settings,
+        nanopb_version=_nanopb_version(path, table),
     )
+
+
+def _nanopb_version(path: Path, table: dict[str, Any]) -> str:
+    """``nanopb_version``: one of ``NANOPB_VERSIONS`` (the first when not set)."""
+    version = table.get("nanopb_version", NANOPB_VERSIONS[0])
+    if version not in NANOPB_VERSIONS:
+        raise ConfigError(
+            f"{_at(path, 'nanopb_version')} [tool.erc-lint] nanopb_version must be one of "
+            f"{', '.join(map(repr, NANOPB_VERSIONS))}, not {version!r}"
+        )
+    return str(version)
 
 
 def _generator(

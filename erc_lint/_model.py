@@ -24,6 +24,7 @@ from google.protobuf import descriptor_pb2
 
 from erc_codec import SchemaError
 from erc_codec.schema import (
+    NANOPB_VERSIONS,
     Declaration,
     Extension,
     FileError,
@@ -278,6 +279,7 @@ class Revision:
         "_files",
         "_has_options",
         "_nanopb",
+        "_nanopb_version",
         "_options_file",
         "_settings",
         "_sizes",
@@ -290,12 +292,18 @@ class Revision:
     )
 
     def __init__(
-        self, tree: LoadedTree, options_file: str = "%s.options", settings: Sequence[str] = ()
+        self,
+        tree: LoadedTree,
+        options_file: str = "%s.options",
+        settings: Sequence[str] = (),
+        nanopb_version: str = NANOPB_VERSIONS[0],
     ) -> None:
         self.tree = tree
-        # nanopb's generator's -f and -s (its -I are the tree's include folders)
+        # nanopb's generator's -f and -s (its -I are the tree's include folders), and whose
+        # generator's sizing rules apply
         self._options_file = options_file
         self._settings = tuple(settings)
+        self._nanopb_version = nanopb_version
         self.messages: dict[str, Message] = {}
         self.enums: dict[str, Enum] = {}
         self.services: dict[str, Service] = {}
@@ -444,7 +452,8 @@ class Revision:
             set_ = descriptor_pb2.FileDescriptorSet(file=files.values())
             try:
                 schema = Schema(self.root, root, set_, self.tree.includes)
-                size = Sizes(schema, self._options_file, self._settings).max_size(root)
+                sizes = Sizes(schema, self._options_file, self._settings, self._nanopb_version)
+                size = sizes.max_size(root)
             except FileError:
                 raise  # a .options file that is no file stops the run; it is no missing size
             except SchemaError:
@@ -526,11 +535,15 @@ def allocation(field: Field, options: Options) -> str:
 
 
 def build(
-    tree: LoadedTree, options_file: str = "%s.options", settings: Sequence[str] = ()
+    tree: LoadedTree,
+    options_file: str = "%s.options",
+    settings: Sequence[str] = (),
+    nanopb_version: str = NANOPB_VERSIONS[0],
 ) -> Revision:
-    """The model of a loaded tree, its nanopb options and sizes those of nanopb's generator run
-    with the tree's include folders, ``-f options_file`` and ``-s`` for each of ``settings``."""
-    revision = Revision(tree, options_file, settings)
+    """The model of a loaded tree, its nanopb options and sizes those of nanopb's generator
+    ``nanopb_version`` run with the tree's include folders, ``-f options_file`` and ``-s`` for
+    each of ``settings``."""
+    revision = Revision(tree, options_file, settings, nanopb_version)
     pending: list[tuple[Field, str]] = []  # extensions and the messages they extend
     for proto in tree.files.values():
         _add_file(revision, proto, pending)

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
 
 from erc_codec.schema import (
+    NANOPB_VERSIONS,
     GitSpec,
     Repository,
     TreeSource,
@@ -16,7 +17,7 @@ from erc_codec.schema import (
 )
 
 from ._config import DEFAULT_OPTIONS_FILE, LEDGER, Config
-from ._errors import LintError
+from ._errors import ConfigError, LintError
 from ._finding import Finding
 from ._inputs import baseline_keys, missing_folder, missing_in_git, opened, relocate
 from ._loader import LoadedTree, load_tree
@@ -80,18 +81,25 @@ def compare(
 ) -> Outcome:
     """The findings of NEW against OLD (``None``: against nothing, which only tree rules see),
     less those ``baseline`` holds. Both are loaded with ``includes`` (else the configuration's
-    ``include`` folders) and its nanopb ``options_file`` and ``settings``; a setting nanopb
-    cannot read, or an options file found nowhere, is a ``SchemaError``."""
+    ``include`` folders) and its nanopb ``options_file`` and ``settings``, sized by the rules
+    of its ``nanopb_version``; a setting nanopb cannot read, or an options file found nowhere,
+    is a ``SchemaError``."""
     roots = [Path(folder) for folder in includes or config.include]
     nanopb = (config.options_file, config.settings)
     if nanopb != (DEFAULT_OPTIONS_FILE, ()):  # checked now: sizes that cannot be are no finding
         resolve_options(new.folder, (), roots, *nanopb)
+    version = config.nanopb_version
+    if version not in NANOPB_VERSIONS:  # checked now: a size by no generator's rules is none
+        raise ConfigError(
+            f"nanopb_version {version!r}: erc-lint knows the generator rules of "
+            f"{' and '.join(NANOPB_VERSIONS)}"
+        )
     loaded = load_tree(new.folder, roots, config.exclude)
-    after = build(loaded, *nanopb)
+    after = build(loaded, *nanopb, version)
     if old is None:
-        before = build(LoadedTree(new.folder), *nanopb)
+        before = build(LoadedTree(new.folder), *nanopb, version)
     else:
-        before = build(load_tree(old.folder, roots, config.exclude), *nanopb)
+        before = build(load_tree(old.folder, roots, config.exclude), *nanopb, version)
     change = Change(before, after, config, find_ledger(new, ledger))
     found = run(change)
     sources = [new] if old is None else [old, new]

@@ -1,10 +1,12 @@
 """nanopb's generator inputs wherever a user gives a schema: include folders (``-I``), the options
-file (``-f``) and generator settings (``-s``) on both command lines, in ``[tool.erc-codec]`` and
-``[tool.erc-lint]``, and through ``Codec.from_source``.
+file (``-f``), generator settings (``-s``) and the generator version whose sizing rules apply
+(``--nanopb-version``) on both command lines, in ``[tool.erc-codec]`` and ``[tool.erc-lint]``, and
+through ``Codec.from_source``.
 
 Sizes are held to nanopb's generator (PyPI ``nanopb``) run from the tree's root with the same
 ``-I``, ``-f`` and ``-s`` (``test_any_schema.generator_sizes``), and to a hand-computed number, so
-that two "no size" answers never pass as equal. The tree is ``tests/any_trees/include``:
+that two "no size" answers never pass as equal. The tree is ``tests/any_trees/include``
+(the version's, ``tests/nanopb_trees/pointers``, sized by hand in ``test_nanopb_rules``):
 ``main/app.proto`` imports ``shared/units.proto``, found only under ``inc/``, whose options files
 (``units.options``, ``units.nanopb``) sit beside it there.
 """
@@ -27,6 +29,7 @@ import erc_codec
 import erc_lint
 from erc_codec import Codec, SchemaError
 from erc_codec._discovery import ENVIRONMENT, SchemaSource, find_schema
+from erc_codec.schema import NANOPB_VERSIONS
 
 # One file for every .proto, for -f FILE (no %s): App's and Reading's options in one place.
 ALL_OPTIONS = (
@@ -260,6 +263,156 @@ def test_the_lint_api_takes_the_inputs_in_its_configuration(nanopb: None, tmp_pa
     ]
 
 
+# -- the generator version whose sizing rules apply ---------------------------------------------
+
+# Pointers (bounded FT_POINTER fields) has no size by 0.4.x's rules, 97 bytes by master's;
+# HoldsPointers, which holds it, 99 (test_nanopb_rules sums them by hand).
+POINTERS = Path(__file__).resolve().parent / "nanopb_trees" / "pointers"
+NEWER = NANOPB_VERSIONS[1]
+
+
+@pytest.fixture
+def pointers(tmp_path: Path) -> Path:
+    shutil.copytree(POINTERS, tmp_path / "p")
+    return tmp_path / "p"
+
+
+def sizes_of(done: subprocess.CompletedProcess[str]) -> dict[str, int | None]:
+    assert done.returncode == 0, done.stderr
+    messages: dict[str, int | None] = json.loads(done.stdout)["messages"]
+    return messages
+
+
+def test_the_nanopb_version_flag_changes_erc_codec_sizes(pointers: Path) -> None:
+    args = ["--proto", ".", "--root", "Leaf", "--format", "json"]
+    default = sizes_of(run("erc_codec", "sizes", *args, cwd=pointers))
+    assert (default["Pointers"], default["HoldsPointers"]) == (None, None)
+    newer = sizes_of(run("erc_codec", "sizes", *args, "--nanopb-version", NEWER, cwd=pointers))
+    assert (newer["Pointers"], newer["HoldsPointers"], newer["Leaf"]) == (97, 99, 11)
+    assert sizes_of(
+        run("erc_codec", "sizes", *args, "--nanopb-version", "0.4.9", cwd=pointers)
+    ) == (default)
+    # before the command too, as every schema option
+    before = run("erc_codec", "--nanopb-version", NEWER, "sizes", *args, cwd=pointers)
+    assert sizes_of(before) == newer
+    text = run(
+        "erc_codec",
+        "sizes",
+        "--proto",
+        ".",
+        "--root",
+        "HoldsPointers",
+        "--nanopb-version",
+        NEWER,
+        cwd=pointers,
+    )
+    assert text.returncode == 0, text.stderr
+    assert "HoldsPointers_size 99" in text.stdout
+
+
+def test_the_configurations_nanopb_version_sizes_and_schema_shows_it(pointers: Path) -> None:
+    (pointers / "pyproject.toml").write_text(
+        f'[tool.erc-codec]\nproto = "."\nroot = "Leaf"\nnanopb_version = "{NEWER}"\n'
+    )
+    assert sizes_of(run("erc_codec", "sizes", "--format", "json", cwd=pointers))["Pointers"] == 97
+    shown = json.loads(run("erc_codec", "schema", "--format", "json", cwd=pointers).stdout)
+    assert shown["nanopb_version"] == NEWER
+    text = run("erc_codec", "schema", cwd=pointers).stdout
+    assert f"nanopb   {NEWER} sizing rules" in text.splitlines()
+    # the command line's replaces the configuration's
+    given = run("erc_codec", "sizes", "--format", "json", "--nanopb-version", "0.4.9", cwd=pointers)
+    assert sizes_of(given)["Pointers"] is None
+    shown = json.loads(
+        run(
+            "erc_codec", "schema", "--format", "json", "--nanopb-version", "0.4.9", cwd=pointers
+        ).stdout
+    )
+    assert shown["nanopb_version"] == "0.4.9"
+
+
+def test_the_source_carries_the_nanopb_version_and_codec_default_keys_on_it(
+    pointers: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    config = pointers / "pyproject.toml"
+    config.write_text(f'[tool.erc-codec]\nproto = "."\nroot = "Leaf"\nnanopb_version = "{NEWER}"\n')
+    found = find_schema(start=pointers, environ={})
+    assert found.nanopb_version == NEWER
+    assert find_schema(start=pointers, environ={}, nanopb_version="0.4.9").nanopb_version == "0.4.9"
+    assert find_schema(start=pointers, environ={}, nanopb_version=None) == found
+    assert find_schema("t", environ={}).nanopb_version == "0.4.9"
+    assert Codec.from_source(found).nanopb.all()["Pointers"] == 97
+    assert (
+        Codec.from_source(found._replace(nanopb_version="0.4.9")).nanopb.all()["Pointers"] is None
+    )
+    monkeypatch.delenv(ENVIRONMENT, raising=False)
+    monkeypatch.chdir(pointers)
+    newer = Codec.default()
+    assert (newer.nanopb.nanopb_version, newer.nanopb.all()["Pointers"]) == (NEWER, 97)
+    # only the configuration changes (no .proto file): another source, another codec
+    config.write_text('[tool.erc-codec]\nproto = "."\nroot = "Leaf"\nnanopb_version = "0.4.9"\n')
+    older = Codec.default()
+    assert (older.nanopb.nanopb_version, older.nanopb.all()["Pointers"]) == ("0.4.9", None)
+
+
+BUDGETED = '[tool.erc-lint]\nroots = ["HoldsPointers"]\nbudget = { HoldsPointers = 50 }\n'
+NO_SIZE = 'Message "HoldsPointers" has no fixed size: its budget of 50 bytes cannot hold'
+OVER = 'Maximum size of message "HoldsPointers" is 99 bytes, over its budget of 50 bytes'
+
+
+def budget_finding(done: subprocess.CompletedProcess[str]) -> str:
+    assert done.returncode == 1, done.stderr  # the budget finding: an error
+    found = [line for line in done.stdout.splitlines() if "ENVELOPE_OVER_BUDGET" in line]
+    assert len(found) == 1, done.stdout
+    return found[0]
+
+
+def test_erc_lint_sizes_follow_the_nanopb_version_flag_and_key(pointers: Path) -> None:
+    (pointers / "pyproject.toml").write_text(BUDGETED)
+    assert NO_SIZE in budget_finding(run("erc_lint", "check", ".", cwd=pointers))
+    flagged = run("erc_lint", "check", ".", "--nanopb-version", NEWER, cwd=pointers)
+    assert OVER in budget_finding(flagged)
+    (pointers / "pyproject.toml").write_text(BUDGETED + f'nanopb_version = "{NEWER}"\n')
+    assert OVER in budget_finding(run("erc_lint", "check", ".", cwd=pointers))
+    # the command line's replaces the configuration's
+    given = run("erc_lint", "check", ".", "--nanopb-version", "0.4.9", cwd=pointers)
+    assert NO_SIZE in budget_finding(given)
+
+
+def test_erc_lint_diff_sees_a_size_grow_only_by_the_rules_that_size_it(
+    pointers: Path, tmp_path: Path
+) -> None:
+    new = tmp_path / "new"
+    shutil.copytree(pointers, new)
+    proto = new / "pointers.proto"
+    proto.write_text(proto.read_text().replace("uint32 plain = 8;", "uint64 plain = 8;"))
+    (new / "pyproject.toml").write_text('[tool.erc-lint]\nroots = ["HoldsPointers"]\n')
+    grown = 'Maximum size of message "HoldsPointers" grew from 99 to 104 bytes'
+    older = run("erc_lint", str(pointers), str(new), cwd=tmp_path)
+    assert "ENVELOPE_SIZE_GROWN" not in older.stdout, older.stdout + older.stderr
+    newer = run("erc_lint", str(pointers), str(new), "--nanopb-version", NEWER, cwd=tmp_path)
+    assert grown in newer.stdout, newer.stdout + newer.stderr
+
+
+def test_the_lint_api_takes_the_nanopb_version_in_its_configuration() -> None:
+    config = erc_lint.Config(
+        roots=("HoldsPointers",), budget=MappingProxyType({"HoldsPointers": 50})
+    )
+    by_version = {
+        version: [
+            f.message
+            for f in erc_lint.check(POINTERS, config._replace(nanopb_version=version))
+            if f.rule == "ENVELOPE_OVER_BUDGET"
+        ]
+        for version in NANOPB_VERSIONS
+    }
+    assert [NO_SIZE in m for m in by_version["0.4.9"]] == [True]
+    assert [OVER in m for m in by_version[NEWER]] == [True]
+    with pytest.raises(
+        erc_lint.ConfigError, match=r"nanopb_version '0\.5'.*0\.4\.9 and 1\.0\.0-dev"
+    ):
+        erc_lint.check(POINTERS, config._replace(nanopb_version="0.5"))
+
+
 # -- what cannot be used: one line, exit status 2 --------------------------------------------
 
 CODEC = ["sizes", "--proto", "main", "--root", "App", "-I", "inc"]
@@ -277,6 +430,8 @@ LINT = ["check", "main", "-I", "inc"]
         ("erc_lint", [*LINT, "-f", "missing.options"], "options file missing.options: not found"),
         ("erc_lint", [*LINT, "-s", "max_size"], "generator setting 'max_size'"),
         ("erc_lint", [*LINT, "-s", "no_such:1"], 'has no field named "no_such"'),
+        ("erc_codec", [*CODEC, "--nanopb-version", "0.5"], "'0.5' is not one of '0.4.9', "),
+        ("erc_lint", [*LINT, "--nanopb-version", "0.5"], "'0.5' is not one of '0.4.9', "),
     ],
 )
 def test_a_bad_generator_input_is_one_line_and_exit_2(
@@ -289,6 +444,9 @@ def test_a_bad_generator_input_is_one_line_and_exit_2(
     assert "Traceback" not in done.stderr
 
 
+VERSIONS_NOT = "nanopb_version must be one of '0.4.9', '1.0.0-dev', not "
+
+
 @pytest.mark.parametrize(
     ("tool", "table", "complaint"),
     [
@@ -299,6 +457,10 @@ def test_a_bad_generator_input_is_one_line_and_exit_2(
         ("erc-lint", 'options_file = "missing.options"', "options file missing.options"),
         ("erc-lint", 'settings = ["max_size"]', "generator setting 'max_size'"),
         ("erc-lint", "settings = [61]", "settings must be a list of strings"),
+        ("erc-codec", 'nanopb_version = "0.5"', VERSIONS_NOT + "'0.5'"),
+        ("erc-codec", "nanopb_version = 1", VERSIONS_NOT + "1"),
+        ("erc-lint", 'nanopb_version = "1.0"', VERSIONS_NOT + "'1.0'"),
+        ("erc-lint", 'nanopb_version = ["0.4.9"]', VERSIONS_NOT + "['0.4.9']"),
     ],
 )
 def test_a_bad_generator_input_in_a_configuration_is_one_line_and_exit_2(

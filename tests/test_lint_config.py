@@ -83,6 +83,11 @@ def test_what_cannot_run_exits_2_in_one_line(tmp_path: Path, setup: str, complai
         ("budget = { PBEnvelope = true }\n", 3, "must be a positive number of bytes"),
         ("budget = 300\n", 3, "budget must be a table"),
         (
+            'roots = ["PBEnvelope"]\nnanopb_version = "0.4"\n',
+            4,
+            "nanopb_version must be one of '0.4.9', '1.0.0-dev', not '0.4'",
+        ),
+        (
             'roots = ["acme.Env"]\nbudget = { acme.Env = 300 }\n',
             4,
             'quote a dotted root name ("acme.…" = bytes)',

@@ -1,5 +1,6 @@
 """nanopb's generator inputs on a command line, as both command lines take them: ``-I DIR``
-(repeatable), ``-f OPTIONS_FILE`` and ``-s OPTION=VALUE`` (repeatable, ``OPTION:VALUE`` too).
+(repeatable), ``-f OPTIONS_FILE`` and ``-s OPTION=VALUE`` (repeatable, ``OPTION:VALUE`` too), and
+``--nanopb-version`` (whose generator's sizing rules apply: one of ``NANOPB_VERSIONS``).
 
 Each is checked as it is read, so a mistake is a usage error (one line, exit 2) before any tree
 is compiled: an include folder that is not there, a setting nanopb's generator cannot read. An
@@ -16,7 +17,7 @@ from typing import Any, TypeVar
 import click
 
 from .._errors import SchemaError
-from ..schema import given_options_file, resolve_options
+from ..schema import NANOPB_VERSIONS, given_options_file, resolve_options
 
 __all__ = ["generator_options"]
 
@@ -44,9 +45,10 @@ def _settings(values: tuple[str, ...]) -> tuple[str, ...]:
 
 
 def generator_options(store: Store | None = None) -> Callable[[_Command], _Command]:
-    """``-I/--include DIR`` (``includes``), ``-f/--options-file FILE`` (``options_file``) and
-    ``-s OPTION=VALUE`` (``generator_settings``) for a command; with ``store``, the values are
-    handed to it (click's option callback) rather than to the command."""
+    """``-I/--include DIR`` (``includes``), ``-f/--options-file FILE`` (``options_file``),
+    ``-s OPTION=VALUE`` (``generator_settings``) and ``--nanopb-version`` (``nanopb_version``,
+    ``None`` when not given) for a command; with ``store``, the values are handed to it (click's
+    option callback) rather than to the command."""
 
     def checked(check: Callable[[Any], Any]) -> Store:
         def callback(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
@@ -87,6 +89,16 @@ def generator_options(store: Store | None = None) -> Callable[[_Command], _Comma
             metavar="OPTION=VALUE",
             help="nanopb's -s: a generator setting every file starts from, e.g. max_size=61 "
             "(repeatable).",
+        ),
+        click.option(
+            "--nanopb-version",
+            "nanopb_version",
+            type=click.Choice(NANOPB_VERSIONS),
+            expose_value=store is None,
+            callback=checked(lambda value: value),
+            help=f"Whose generator's sizing rules apply: {NANOPB_VERSIONS[0]} (every 0.4.x, the "
+            "default), or 1.0.0-dev (master after 0.4.9.1: bounded pointer and callback fields "
+            "get a size).",
         ),
     ]
 

@@ -29,9 +29,10 @@ def schema(tree: str | None, root: str | None, output: str) -> None:
     The first of these wins: --proto TREE; the environment variable
     ERC_CODEC_PROTO; [tool.erc-codec] proto = "TREE" (with root = "NAME" and
     include = ["FOLDER", ...]) in the nearest pyproject.toml from the working
-    folder up, its paths relative to that file, with nanopb's options_file = "FILE"
-    and settings = ["OPTION=VALUE", ...]; the packaged rover schema. -I, -f and -s
-    replace the configuration's include, options_file and settings.
+    folder up, its paths relative to that file, with nanopb's options_file = "FILE",
+    settings = ["OPTION=VALUE", ...] and nanopb_version = "VERSION"; the packaged
+    rover schema. -I, -f, -s and --nanopb-version replace the configuration's
+    include, options_file, settings and nanopb_version.
     Codec.default() finds its schema the same way. TREE is a folder (the
     import root) or a git revision GITDIR#ref=REF[,subdir=PATH].
 
@@ -42,7 +43,8 @@ def schema(tree: str | None, root: str | None, output: str) -> None:
 
     def loaded(opened: TreeSource) -> tuple[str | None, Codec]:
         schema = load_schema(opened.folder, found.root, found.include, opened.shown)
-        return opened.revision, Codec.from_schema(schema, found.options_file, found.settings)
+        codec = Codec.from_schema(schema, found.options_file, found.settings, found.nanopb_version)
+        return opened.revision, codec
 
     try:
         commit, codec = load_source(found, loaded)
@@ -58,6 +60,7 @@ def schema(tree: str | None, root: str | None, output: str) -> None:
             "include": list(found.include),
             "options_file": found.options_file,
             "settings": list(found.settings),
+            "nanopb_version": found.nanopb_version,
             "members": len(codec.kinds()),
             "max_size": size,
         }
@@ -73,3 +76,4 @@ def schema(tree: str | None, root: str | None, output: str) -> None:
         click.echo(f"options  {found.options_file}")
     if found.settings:
         click.echo(f"settings {' '.join(found.settings)}")
+    click.echo(f"nanopb   {found.nanopb_version} sizing rules")

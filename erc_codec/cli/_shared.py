@@ -59,8 +59,8 @@ def plural(count: int, noun: str) -> str:
 
 def schema_options(command: _Command) -> _Command:
     """``--proto TREE`` and ``--root NAME``, the schema revision a command works with, and
-    nanopb's generator inputs ``-I``, ``-f`` and ``-s``, which ``source`` reads (the command is
-    not given them)."""
+    nanopb's generator inputs ``-I``, ``-f``, ``-s`` and ``--nanopb-version``, which ``source``
+    reads (the command is not given them)."""
     command = generator_options(_remember)(command)
     command = click.option(
         "--root",
@@ -92,9 +92,9 @@ def _remember(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
 
 def source(tree: str | None, root: str | None) -> SchemaSource:
     """The schema ``--proto`` and ``--root`` name, or the one found (see ``find_schema``), with
-    the ``-I``, ``-f`` and ``-s`` given (each replaces the configuration's); a configuration that
-    cannot be read is exit 2. Options given before the command (``erc-codec --proto TREE
-    decode``) hold where the command gives none."""
+    the ``-I``, ``-f``, ``-s`` and ``--nanopb-version`` given (each replaces the
+    configuration's); a configuration that cannot be read is exit 2. Options given before the
+    command (``erc-codec --proto TREE decode``) hold where the command gives none."""
     context = click.get_current_context(silent=True)
     given: dict[str, Any] = {}
     if context is not None:
@@ -115,6 +115,7 @@ def source(tree: str | None, root: str | None) -> SchemaSource:
             include=None if includes is None else [str(folder) for folder in includes],
             options_file=given.get("options_file"),
             settings=None if settings is None else list(settings),
+            nanopb_version=given.get("nanopb_version"),
         )
     except CodecError as error:
         raise Fatal(one_line(str(error))) from None

@@ -51,10 +51,11 @@ def diff(
     includes: Sequence[Path],
     options_file: str | None,
     generator_settings: Sequence[str],
+    nanopb_version: str | None,
     ledger: Path | None,
 ) -> None:
     """Compare two revisions of a proto tree and report what breaks the wire."""
-    generator = (includes, options_file, generator_settings)
+    generator = (includes, options_file, generator_settings, nanopb_version)
     with guard():
         accepted, given = baseline_keys(baseline)
         with opened(old, "OLD", allow_empty_old) as before, opened(new, "NEW") as after:
@@ -85,11 +86,12 @@ def check(
     includes: Sequence[Path],
     options_file: str | None,
     generator_settings: Sequence[str],
+    nanopb_version: str | None,
     ledger: Path | None,
 ) -> None:
     """Lint one tree on its own: compile errors, name collisions, what embedded roots reach
     (fixed sizes), and reused numbers if there is a ledger."""
-    generator = (includes, options_file, generator_settings)
+    generator = (includes, options_file, generator_settings, nanopb_version)
     with guard():
         accepted, given = baseline_keys(baseline)
         with opened(tree, "TREE") as source:
@@ -126,13 +128,14 @@ def baseline(
     includes: Sequence[Path],
     options_file: str | None,
     generator_settings: Sequence[str],
+    nanopb_version: str | None,
     ledger: Path | None,
 ) -> None:
     """Write every current finding of `erc-lint OLD NEW` (or of `erc-lint check TREE`) to a
     baseline file: later runs given it report only findings it does not hold."""
     if len(trees) > 2:
         raise click.UsageError("give NEW, or OLD and NEW")
-    generator = (includes, options_file, generator_settings)
+    generator = (includes, options_file, generator_settings, nanopb_version)
     with guard():
         if len(trees) == 1:
             with opened(trees[0], "TREE") as source:

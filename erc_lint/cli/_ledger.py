@@ -44,6 +44,7 @@ def update(
     includes: Sequence[Path],
     options_file: str | None,
     generator_settings: Sequence[str],
+    nanopb_version: str | None,
 ) -> None:
     """Record every number TREE's messages and enums use (a folder or GITDIR#ref=REF)."""
     with guard():
@@ -52,7 +53,9 @@ def update(
             path,
             history,
             includes,
-            lambda f: settings(config, f, includes, options_file, generator_settings),
+            lambda f: settings(
+                config, f, includes, options_file, generator_settings, nanopb_version
+            ),
         )
         for name in done.failed:
             click.echo(f"{tree}: {name} does not compile; nothing of it recorded", err=True)

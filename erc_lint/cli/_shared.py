@@ -52,8 +52,9 @@ FILE = click.Path(dir_okay=False, path_type=Path)
 
 def common_options(command: _Command) -> _Command:
     """The options every linting command takes: ``--config`` and nanopb's generator inputs
-    (``-I``, ``-f``, ``-s``: ``includes``, ``options_file``, ``generator_settings``), which
-    replace the configuration's ``include``, ``options_file`` and ``settings`` (``settings``)."""
+    (``-I``, ``-f``, ``-s``, ``--nanopb-version``: ``includes``, ``options_file``,
+    ``generator_settings``, ``nanopb_version``), which replace the configuration's ``include``,
+    ``options_file``, ``settings`` and ``nanopb_version`` (``settings``)."""
     command = click.option(
         "--config",
         type=FILE,
@@ -79,12 +80,13 @@ def settings(
     includes: Sequence[Path] = (),
     options_file: str | None = None,
     generator_settings: Sequence[str] = (),
+    nanopb_version: str | None = None,
     shown: Path | None = None,
 ) -> Config:
     """``--config``, else the configuration in the tree's folder (if it has one), else here;
-    with the ``-I``, ``-f`` and ``-s`` given in place of its own. ``shown`` is where the tree's
-    folder is shown (a git revision's scratch copy: in the repository), which the paths of a
-    configuration found in it are relative to."""
+    with the ``-I``, ``-f``, ``-s`` and ``--nanopb-version`` given in place of its own.
+    ``shown`` is where the tree's folder is shown (a git revision's scratch copy: in the
+    repository), which the paths of a configuration found in it are relative to."""
     folders = [folder] if folder is not None and folder.is_dir() else []
     found = config or find_config(*folders, Path.cwd())
     copied = found is not None and shown is not None and found.parent == folder
@@ -99,6 +101,7 @@ def settings(
         include=tuple(map(str, includes)) or read.include,
         options_file=read.options_file if options_file is None else options_file,
         settings=tuple(generator_settings) or read.settings,
+        nanopb_version=nanopb_version or read.nanopb_version,
     )
 
 
