@@ -28,7 +28,9 @@ _IPV6_FRAGMENT = 44
 # (benchmarks/bench_record.py: a capture to MCAP >= 0.7x the bare libraries). Bounded: a capture
 # of a flood of senders starts over when it is full.
 _KNOWN_ENDPOINTS = 4096
-_datagram = tuple.__new__  # a CapturedDatagram without NamedTuple's Python-level __new__
+# A CapturedDatagram built without NamedTuple's Python-level __new__ (bench_record, as above);
+# tests/test_cli_codec.py reads every field back from the datagrams of a capture.
+_datagram = tuple.__new__
 
 
 class CapturedDatagram(NamedTuple):
