@@ -22,7 +22,7 @@ The file must be seekable (the library goes back to write its indexes).
 import os
 import struct
 import zlib
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from pathlib import Path
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, BinaryIO, Literal, NamedTuple
@@ -119,6 +119,7 @@ class McapWriter:
         )
         self._add = self._writer.add_message
         self._channels: dict[str, int] = {}  # kind → channel id
+        self._serializers: dict[type[Message], Callable[[Message], bytes]] = {}
         self._schemas: dict[str, int] = {}  # payload full name → schema id
         self._drops_channel = 0
         self._messages: dict[str, int] = {}
@@ -146,8 +147,16 @@ class McapWriter:
             return None
         if decoded.envelope_unknown_fields:  # a channel holds the payload alone: counted
             self.unkept(field.number for field in decoded.envelope_unknown_fields)
-        kind = decoded.kind
-        self.message(kind, decoded.message, log_time, source)
+        kind, message = decoded.kind, decoded.message
+        # The message's class's serializer, kept: looking it up on each instance costs upb about
+        # half a small message's serialization (benchmarks/bench_record.py: a capture to MCAP
+        # >= 0.7x the bare libraries); tests/test_mcap.py (every kind in every form) holds the
+        # bytes written equal to the payload's own SerializeToString.
+        cls = type(message)
+        serialize = self._serializers.get(cls)
+        if serialize is None:
+            serialize = self._serializers[cls] = cls.SerializeToString
+        self._payload(kind, serialize(message), log_time, source)
         return kind
 
     def unkept(self, numbers: Iterable[int]) -> None:
@@ -161,10 +170,14 @@ class McapWriter:
     def message(self, kind: str, payload: Message | bytes, log_time: int, source: str = "") -> None:
         """Write the payload of a decoded datagram of member ``kind`` (the message, or its exact
         encoding) that arrived at ``log_time`` (nanoseconds since the epoch) from ``source``."""
+        data = payload if isinstance(payload, bytes) else payload.SerializeToString()
+        self._payload(kind, data, log_time, source)
+
+    def _payload(self, kind: str, data: bytes, log_time: int, source: str) -> None:
+        """Write a payload's exact encoding on its member's channel, and count it."""
         channel = self._channels.get(kind)
         if channel is None:
             channel = self._channel(kind)
-        data = payload if isinstance(payload, bytes) else payload.SerializeToString()
         self._sequence = sequence = (self._sequence + 1) & 0xFFFFFFFF  # MCAP's is a uint32
         self._add(channel, log_time, data, log_time, sequence)
         messages = self._messages

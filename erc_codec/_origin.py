@@ -26,21 +26,16 @@ def schema_digest(codec: Codec) -> str:
 
 def git_revision(tree: Path) -> str:
     """The commit the work tree holding ``tree`` is at, ``-dirty`` if anything under ``tree``
-    is uncommitted; ``""`` outside a git work tree or without git."""
+    is uncommitted; ``""`` outside a git work tree, before its first commit, or without git."""
     import subprocess  # here: erc-lint imports erc_codec and its start-up is measured
 
+    # One git for both (``# branch.oid``, then a line for each change under the tree), not
+    # rev-parse and status: every MCAP file starts by asking, and a git's start is some 15 ms of
+    # benchmarks/bench_record.py's capture to MCAP (>= 0.7x the bare libraries, whose files
+    # carry no origin); tests/test_mcap.py holds the revision to rev-parse's, dirty as status.
     try:
-        head = subprocess.run(
-            ["git", "-C", str(tree), "rev-parse", "HEAD"],
-            capture_output=True,
-            text=True,
-            timeout=10,
-            check=False,
-        )
-        if head.returncode != 0:
-            return ""
         status = subprocess.run(
-            ["git", "-C", str(tree), "status", "--porcelain", "--", "."],
+            ["git", "-C", str(tree), "status", "--porcelain=v2", "--branch", "--", "."],
             capture_output=True,
             text=True,
             timeout=10,
@@ -48,7 +43,14 @@ def git_revision(tree: Path) -> str:
         )
     except (OSError, subprocess.SubprocessError):
         return ""
-    return head.stdout.strip() + ("-dirty" if status.stdout.strip() else "")
+    if status.returncode != 0:
+        return ""
+    lines = status.stdout.splitlines()
+    oid = "# branch.oid "
+    head = next((line[len(oid) :].strip() for line in lines if line.startswith(oid)), "")
+    if not head or head == "(initial)":
+        return ""
+    return head + ("-dirty" if any(not line.startswith("#") for line in lines) else "")
 
 
 def erc_codec_version() -> str:

@@ -371,6 +371,7 @@ def ipv4(
     body: bytes,
     source: bytes = bytes([192, 168, 1, 20]),
     destination: bytes = bytes([192, 168, 1, 2]),
+    flags_offset: int = 0x4000,  # don't fragment
 ) -> bytes:
     header = struct.pack(
         "!BBHHHBBH4s4s",
@@ -378,7 +379,7 @@ def ipv4(
         0,
         20 + len(body),
         1,
-        0x4000,
+        flags_offset,
         64,
         protocol,
         0,
@@ -457,6 +458,53 @@ def test_pcap_decodes_every_udp_payload(
         3,
         1_700_000_000.75,
     )
+
+
+def test_a_capture_hands_on_whole_udp_datagrams_and_skips_the_rest_by_reason(
+    codec: erc_codec.Codec, tmp_path: Path
+) -> None:
+    """Every reason a packet is skipped, beside the datagrams handed on: a datagram's bytes end
+    where its UDP length says, fragments are skipped whichever flag or offset says so (the
+    reader tests dpkt's header field for both at once)."""
+    from erc_codec.cli._pcap import Capture
+
+    fix = codec.encode(codec.message_class("SensorBoardGPSInfo")(satellites=5))
+    udp = struct.pack("!HHHH", 5005, 6006, 8 + len(fix), 0) + fix
+    fragment6 = struct.pack("!BBHI", 17, 0, 1, 7)  # next header UDP, offset 0, more fragments
+    header6 = struct.pack(
+        "!IHBB16s16s", 6 << 28, 8 + len(udp), 44, 64, bytes(15) + b"\1", bytes(16)
+    )
+    packets = [
+        udp4(fix),
+        ipv4(17, udp, flags_offset=0x2000),  # the first fragment: more fragments follow
+        ipv4(17, udp, flags_offset=0x0003),  # a later one, at offset 24
+        ipv4(17, udp, flags_offset=0x6000),  # don't fragment and more fragments: still one
+        header6 + fragment6 + udp,
+        ipv4(17, struct.pack("!HHHH", 5005, 6006, 4, 0) + fix),  # a UDP length under 8
+        udp4(fix)[:-2],  # the capture kept less than the datagram
+        ipv4(17, udp + b"trailer"),  # bytes after the datagram, inside the IP packet
+        tcp4(fix),
+        udp4(fix, sport=1),
+    ]
+    capture = tmp_path / "reasons.pcap"
+    write_capture(capture, "pcap", ETHERNET, packets)
+    with capture.open("ab") as file:  # a frame too short for its Ethernet header
+        file.write(struct.pack("<IIII", 1_700_000_100, 0, 6, 6) + bytes(6))
+    with Capture(capture) as read:
+        got = [(d.time, d.source, d.destination, d.data) for d in read.datagrams()]
+        assert read.skipped == {
+            "fragmented": 4,
+            "malformed": 2,
+            "cut short by the capture": 1,
+            "not UDP": 1,
+        }
+        assert (read.packets, read.damage) == (11, "")
+    assert got == [
+        (1_700_000_000.0, "192.168.1.20:5005", "192.168.1.2:6006", fix),
+        (1_700_000_001.75, "192.168.1.20:5005", "192.168.1.2:6006", fix),
+        (1_700_000_002.25, "192.168.1.20:1", "192.168.1.2:6006", fix),
+    ]
+    assert all(type(d) is bytes for *_, d in got)
 
 
 def test_pcap_senders_are_shown_however_many_there_are(

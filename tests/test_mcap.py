@@ -5,15 +5,17 @@ FileDescriptorSet each channel carries (as Foxglove decodes them), never by erc_
 import io
 import os
 import random
+import shutil
 import subprocess
 import sys
 from pathlib import Path
 from typing import Any, BinaryIO, cast
 
 import pytest
+from conftest import REPO
 from datagrams import MODES, random_payloads
 from google.protobuf import descriptor_pb2
-from recording_support import need, write_pcap
+from recording_support import need, need_program, write_pcap
 
 import erc_codec
 from erc_codec.schema import descriptor_of
@@ -159,6 +161,45 @@ def test_the_file_says_where_its_schema_came_from_and_what_it_holds(
         "drops.corrupt": "1",
         "senders.gps_info": "10.0.0.2:7 2, 10.0.0.3:7 1",
     }
+
+
+def test_the_schema_revision_is_the_trees_commit_dirty_for_a_change_inside_it(
+    tmp_path: Path,
+) -> None:
+    need("mcap")
+    git = need_program("git", "apt-get install git")
+    repository, tree = tmp_path / "fleet", tmp_path / "fleet" / "proto"
+    shutil.copytree(REPO / "proto", tree)
+
+    def in_repository(*args: str) -> str:
+        done = subprocess.run(
+            [git, "-C", str(repository), *args], capture_output=True, text=True, check=True
+        )
+        return done.stdout.strip()
+
+    codec = erc_codec.Codec.from_path(tree)
+    path = tmp_path / "run.mcap"
+
+    def revision() -> str:
+        path.unlink(missing_ok=True)
+        with erc_codec.McapWriter(path, codec):
+            pass
+        return metadata(path)["erc-codec"]["schema_revision"]
+
+    in_repository("init", "-q")
+    assert revision() == ""  # no commit yet
+    in_repository("add", ".")
+    in_repository("-c", "user.name=t", "-c", "user.email=t@example.org", "commit", "-qm", "tree")
+    head = in_repository("rev-parse", "HEAD")
+    assert revision() == head
+    (repository / "notes.txt").write_text("beside the tree, not in it\n")
+    assert revision() == head
+    (tree / "scratch.proto").write_text('syntax = "proto3";\n')  # untracked, inside
+    assert revision() == f"{head}-dirty"
+    (tree / "scratch.proto").unlink()
+    envelope = tree / "components" / "common" / "envelope.proto"
+    envelope.write_text(envelope.read_text() + "\n")  # a tracked file changed
+    assert revision() == f"{head}-dirty"
 
 
 def test_a_damaged_file_is_caught(codec: erc_codec.Codec, tmp_path: Path) -> None:

@@ -28,6 +28,9 @@ _IPV6_FRAGMENT = 44
 # (benchmarks/bench_record.py: a capture to MCAP >= 0.7x the bare libraries). Bounded: a capture
 # of a flood of senders starts over when it is full.
 _KNOWN_ENDPOINTS = 4096
+# A CapturedDatagram built without NamedTuple's Python-level __new__ (bench_record, as above);
+# tests/test_cli_codec.py reads every field back from the datagrams of a capture.
+_datagram = tuple.__new__
 
 
 class CapturedDatagram(NamedTuple):
@@ -55,10 +58,13 @@ class _Watched:
         self.short = False
 
     def read(self, size: int = -1) -> bytes:
-        self.cut = self.cut or self.short or size < 0
         data = self._file.read(size)
-        self.short = len(data) < size
-        self.cut = self.cut or (self.short and len(data) > 0)
+        # A whole read after a whole read changes nothing, so only the others set the flags:
+        # two reads a packet (benchmarks/bench_record.py: a capture to MCAP >= 0.7x the bare
+        # libraries); tests/test_cli_codec.py cuts a capture at every byte.
+        if self.short or size < 0 or len(data) < size:
+            self.cut = self.cut or self.short or size < 0 or 0 < len(data) < size
+            self.short = len(data) < size
         return data
 
     def seek(self, offset: int, whence: int = 0) -> int:
@@ -81,7 +87,9 @@ class Capture:
         are skipped as ``other port``)."""
         self.path = path
         self._ports = ports
-        self._dpkt = _dpkt()
+        self._dpkt = dpkt = _dpkt()
+        self._ethernet, self._ipv4, self._ipv6 = dpkt.ethernet.Ethernet, dpkt.ip.IP, dpkt.ip6.IP6
+        self._udp_class = dpkt.udp.UDP
         try:
             self._file = _Watched(path.open("rb"))
         except OSError as error:
@@ -100,7 +108,7 @@ class Capture:
             )
         self.packets = 0
         self.skipped: dict[str, int] = {}
-        self._endpoints: dict[tuple[bytes, int], str] = {}
+        self._endpoints: dict[tuple[bytes, int, bytes, int], tuple[str, str]] = {}
         self.damage = ""
 
     def __enter__(self) -> "Capture":
@@ -111,13 +119,15 @@ class Capture:
 
     def datagrams(self) -> Iterator[CapturedDatagram]:
         """Every whole UDP datagram, in capture order, up to the end or to the damage."""
-        packets = iter(self._reader)
-        endpoints = self._endpoints
+        # Names looked up once, not per packet, and the datagram built as _datagram builds it:
+        # benchmarks/bench_record.py (a capture to MCAP >= 0.7x the bare libraries).
+        packets, file, udp_of = iter(self._reader), self._file, self._udp
+        endpoints, ports, skipped = self._endpoints, self._ports, self.skipped
         while True:
             try:
                 timestamp, packet = next(packets)
             except StopIteration:
-                if self._file.cut:
+                if file.cut:
                     self.damage = f"{self.path} is cut off after packet {self.packets}"
                 return
             except Exception as error:  # dpkt raises its own errors, ValueError or struct.error
@@ -126,64 +136,69 @@ class Capture:
                     f"{type(error).__name__} {error}"
                 )
                 return
-            if self._file.cut or self._file.short:
+            if file.cut or file.short:
                 self.damage = f"{self.path} is cut off inside packet {self.packets + 1}"
                 return
             self.packets += 1
-            why, ip, udp = self._udp(packet)
-            if not why and self._ports and not {udp.sport, udp.dport} & self._ports:
+            why, ip, udp, data = udp_of(packet)
+            if not why and ports and not {udp.sport, udp.dport} & ports:
                 why = "other port"
             if why:
-                self.skipped[why] = self.skipped.get(why, 0) + 1
+                skipped[why] = skipped.get(why, 0) + 1
                 continue
-            source, destination = (ip.src, udp.sport), (ip.dst, udp.dport)
-            if source not in endpoints or destination not in endpoints:
+            key = (ip.src, udp.sport, ip.dst, udp.dport)
+            shown = endpoints.get(key)
+            if shown is None:
                 if len(endpoints) >= _KNOWN_ENDPOINTS:
                     endpoints.clear()
-                endpoints[source] = _endpoint(*source)
-                endpoints[destination] = _endpoint(*destination)
-            yield CapturedDatagram(
-                float(timestamp),
-                endpoints[source],
-                endpoints[destination],
-                bytes(udp.data[: udp.ulen - 8]),
-            )
-
-    def _udp(self, packet: bytes) -> tuple[str, Any, Any]:
-        """``("", ip, udp)`` for a whole UDP datagram, else ``(why it is skipped, None, None)``."""
-        dpkt, linktype = self._dpkt, self._linktype
-        try:
-            if linktype == _ETHERNET:
-                ip = dpkt.ethernet.Ethernet(packet).data
-            elif linktype == _LINUX_SLL:
-                ip = dpkt.sll.SLL(packet).data
-            elif linktype == _LINUX_SLL2:
-                ip = dpkt.sll2.SLL2(packet).data
-            else:
-                raw = packet[4:] if linktype in _LOOPBACK else packet
-                version = raw[0] >> 4 if raw else 0
-                ip = (
-                    dpkt.ip.IP(raw) if version == 4 else dpkt.ip6.IP6(raw) if version == 6 else None
+                shown = endpoints[key] = (
+                    _endpoint(ip.src, udp.sport),
+                    _endpoint(ip.dst, udp.dport),
                 )
+            yield _datagram(CapturedDatagram, (float(timestamp), shown[0], shown[1], data))
+
+    def _udp(self, packet: bytes) -> tuple[str, Any, Any, bytes]:
+        """``("", ip, udp, payload)`` for a whole UDP datagram, else ``(why it is skipped, None,
+        None, b"")``."""
+        try:
+            if self._linktype == _ETHERNET:
+                ip = self._ethernet(packet).data
+            else:
+                ip = self._network(packet)
         except Exception:  # dpkt raises assorted errors on a packet too short for its headers
-            return "malformed", None, None
-        if isinstance(ip, dpkt.ip.IP):
+            return "malformed", None, None, b""
+        if isinstance(ip, self._ipv4):
             if ip.mf or ip.offset:
-                return "fragmented", None, None
-        elif isinstance(ip, dpkt.ip6.IP6):
+                return "fragmented", None, None, b""
+        elif isinstance(ip, self._ipv6):
             fragment = ip.extension_hdrs.get(_IPV6_FRAGMENT)
             if fragment is not None and (fragment.frag_off or fragment.m_flag):
-                return "fragmented", None, None
+                return "fragmented", None, None, b""
         else:
-            return "not UDP", None, None
+            return "not UDP", None, None, b""
         udp = ip.data
-        if not isinstance(udp, dpkt.udp.UDP):
-            return "not UDP", None, None
-        if udp.ulen < 8:
-            return "malformed", None, None
-        if len(udp.data) < udp.ulen - 8:
-            return "cut short by the capture", None, None
-        return "", ip, udp
+        if not isinstance(udp, self._udp_class):
+            return "not UDP", None, None, b""
+        data, size = udp.data, udp.ulen - 8
+        if len(data) != size:
+            if size < 0:
+                return "malformed", None, None, b""
+            if len(data) < size:
+                return "cut short by the capture", None, None, b""
+            data = data[:size]
+        return "", ip, udp, bytes(data)
+
+    def _network(self, packet: bytes) -> Any:
+        """The network layer of a packet of a link type other than Ethernet, as dpkt reads it
+        (``None`` when it is not IP)."""
+        dpkt, linktype = self._dpkt, self._linktype
+        if linktype == _LINUX_SLL:
+            return dpkt.sll.SLL(packet).data
+        if linktype == _LINUX_SLL2:
+            return dpkt.sll2.SLL2(packet).data
+        raw = packet[4:] if linktype in _LOOPBACK else packet
+        version = raw[0] >> 4 if raw else 0
+        return self._ipv4(raw) if version == 4 else self._ipv6(raw) if version == 6 else None
 
 
 def _dpkt() -> ModuleType:
