@@ -112,11 +112,15 @@ class Decoded(_Payload):
 
     def to_dict(self) -> dict[str, Any]:
         """The datagram as ``erc-codec decode`` prints it (without its ``length``): ``kind``,
-        ``message`` in protobuf's JSON mapping (``Codec.to_dict``) and, if there are any,
-        ``unknown_fields`` (``path``, ``number``, ``wire_type`` each)."""
+        ``message`` in protobuf's JSON mapping (``Codec.to_dict``) and, if the datagram carried
+        any, ``metadata`` (the envelope's fields beside its payload, ``timeout`` ..., in the same
+        mapping) and ``unknown_fields`` (``path``, ``number``, ``wire_type`` each)."""
         from ._json import to_dict
 
         record: dict[str, Any] = {"kind": self.kind, "message": to_dict(self.message)}
+        if self.metadata and self.envelope is not None:
+            whole = to_dict(self.envelope)
+            record["metadata"] = {name: whole[name] for name in self.metadata}
         unknown = self.unknown_fields
         if unknown:
             record["unknown_fields"] = [field._asdict() for field in unknown]

@@ -721,3 +721,21 @@ def test_a_key_given_twice_is_refused() -> None:
     )
     assert done.returncode == 1
     assert "key 'satellites' appears twice" in done.stderr
+
+
+def test_a_decoded_lines_metadata_is_shown_and_encoded_back() -> None:
+    sent = "62024003f001ac02"  # gps_info (satellites 3) with the envelope's timeout 300
+    line = run("decode", sent)
+    assert line.code == 0
+    assert json.loads(line.out)["metadata"] == {"timeout": 300}
+    assert run("encode", "gps_info", "-", stdin=line.out.encode()) == Done(0, sent + "\n", "")
+
+
+def test_a_decoded_line_listing_unknown_fields_is_sent_with_a_warning() -> None:
+    line = run("decode", "6200a00101")  # field 20 beside gps_info: listed, no bytes of it
+    done = run("encode", "gps_info", "-", stdin=line.out.encode())
+    assert (done.code, done.out) == (0, "62\n")
+    assert done.err == (
+        "warning: the decoded line lists 1 field(s) this schema does not know; JSON holds no "
+        "bytes of them, so they are not sent\n"
+    )

@@ -105,6 +105,8 @@ def decode(
       {"kind": "gps_info", "length": 4, "message": {...},
        "unknown_fields": [{"path": "", "number": 13, "wire_type": 0}]}
       {"error": "...", "reason": "unknown_member", "length": 3}
+    "metadata" holds the envelope's fields beside the payload that the
+    datagram carried ({"timeout": 300}); encode - and send take them back.
     "unknown_fields" lists the fields the schema does not know (a number it
     lacks, or a wire type its field does not have: another schema sent it);
     with --strict such a datagram is an error (reason unknown_fields).

@@ -346,6 +346,7 @@ class _Entry(NamedTuple):
     # the payload (metadata, fields the schema does not know); None where only payloads are kept
     decoded: Decoded | None = None
     unsent: bool = False  # a JSON line listing unknown fields, which it cannot hold
+    beside: Message | None = None  # a JSON line's metadata (timeout ...), as an envelope
 
 
 @click.command()
@@ -512,6 +513,8 @@ class _Player:
             else:
                 envelope = self._envelope()
                 assert entry.message is not None
+                if entry.beside is not None:
+                    envelope.MergeFrom(entry.beside)
                 getattr(envelope, entry.kind).CopyFrom(entry.message)
                 data = self._codec.encode(envelope, self._mode)
         except EncodeError:
@@ -622,4 +625,16 @@ def _from_json_lines(path: Path, codec: Codec, skip: Callable[[str], None]) -> I
             except json_format.ParseError:
                 skip("not_valid")
                 continue
-            yield _Entry(at, kind, message, b"", unsent=bool(record.get("unknown_fields")))
+            beside = None
+            metadata = record.get("metadata")
+            if metadata is not None:
+                beside = codec.message_class(codec.root)()
+                try:
+                    if not isinstance(metadata, dict):
+                        raise json_format.ParseError("metadata is not an object")
+                    json_format.ParseDict(metadata, beside)
+                except json_format.ParseError:
+                    skip("not_valid")
+                    continue
+            unsent = bool(record.get("unknown_fields"))
+            yield _Entry(at, kind, message, b"", unsent=unsent, beside=beside)

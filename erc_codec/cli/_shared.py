@@ -168,34 +168,49 @@ def envelope_from_json(codec: Codec, kind: str, text: str) -> Message:
         known = ", ".join(members) or f"no members: it is a plain message, KIND {codec.root}"
         raise Fatal(f"unknown kind {kind!r}: {codec.root} has {known}")
     try:
-        document = _payload_of(codec, kind, load_json(text))
-        payload = codec.from_dict(kind, document)
+        document = load_json(text)
+        fields, line = _payload_of(codec, kind, document)
+        payload = codec.from_dict(kind, fields)
+        metadata = line.get("metadata", {}) if line is not None else {}
+        if not isinstance(metadata, dict):
+            raise EncodeError("the decoded line's metadata must be an object of fields")
+        beside = codec.from_dict(codec.root, metadata) if metadata else None
     except EncodeError as error:
         raise click.ClickException(one_line(str(error))) from None
+    if line is not None and line.get("unknown_fields"):  # listed by decode, never their bytes
+        count = len(line["unknown_fields"])
+        click.echo(
+            f"warning: the decoded line lists {count} field(s) this schema does not know; "
+            "JSON holds no bytes of them, so they are not sent",
+            err=True,
+        )
     if plain:
         return payload
     envelope = codec.message_class(codec.root)()
+    if beside is not None:  # the metadata a decoded line carried (timeout, ...), sent on
+        envelope.MergeFrom(beside)
     getattr(envelope, kind).CopyFrom(payload)
     getattr(envelope, kind).SetInParent()  # an all-default payload is still the one sent
     return envelope
 
 
-def _payload_of(codec: Codec, kind: str, document: Any) -> Any:
-    """The payload's fields in ``document``: itself, or the ``message`` of a decoded line."""
+def _payload_of(codec: Codec, kind: str, document: Any) -> tuple[Any, dict[str, Any] | None]:
+    """The payload's fields in ``document`` (itself, or the ``message`` of a decoded line), and
+    the decoded line when it is one."""
     if not isinstance(document, dict):
         name = codec.payload_class(kind).DESCRIPTOR.full_name
         raise EncodeError(f"JSON must be an object: the fields of {name}, or a decoded line")
     if not isinstance(document.get("message"), dict) or not isinstance(document.get("kind"), str):
-        return document
+        return document, None
     fields = codec.payload_class(kind).DESCRIPTOR.fields_by_name
     if "kind" in fields and "message" in fields:
-        return document  # the payload's own fields, named so
+        return document, None  # the payload's own fields, named so
     if document["kind"] != kind:
         raise EncodeError(
             f"the JSON is a decoded {document['kind']} datagram, not {kind}: give KIND "
             f"{document['kind']}, or its message alone"
         )
-    return document["message"]
+    return document["message"], document
 
 
 # -- what send, listen and proton listen share ------------------------------------------------
