@@ -71,7 +71,7 @@ class Client:
             poke()
             try:
                 frame = await asyncio.wait_for(self.ws.recv(), 0.1)
-            except TimeoutError:
+            except asyncio.TimeoutError:  # not the builtin TimeoutError before Python 3.11
                 continue
             if isinstance(frame, bytes) and frame[0] == 0x01:  # message data
                 number, log_time = struct.unpack_from("<IQ", frame, 1)
