@@ -22,23 +22,11 @@ from hypothesis import strategies as st
 
 from ._codec import Codec
 from ._errors import SchemaError
-from .schema import descriptor_of, enum_of, message_of
+from .schema import PYTHON_INT_RANGE, descriptor_of, enum_of, message_of
 
 __all__ = ["messages"]
 
 _T = FieldDescriptor
-_INTEGERS = {
-    _T.TYPE_INT32: (-(2**31), 2**31 - 1),
-    _T.TYPE_SINT32: (-(2**31), 2**31 - 1),
-    _T.TYPE_SFIXED32: (-(2**31), 2**31 - 1),
-    _T.TYPE_INT64: (-(2**63), 2**63 - 1),
-    _T.TYPE_SINT64: (-(2**63), 2**63 - 1),
-    _T.TYPE_SFIXED64: (-(2**63), 2**63 - 1),
-    _T.TYPE_UINT32: (0, 2**32 - 1),
-    _T.TYPE_FIXED32: (0, 2**32 - 1),
-    _T.TYPE_UINT64: (0, 2**64 - 1),
-    _T.TYPE_FIXED64: (0, 2**64 - 1),
-}
 # Strings and bytes with no nanopb max_size get this bound, so examples stay small.
 _UNBOUNDED_TEXT = 64
 _UNBOUNDED_COUNT = 8
@@ -116,8 +104,8 @@ class _Builder:
 
     def _scalar(self, field: FieldDescriptor) -> st.SearchStrategy[Any]:
         kind = field.type
-        if kind in _INTEGERS:
-            low, high = self._codec.nanopb.int_range(field) or _INTEGERS[kind]
+        if kind in PYTHON_INT_RANGE:
+            low, high = self._codec.nanopb.int_range(field) or PYTHON_INT_RANGE[kind]
             return st.integers(low, high)
         if kind == _T.TYPE_BOOL:
             return st.booleans()

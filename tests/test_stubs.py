@@ -49,13 +49,18 @@ def stubs_and_mypy(tmp_path: Path, body: str) -> subprocess.CompletedProcess[str
     assert written.stderr == f"wrote {out / 'erc_messages.pyi'}\n"
     script = tmp_path / "tool.py"
     script.write_text(SCRIPT.format(body=body))
+    return mypy(script, out, REPO)
+
+
+def mypy(script: Path, stubs: Path, cwd: Path) -> subprocess.CompletedProcess[str]:
+    """``mypy --strict`` of ``script`` run in ``cwd``, with ``stubs`` on its path alone."""
     return subprocess.run(
         [sys.executable, "-m", "mypy", "--strict", "--no-incremental", str(script)],
         capture_output=True,
         text=True,
         check=False,
-        cwd=REPO,
-        env={"MYPYPATH": str(out), "PATH": "/usr/bin:/bin"},
+        cwd=cwd,
+        env={"MYPYPATH": str(stubs), "PATH": "/usr/bin:/bin"},
     )
 
 
@@ -153,14 +158,7 @@ def test_fields_named_like_builtins_or_the_receiver_type_check(tmp_path: Path) -
     )
     assert written.returncode == 0, written.stderr
     (tmp_path / "tool.py").write_text(AWKWARD_SCRIPT)
-    done = subprocess.run(
-        [sys.executable, "-m", "mypy", "--strict", "--no-incremental", "tool.py"],
-        capture_output=True,
-        text=True,
-        check=False,
-        cwd=tmp_path,
-        env={"MYPYPATH": str(out), "PATH": "/usr/bin:/bin"},
-    )
+    done = mypy(Path("tool.py"), out, tmp_path)
     # the one error is the one the script makes: the stub itself is sound
     assert done.stdout.count("error:") == 1, done.stdout
     assert 'tool.py:17: error: Incompatible types in assignment (expression has type "int"' in (
@@ -295,14 +293,7 @@ def test_names_like_what_the_stub_uses_shadow_nothing(tmp_path: Path) -> None:
     )
     assert written.returncode == 0, written.stderr
     (tmp_path / "tool.py").write_text(NAMES_SCRIPT)
-    done = subprocess.run(
-        [sys.executable, "-m", "mypy", "--strict", "--no-incremental", "tool.py"],
-        capture_output=True,
-        text=True,
-        check=False,
-        cwd=tmp_path,
-        env={"MYPYPATH": str(out), "PATH": "/usr/bin:/bin"},
-    )
+    done = mypy(Path("tool.py"), out, tmp_path)
     # the errors are the four the script makes, each typed through the right class
     assert done.stdout.splitlines() == [
         'tool.py:33: error: Incompatible types in assignment (expression has type "int", '

@@ -24,7 +24,8 @@ sizes and nanopb limits. Nothing here encodes envelopes or talks to a network.
   and annotations; patterns match ``nanopb_name``, the name under ``mangle_names``, and
   ``nanopb_finds`` says whether a field's type is found under them) and ``Sizes``
   (``<Message>_size`` as the generator computes it, by the rules of one of ``NANOPB_VERSIONS``,
-  the fixed-size contract's limits);
+  the fixed-size contract's limits; ``PYTHON_INT_RANGE``, what protobuf's Python runtime lets
+  each integer type hold);
 - the wire: varints, wire types, ``MAX_FIELD_NUMBER`` and ``next_field``, the one tag walker.
 """
 
@@ -51,7 +52,7 @@ from ._options import (
 )
 from ._protoc import ProtocError, compile_files
 from ._schema import Schema, descriptor_of, enum_of, load_schema, message_of
-from ._sizes import NANOPB_VERSIONS, Sizes
+from ._sizes import NANOPB_VERSIONS, PYTHON_INT_RANGE, Sizes
 from ._text import declared_names, imports
 from ._tree import TREE_LIMIT, GitSpec, TreeSource, open_tree, parse_tree_spec
 from ._wire import (
@@ -82,6 +83,7 @@ __all__ = [
     "MAX_LINK_STEPS",
     "MAX_PATH_TEXT",
     "NANOPB_VERSIONS",
+    "PYTHON_INT_RANGE",
     "SGROUP",
     "SOURCE_LIMIT",
     "TREE_LIMIT",

@@ -35,7 +35,7 @@ from ._options import Options, ResolvedOptions, resolve_options
 from ._schema import Schema, enum_of, message_of
 from ._wire import varint_size
 
-__all__ = ["NANOPB_VERSIONS", "Sizes"]
+__all__ = ["NANOPB_VERSIONS", "PYTHON_INT_RANGE", "Sizes"]
 
 # The generator rules a ``Sizes`` can follow, the default first (see the module's docstring).
 NANOPB_VERSIONS = ("0.4.9", "1.0.0-dev")
@@ -83,7 +83,7 @@ _VARINT_KIND = {
     _T.TYPE_SINT64: ("zigzag", 64),
 }
 # What protobuf's Python runtime lets an integer field hold.
-_PYTHON_RANGE = {
+PYTHON_INT_RANGE = {
     _T.TYPE_INT32: (-(2**31), 2**31 - 1),
     _T.TYPE_SINT32: (-(2**31), 2**31 - 1),
     _T.TYPE_SFIXED32: (-(2**31), 2**31 - 1),
@@ -313,9 +313,9 @@ class Sizes:
         """The values of an integer field nanopb's decoder takes unchanged, when narrower than
         what protobuf's runtime lets the field hold (an ``int_size``, a ``type_override`` to a
         narrower or unsigned type), else ``None``."""
-        if field.type not in _PYTHON_RANGE:
+        if field.type not in PYTHON_INT_RANGE:
             return None
-        declared = _PYTHON_RANGE[field.type]
+        declared = PYTHON_INT_RANGE[field.type]
         stored = self.c_integer(field) if self.field_type(field) != _T.TYPE_ENUM else None
         if self.field_type(field) == _T.TYPE_BOOL:
             effective = (0, 1)
