@@ -465,3 +465,31 @@ def test_a_plain_root_tells_a_cut_datagram_from_a_stripped_one(plain: MessageCod
     assert plain.decode(cast(bytes, memoryview(exact))) == ("Probe", probe)  # any bytes-like
     with pytest.raises(TypeError, match="not str"):
         plain.decode(exact.hex())  # type: ignore[arg-type]
+
+
+MAPS_NANOPB_DROPS = """syntax = "proto3";
+message A { map<int32, int32> m = 1; int32 x = 2; }
+message B { map<int32, int32> n = 2; }
+message C { map<int32, int32> k = 3; }
+"""
+
+
+@pytest.mark.parametrize("discard", [True, False])
+def test_map_entries_are_listed_where_nanopb_generates_them(
+    generator: None, tmp_path: Path, discard: bool
+) -> None:
+    """discard_unused_automatic_types (on by default): no entry type for an ignored map field,
+    nor for one in a skipped message; with it off, every entry, as nanopb writes them."""
+    tree = tmp_path / "tree"
+    tree.mkdir()
+    (tree / "maps.proto").write_text(MAPS_NANOPB_DROPS)
+    options = "A.m type:FT_IGNORE\nB skip_message:true\nC.k max_count:2\n"
+    if not discard:
+        options += "* discard_unused_automatic_types:false\n"
+    (tree / "maps.options").write_text(options)
+    out = tmp_path / "out"
+    out.mkdir()
+    theirs = generator_sizes(out, tree, ["maps.proto"])
+    ours = erc_codec.Codec.from_path(tree, root="A").sizes()
+    assert ours == theirs
+    assert ("A.MEntry" in ours) is not discard

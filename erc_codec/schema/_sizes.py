@@ -361,7 +361,21 @@ class Sizes:
         options = self._options.messages[message.full_name]
         if options.skip_message:
             return False
-        return not (options.discard_deprecated and message.GetOptions().deprecated)
+        if options.discard_deprecated and message.GetOptions().deprecated:
+            return False
+        parent = message.containing_type
+        if message.GetOptions().map_entry and parent is not None:
+            # discard_unused_automatic_types (on by default): a map's entry type is generated
+            # only for a map field the generator keeps, in a message it generates
+            file = self._options.files.get(message.file.name)
+            if (
+                file is None
+                or not file.HasField("discard_unused_automatic_types")
+                or file.discard_unused_automatic_types
+            ):
+                used = any(f.message_type is message and not self.ignored(f) for f in parent.fields)
+                return used and self._wanted(parent)
+        return True
 
     def _require_generated(self, message: Descriptor) -> None:
         """``SchemaError`` when nanopb's generator refuses the file of ``message``."""
