@@ -247,3 +247,26 @@ def test_listen_ends_when_its_reader_goes_away() -> None:
         _, err = listener.communicate()
     assert "Traceback" not in err
     assert "counters:" not in err
+
+
+def test_send_takes_a_decoded_line_on_standard_input() -> None:
+    datagram = "62024003f001ac02"  # gps_info, satellites 3, with the envelope's timeout
+    line = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "decode", datagram],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as receiver:
+        receiver.bind(("127.0.0.1", 0))
+        receiver.settimeout(10)
+        port = receiver.getsockname()[1]
+        done = subprocess.run(
+            [sys.executable, "-m", "erc_codec", "send", f"127.0.0.1:{port}", "gps_info", "-"],
+            input=line,
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        assert done.returncode == 0, done.stderr
+        assert receiver.recv(4096).hex() == datagram

@@ -71,7 +71,8 @@ def send(
     tree: str | None,
     root: str | None,
 ) -> None:
-    """Send one payload (protobuf JSON, as for encode) to HOST:PORT, COUNT times at RATE Hz.
+    """Send one payload (protobuf JSON, as for encode; - reads it from standard
+    input, a line erc-codec decode printed too) to HOST:PORT, COUNT times at RATE Hz.
 
     \b
       erc-codec send 127.0.0.1:5000 drive_motor \\
@@ -82,7 +83,7 @@ def send(
     """
     host, port = parse_address(target)
     codec = load(tree, root)
-    envelope = envelope_from_json(codec, kind, payload)
+    envelope = envelope_from_json(codec, kind, sys.stdin.read() if payload == "-" else payload)
     try:
         data = codec.encode(envelope, cast(Mode, mode))
     except EncodeError as error:
