@@ -194,13 +194,13 @@ class Codec(Envelope):
         the shortest decimal of its 32 bits, ``"NaN"`` and ``"Infinity"`` as strings."""
         from ._json import to_dict
 
-        return to_dict(message)
+        return to_dict(_a_message(message))
 
     def to_json(self, message: Message) -> str:
         """``to_dict(message)`` as one line of JSON text."""
         from ._json import to_json
 
-        return to_json(message)
+        return to_json(_a_message(message))
 
     def from_dict(self, kind_or_class: str | type[Message], document: Mapping[str, Any]) -> Message:
         """The message ``document`` spells in protobuf's JSON mapping (what ``to_dict`` gives, or
@@ -260,6 +260,13 @@ class MessageCodec(Plain, Codec):
             functools.partial(contract, self._sizes),
             functools.partial(refusal, self._sizes, schema.root),
         )
+
+
+def _a_message(message: object) -> Message:
+    """``message``, when it is a protobuf message; else a ``TypeError`` naming what it is."""
+    if not isinstance(message, Message):
+        raise TypeError(f"message is a protobuf message, not {type(message).__name__}")
+    return message
 
 
 def _require_compiled_runtime() -> None:

@@ -489,3 +489,10 @@ def test_a_message_nested_too_deep_is_refused() -> None:
     assert MAPPING.from_dict("JsonNode", document).ByteSize() > 0  # 100 levels: protobuf's limit
     with pytest.raises(EncodeError, match=r"JsonNode(\.nested)+: messages nest more than 100"):
         MAPPING.from_dict("JsonNode", {"nested": document})
+
+
+@pytest.mark.parametrize("given", [b"x", "gps_info", None])
+def test_what_is_no_message_is_a_type_error_naming_it(given: object) -> None:
+    for write in (CODEC.to_dict, CODEC.to_json):
+        with pytest.raises(TypeError, match=f"not {type(given).__name__}$"):
+            write(given)  # type: ignore[arg-type]
