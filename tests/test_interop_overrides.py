@@ -29,7 +29,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_interop import missing_toolchain
-from test_interop_any import Peer, c_name
+from test_interop_any import NANOPB_0491 as VENDORED
+from test_interop_any import Peer, build_filter, c_name
 
 import erc_codec
 from erc_codec import strategies
@@ -39,16 +40,6 @@ pytestmark = pytest.mark.interop
 
 TREES = Path(__file__).parent / "any_trees"
 INTEGERS, OVERRIDES = TREES / "integers", TREES / "overrides"
-FILTER_SOURCE = Path(__file__).parent / "interop" / "any_filter.c"
-VENDORED = (
-    Path(__file__).resolve().parents[1].parent
-    / "shared"
-    / "peers"
-    / "proton"
-    / "2.0-d269668"
-    / "external"
-    / "nanopb"
-)
 PYPI_GENERATOR = [sys.executable, "-m", "nanopb.generator.nanopb_generator"]
 INTEGER_CODEC = erc_codec.Codec.from_path(INTEGERS, root="Integers")
 OVERRIDE_ROOTS = ["Overrides2", "Overrides3"]
@@ -69,33 +60,10 @@ def _build(
     codecs: list[erc_codec.Codec],
     runtime: Path | None,
 ) -> Peer:
-    """any_filter.c over ``tree``'s generated code, linked with Debian's library (``runtime``
-    None) or compiled with the C runtime in folder ``runtime``."""
+    """any_filter.c over every .proto of ``tree``, for each message ``codecs`` size."""
     protos = sorted(path.name for path in tree.glob("*.proto"))
-    subprocess.run([*generator, "-q", "-I", ".", "-D", str(build), *protos], cwd=tree, check=True)
     sized = sorted({name for codec in codecs for name, size in codec.sizes().items() if size})
-    (build / "messages.h").write_text(
-        "".join(f'#include "{Path(proto).with_suffix(".pb.h")}"\n' for proto in protos)
-        + "#define MESSAGES "
-        + " ".join(f"X({c_name(name)})" for name in sized)
-        + "\n"
-    )
-    program = build / "any_filter"
-    sources = [str(FILTER_SOURCE), *map(str, build.glob("*.pb.c"))]
-    includes: list[str] = []
-    libraries = ["-lprotobuf-nanopb"]
-    if runtime is not None:
-        sources += [str(runtime / name) for name in ("pb_common.c", "pb_decode.c", "pb_encode.c")]
-        includes, libraries = ["-I", str(runtime)], []
-    subprocess.run(
-        [
-            *("gcc", "-std=c11", "-Wall", "-Wextra", "-Werror", "-O1", "-I", str(build)),
-            *includes,
-            *("-o", str(program), *sources, *libraries),
-        ],
-        check=True,
-    )
-    return Peer(program)
+    return build_filter(build, generator, tree, protos, sized, runtime)
 
 
 @pytest.fixture(scope="module", params=["0.4.7", "0.4.9.1"])
