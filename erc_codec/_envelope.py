@@ -20,7 +20,9 @@ What this module guarantees:
 
 Both directions run per datagram, so the common case is the protobuf call plus a few byte
 operations. Encoding looks the payload class up in a dict and prepends a precomputed tag-and-length
-header to the payload's own serialization. Decoding reads that header itself (``peek``: tag → kind,
+header to the payload's own serialization; in the default form (stripped, no metadata) one
+function compiled per payload class does all of it, the contract's check inline
+(``_contract.sender``). Decoding reads that header itself (``peek``: tag → kind,
 length → where the payload ends), so protobuf parses only the payload bytes: a stripped datagram
 gets its missing zeros appended and a padded one is cut, by arithmetic, before the one parse;
 only a datagram whose zeros were restored has its parse serialized again, and only when that
@@ -44,7 +46,7 @@ from google.protobuf.message import DecodeError as ProtobufDecodeError
 from google.protobuf.message import EncodeError as ProtobufEncodeError
 from google.protobuf.message import Message
 
-from ._contract import Contract
+from ._contract import Contract, sender
 from ._errors import DecodeError, EncodeError, SchemaError
 from ._foreign import Foreign
 from ._forms import Forms, Mode, as_bytes, cut_short, strict_error
@@ -191,6 +193,9 @@ class Envelope:
         # wrapped without naming the member. The serializer is the class's own method: looking
         # it up on each instance costs more in upb than serializing a small message does.
         self._members: dict[type[Message], _Member | None] = {}
+        # Payload class → its stripped datagram in one function (``_contract.sender``), for the
+        # classes ``_members`` has a member of.
+        self._senders: dict[type[Message], Callable[[Message], bytes]] = {}
         # First tag byte (or first | second << 8 for two-byte tags) → (kind, the payload class's
         # parser, offset of the length prefix). ``_first`` holds the one-byte tags' again, by
         # index: a list lookup spares decode a method call (see decode).
@@ -217,10 +222,13 @@ class Envelope:
                 if len(tag) + varint_size(length) + length <= max_size
             ]
             cls = _member_class(envelope, field.name)
-            screen, check = rules or (None, None)
-            self._members[cls] = (
-                None if cls in self._members else (headers, screen, check, cls.SerializeToString)
-            )
+            screen, check = (rules.screen, rules.check) if rules else (None, None)
+            shared = cls in self._members
+            self._members[cls] = None if shared else (headers, screen, check, cls.SerializeToString)
+            if shared:
+                self._senders.pop(cls, None)
+            else:
+                self._senders[cls] = sender(rules, cls.SerializeToString, headers)
             self._payloads[field.name] = cls
             # Partial: a proto2 payload missing a required field decodes (protobuf parses it), and
             # the comparison with its restored bytes must not raise where the parse did not.
@@ -256,6 +264,19 @@ class Envelope:
     def encode(self, message: Message, mode: Mode = "strip", /, **metadata: object) -> bytes:
         """The datagram carrying ``message`` (a payload, or a whole envelope) in ``mode``, with
         the envelope metadata fields named (``timeout=300``) set to their values."""
+        if mode == "strip" and not metadata:
+            # The usual call in one compiled function per payload class (bench_codec's encode
+            # target; tests/test_contract.py holds it to the plain path below).
+            send = self._senders.get(type(message))
+            if send is not None:
+                try:
+                    return send(message)
+                except (IndexError, ProtobufEncodeError):
+                    pass  # too long, or a required field unset: the plain path says which
+        return self._encode(message, mode, metadata)
+
+    def _encode(self, message: Message, mode: Mode, metadata: Mapping[str, object]) -> bytes:
+        """``encode`` the plain way: every form, metadata, and the errors in its own words."""
         if metadata:
             exact = self._with_metadata(self.encode(message, "exact"), metadata)
             return self._forms.in_form(exact, mode)

@@ -86,6 +86,38 @@ def test_the_big_payloads_are_screened_and_still_exact() -> None:
         CODEC.encode(diagnostics)
 
 
+def test_a_screen_only_where_it_saves_more_reads_than_it_costs() -> None:
+    """The motors' diagnostics hold one enum tag among about a hundred bytes of floats: a scan
+    of their bytes is cheaper than reading ten submessages. The sensor board's holds eight
+    enum tags among as many bytes, which float bytes match by chance nearly always, and the
+    small types hold too few fields to be worth a scan."""
+    screened = {name for name in PAYLOAD_TYPES if (rules := compiled(CODEC, name)) and rules.screen}
+    assert screened == {"ArmBoardDiagnostics", "DrivingBoardDiagnostics"}
+    sensors = CODEC.message_class("SensorBoardDiagnostics")()
+    fill_random(random.Random(7), sensors)
+    sensors.gps_sensor_1.fix_quality = 77  # type: ignore[attr-defined]
+    with pytest.raises(EncodeError, match=r"gps_sensor_1\.fix_quality = 77 is not a declared"):
+        CODEC.encode(sensors)
+
+
+def test_the_default_form_is_the_plain_paths_on_every_payload_type() -> None:
+    """One random payload of each type, sent in the default form (the compiled sender) and in
+    the exact form stripped by hand (the plain path); a payload made too long by fields the
+    schema does not know is refused by both in the same words."""
+    rng = random.Random(20261202)
+    for member in ENVELOPE.oneofs[0].fields:
+        payload = fill_random(rng, CODEC.message_class(message_of(member).full_name)())
+        assert CODEC.encode(payload) == CODEC.encode(payload, "exact").rstrip(b"\0")
+    padded = CODEC.message_class("SensorBoardGPSInfo")(satellites=9)
+    padded.MergeFromString(b"\xfa\x3f\x84\x02" + bytes([1]) * 260)  # field 1023, 260 bytes
+    refusals = []
+    for mode in ("strip", "exact"):
+        with pytest.raises(EncodeError, match="would be 269 bytes, more than the 262") as refused:
+            CODEC.encode(padded, mode)
+        refusals.append(str(refused.value))
+    assert refusals[0] == refusals[1]
+
+
 def record(**values: Any) -> Message:
     return LIMITS.message_class("LimitsRecord")(**values)
 
@@ -529,12 +561,18 @@ def assert_the_compiled_check_agrees(schema: Codec, name: str, data: st.DataObje
     assert refused == (complaints[0] if complaints else None)
     if complaints and rules.screen is not None:
         assert rules.screen(message.SerializeToString()), complaints[0]
+    sent: bytes | str
+    sent_plainly: bytes | str
     try:
-        schema.encode(message)
-        sent = None
+        sent = schema.encode(message)  # the default form: one compiled sender per payload type
     except EncodeError as error:
         sent = str(error)
-    assert sent == refused
+    try:  # the plain path (every form but the default one takes it), stripped by hand
+        sent_plainly = schema.encode(message, "exact").rstrip(b"\0")
+    except EncodeError as error:
+        sent_plainly = str(error)
+    assert sent == sent_plainly
+    assert isinstance(sent, bytes) if refused is None else sent == refused
 
 
 PAYLOAD_TYPES = [message_of(member).full_name for member in ENVELOPE.oneofs[0].fields]
