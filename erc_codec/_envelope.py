@@ -267,12 +267,10 @@ class Envelope:
         if mode == "strip" and not metadata:
             # The usual call in one compiled function per payload class (bench_codec's encode
             # target; tests/test_contract.py holds it to the plain path below).
-            send = self._senders.get(type(message))
-            if send is not None:
-                try:
-                    return send(message)
-                except (IndexError, ProtobufEncodeError):
-                    pass  # too long, or a required field unset: the plain path says which
+            try:
+                return self._senders[type(message)](message)
+            except (KeyError, IndexError, ProtobufEncodeError):
+                pass  # no payload class, too long, a required field unset: the plain path's
         return self._encode(message, mode, metadata)
 
     def _encode(self, message: Message, mode: Mode, metadata: Mapping[str, object]) -> bytes:
