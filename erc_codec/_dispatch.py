@@ -62,11 +62,15 @@ class Dispatcher:
         codec: Codec | None = None,
         on_drop: Callable[[Drop], object] | None = None,
         on_decoded: Callable[[str], object] | None = None,
+        on_arrival: Callable[[str, float | None], object] | None = None,
     ) -> None:
         """``on_drop`` hears of every drop; ``on_decoded`` (an attribute, too) of the kind of every
-        datagram that decodes, handled or not, before its handler runs: liveness feeds on it."""
+        datagram that decodes, handled or not, before its handler runs: liveness feeds on it.
+        ``on_arrival`` (an attribute, too) hears the same with the timeout the datagram's sender
+        advertised, in seconds (``None``: none), as ``Watchdog.seen`` takes it."""
         self._codec = codec or Codec.default()
         self.on_decoded = on_decoded
+        self.on_arrival = on_arrival
         self._peek = self._codec.peek
         self._decode = self._codec.decode
         # kind → [handler or None, datagrams handled, payload parser]: one lookup finds all
@@ -110,6 +114,7 @@ class Dispatcher:
         # general way, which also says what is wrong.
         found = self._peek(data)
         message: Message | None = None
+        advertised = 0  # peek's datagrams are one member alone: no metadata, so no timeout
         if found is not None:
             kind, payload = found
             entry = self._kinds[kind]
@@ -125,6 +130,7 @@ class Dispatcher:
                     self._undecodable, error.reason, Drop(error.reason, None, data, error)
                 )
             kind, message = decoded
+            advertised = decoded.timeout
             if decoded.envelope_unknown_fields:  # never on peek's path: one member, no more
                 unkept = self._unkept
                 for number in {field.number for field in decoded.envelope_unknown_fields}:
@@ -132,6 +138,8 @@ class Dispatcher:
             entry = self._kinds[kind]
         if self.on_decoded is not None:
             self.on_decoded(kind)
+        if self.on_arrival is not None:
+            self.on_arrival(kind, advertised / 1000 if advertised else None)
         handler = entry[0]
         if handler is None:
             return self._drop(self._unhandled, kind, Drop("unhandled", kind, data, None))

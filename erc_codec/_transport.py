@@ -285,14 +285,14 @@ async def open_udp(
     endpoint = UdpEndpoint(dispatcher, watchdog, clock, poll_interval, on_datagram)
     await endpoint.open(host, port, receive_buffer)
     if watchdog is not None and dispatcher is not None:
-        previous = dispatcher.on_decoded
+        previous = dispatcher.on_arrival
 
-        def arrived(kind: str) -> None:
-            watchdog.seen(kind, clock())
+        def arrived(kind: str, timeout: float | None) -> None:
+            watchdog.seen(kind, clock(), timeout)  # the sender's advertised timeout too
             if previous is not None:
-                previous(kind)
+                previous(kind, timeout)
 
-        dispatcher.on_decoded = arrived
+        dispatcher.on_arrival = arrived
     return endpoint
 
 

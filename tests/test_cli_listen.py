@@ -64,12 +64,34 @@ def test_watch_raises_an_alert_when_a_kind_goes_silent_and_when_it_is_back() -> 
     ]
     assert shown[1]["kind"] == "gps_info"
     assert shown[1]["period"] == 0.1
+    assert shown[1]["timeout"] == pytest.approx(0.3)  # three periods
     # Measured since the arrival (it was the timeout, 3 periods, whatever the clock said):
     # more than the timeout that passed, less than the time the test waited for it.
     assert 0.3 < shown[1]["silent_for"] < alerted - sent
     assert err.splitlines()[-1].startswith("counters: ")
     counters = json.loads(err.splitlines()[-1].removeprefix("counters: "))
     assert counters["handled"] == {"gps_info": 2}
+
+
+def test_a_kind_is_watched_by_the_timeout_its_sender_advertises() -> None:
+    """No --watch: the drive commands advertise 200 ms on the wire, and their silence is an
+    alert all the same, with no period (nobody configured one) and the advertised timeout."""
+    listener, port = start_listener("--format", "json")
+    codec = erc_codec.Codec.default()
+    drive = codec.encode(codec.message_class("DrivingBoardMotorMessage")(), timeout=200)
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
+        sender.sendto(drive, ("127.0.0.1", port))
+        sender.sendto(codec_datagram("gps_info"), ("127.0.0.1", port))  # advertises none
+        time.sleep(1.0)
+    listener.send_signal(signal.SIGTERM)
+    out, err = listener.communicate(timeout=30)
+    assert listener.returncode == 0, err
+    alerts = [record for line in out.splitlines() if "alert" in (record := json.loads(line))]
+    assert [(a["alert"], a["kind"], a["period"]) for a in alerts] == [
+        ("silent", "drive_motor", None)
+    ]
+    assert alerts[0]["timeout"] == pytest.approx(0.2)
+    assert alerts[0]["silent_for"] >= 0.2
 
 
 def test_an_unknown_watched_kind_or_period_is_a_usage_error() -> None:
@@ -98,7 +120,7 @@ def test_the_table_shows_ages_watches_and_drops_by_reason() -> None:
     assert gps[:2] == ["gps_info", "1"]
     assert gps[4:] == ["s", "ago"]
     ph = next(line for line in last if line.startswith("ph_info")).split()
-    assert ph[1:] == ["0", "0.0", "never", "waiting", "(every", "5", "s)"]
+    assert ph[1:] == ["0", "0.0", "never", "waiting", "(every", "5", "s,", "timeout", "15", "s)"]
     assert "dropped: undecodable unknown_member: 1" in last
 
 

@@ -86,6 +86,32 @@ def test_the_watchdog_engages_when_a_stream_stops() -> None:
     ]
 
 
+def test_open_udp_watches_a_kind_by_the_timeout_its_sender_advertises() -> None:
+    """Nobody configured drive_motor: its sender's advertised timeout (300 ms on the wire) makes
+    the watchdog watch it, so its silence engages the brakes; a kind sent without one is only
+    measured."""
+
+    async def scenario() -> tuple[list[str], dict[str, float]]:
+        events: list[str] = []
+        watchdog = erc_codec.Watchdog(on_timeout=lambda kind: events.append(f"timeout {kind}"))
+        arrivals: dict[str, float] = {}
+        dispatcher = erc_codec.Dispatcher(CODEC)
+        dispatcher.on_arrival = lambda kind, timeout: arrivals.setdefault(kind, timeout or 0.0)
+        listening = await erc_codec.open_udp(dispatcher, watchdog=watchdog, poll_interval=0.01)
+        sender = await erc_codec.open_udp(erc_codec.Dispatcher(CODEC))
+        advertising = CODEC.encode(MOTOR(distance_to_go=1.0), timeout=300)
+        sender.send_datagram(advertising, listening.address)
+        sender.send(GPS(latitude=1.0), listening.address)
+        await until(lambda: events)
+        listening.close()
+        sender.close()
+        return events, arrivals
+
+    events, arrivals = asyncio.run(scenario())
+    assert events == ["timeout drive_motor"]
+    assert arrivals == {"drive_motor": 0.3, "gps_info": 0.0}  # what was hooked before stays
+
+
 def test_a_serial_stream_is_deframed_and_dispatched() -> None:
     async def scenario() -> tuple[list[Message], erc_codec.DeframerStats]:
         got: list[Message] = []

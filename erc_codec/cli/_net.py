@@ -189,7 +189,8 @@ def listen(
     Port 0 takes any free port; the address actually bound is the first line on stderr. JSON
     lines: one per datagram, an error object for each one dropped (with its reason), and with
     --watch an alert object when a kind goes silent ({"alert": "silent", "kind": ...,
-    "period": ..., "silent_for": ...}) and when it is back ({"alert": "back", ...}). The table
+    "period": ..., "timeout": ..., "silent_for": ...}) and when it is back ({"alert": "back",
+    ...}); a kind whose sender advertises a timeout is watched by it without --watch. The table
     shows per kind its count, its rate over the last 5 seconds (falling to 0 when it stops),
     how long ago it was last seen and, watched, whether it is SILENT; below it, the datagrams
     dropped by reason, the kernel's drops included, as they happen.
@@ -252,11 +253,10 @@ class _Listening:
         for kind in codec.kinds().values():
             self.dispatcher.register(kind, self._shower(kind))
         self.watches = watches
-        self.watchdog: Watchdog | None = None
-        if watches:
-            self.watchdog = Watchdog(on_timeout=self._silent, on_recover=self._back)
-            for kind, period in watches.items():
-                self.watchdog.watch(kind, period)
+        # Kinds --watch names, and those whose senders advertise a timeout on the wire.
+        self.watchdog = Watchdog(on_timeout=self._silent, on_recover=self._back)
+        for kind, period in watches.items():
+            self.watchdog.watch(kind, period)
         self.rates = SlidingRates()
         self.silent: set[str] = set()
         self.udp: UdpStats | None = None  # the endpoint's counters, once it is closed
@@ -351,7 +351,9 @@ class _Listening:
 
     def _render(self, view: "_Table") -> None:
         live = self._endpoint.stats() if self._endpoint is not None else None
-        view.render(self.dispatcher.stats(), live, self.rates, self.watches, self.silent)
+        view.render(
+            self.dispatcher.stats(), live, self.rates, self.watches, self.silent, self.watchdog
+        )
 
     def _shower(self, kind: str) -> Callable[[Message], None]:
         def show(message: Message) -> None:
@@ -382,19 +384,27 @@ class _Listening:
     def _silent(self, kind: str) -> None:
         self.silent.add(kind)
         if self._view is None:
-            record = {"alert": "silent", "kind": kind, "period": self.watches[kind]}
+            record = {"alert": "silent", **self._watch(kind)}
             self._show({**record, "silent_for": self._silent_for(kind)})
 
     def _back(self, kind: str) -> None:
         self.silent.discard(kind)
         if self._view is None:
-            self._show({"alert": "back", "kind": kind, "period": self.watches[kind]})
+            self._show({"alert": "back", **self._watch(kind)})
+
+    def _watch(self, kind: str) -> dict[str, object]:
+        """What an alert says of the watch: the kind, the period --watch gave (``None`` for a
+        kind watched only by its sender's advertised timeout) and the timeout that passed."""
+        return {
+            "kind": kind,
+            "period": self.watches.get(kind),
+            "timeout": self.watchdog.timeout(kind),
+        }
 
     def _silent_for(self, kind: str) -> float | None:
         """Seconds since ``kind`` last arrived, by the clock the watchdog was told the arrival
         on (``open_udp``'s, ``time.monotonic``), rounded up to the millisecond: never less than
         the timeout that passed. ``None`` if it never arrived (the watchdog then stays quiet)."""
-        assert self.watchdog is not None  # only its timeouts call this
         last = self.watchdog.last_seen(kind)
         if last is None:
             return None
@@ -411,6 +421,7 @@ class _Table:
         rates: SlidingRates,
         watches: dict[str, float],
         silent: set[str],
+        watchdog: Watchdog,
     ) -> None:
         now = time.monotonic()
         lines = [f"{'kind':<34}{'count':>8}{'rate Hz':>10}{'last seen':>12}  watch"]
@@ -418,9 +429,11 @@ class _Table:
             last = rates.last.get(kind)
             age = "never" if last is None else f"{now - last:.1f} s ago"
             watch = ""
-            if kind in watches:
+            timeout = watchdog.timeout(kind)
+            if timeout is not None:
                 state = "SILENT" if kind in silent else "ok" if last is not None else "waiting"
-                watch = f"{state} (every {watches[kind]:g} s)"
+                every = f"every {watches[kind]:g} s" if kind in watches else "advertised"
+                watch = f"{state} ({every}, timeout {timeout:g} s)"
             lines.append(
                 f"{kind:<34}{stats.handled.get(kind, 0):>8}{rates.rate(kind, now):>10.1f}"
                 f"{age:>12}  {watch}".rstrip()
