@@ -165,17 +165,16 @@ def sender(
     when the payload is too long for the datagram, ``google.protobuf.message.EncodeError`` when
     protobuf refuses to serialize it: the plain path of encode says those in its own words."""
     namespace: dict[str, Any] = {"serialize": serialize, "headers": headers}
-    lines = ["def send(m, p=top):", " body = serialize(m)"]
-    if rules is not None and rules.screen is None:
+    lines = ["def send(m):", " body = serialize(m)"]
+    if rules is not None and rules.screen is None:  # the check's lines, whose path p is top
         namespace.update(rules.names)
-        lines += rules.lines
+        lines = ["def send(m, p=top):", lines[1], *rules.lines]
     elif rules is not None:
         namespace.update(screen=rules.screen, check=rules.check)
         lines.append(" if screen(body): check(m)")
     # A payload starts with a tag, never a zero byte, so stripping stops inside it or, for an
     # empty payload, at the header's tag (whose last byte is never zero).
     lines.append(' return (headers[len(body)] + body).rstrip(b"\\0")')
-    namespace.setdefault("top", "")
     exec("\n".join(lines), namespace)  # our own generated code
     return namespace["send"]  # type: ignore[no-any-return]
 
