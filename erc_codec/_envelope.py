@@ -57,7 +57,7 @@ from .schema import (
     descriptor_of,
     encode_varint,
     message_of,
-    read_varint,
+    next_field,
     varint_size,
 )
 
@@ -572,8 +572,7 @@ class Envelope:
         exact = self._forms.restore(data)
         if not exact:
             return DecodeError("datagram holds no payload (only zero bytes)", "no_payload")
-        key, _ = read_varint(exact, 0)
-        number, wire_type = key >> 3, key & 7
+        number, wire_type, _, _ = next_field(exact, 0)  # it parsed: its first field is whole
         if number in self.metadata_fields():
             return DecodeError(
                 f"datagram holds metadata ({self.metadata_fields()[number]}) but no payload",
@@ -582,7 +581,7 @@ class Envelope:
         if number in self._kinds:
             return DecodeError(
                 f"payload number {number} ({self._kinds[number]}) arrived with wire type "
-                f"{wire_type}, not 2 (length-delimited)"
+                f"{wire_type}, not {LEN} (length-delimited)"
             )
         return DecodeError(
             f"payload number {number} is not a member of {self._name} in this schema "
