@@ -232,6 +232,41 @@ CROSSFILE_CASES: dict[str, dict[str, tuple[str, int | None]]] = {
         "r.RefPart": ("r_RefPart", 13),
         "r.RefLeaf": ("r_RefLeaf", None),
     },
+    "UsesLoose": {
+        "Loose": ("Loose", 11),
+        "p.Sub": ("p_Sub", 11),
+        "UsesLoose": ("np_UsesLoose", 13),
+        "UsesBase": ("np_UsesBase", 13),
+        "UsesTones": ("np_UsesTones", 4),
+        "Own": ("np_Own", 11),
+        "UsesOwn": ("np_UsesOwn", 13),
+    },
+    "t.UsesOther": {
+        "p.Sub": ("p_Sub", 11),
+        "t.UsesOther": ("tt_UsesOther", 13),
+        "t.Mine": ("tt_Mine", 11),
+        "t.UsesMine": ("tt_UsesMine", 13),
+    },
+}
+# nanopb's master looks a type up otherwise from a file without a package but with a
+# (nanopb_fileopt).package (nopackage.proto): it finds no other file's types. The other cases
+# are the same there.
+MASTER_CROSSFILE = {
+    **CROSSFILE_CASES,
+    "UsesLoose": {
+        **CROSSFILE_CASES["UsesLoose"],
+        "UsesLoose": ("np_UsesLoose", None),
+        "UsesBase": ("np_UsesBase", None),
+        "UsesTones": ("np_UsesTones", 22),
+    },
+}
+CROSSFILE_BY_VERSION = dict(zip(NANOPB_VERSIONS, (CROSSFILE_CASES, MASTER_CROSSFILE), strict=True))
+# 0.4.7, before 0.4.8 looked a type outside the file's package up by its full name, finds no
+# other file's type from a file with a (nanopb_fileopt).package, with a package or without: no
+# rule set here follows it in that (renamedref.proto).
+CROSSFILE_0_4_7 = {
+    **MASTER_CROSSFILE,
+    "t.UsesOther": {**CROSSFILE_CASES["t.UsesOther"], "t.UsesOther": ("tt_UsesOther", None)},
 }
 
 
@@ -254,6 +289,39 @@ def test_a_type_nanopb_does_not_find_has_no_size(crossfile: Sized, root: str) ->
     assert {c_name: crossfile[c_name] for c_name, _ in case.values()} == dict(case.values())
     ours = Sizes(load_schema(CROSSFILE, root=root)).all()
     assert ours == {name: size for name, (_, size) in case.items()}
+
+
+@pytest.mark.parametrize("version", NANOPB_VERSIONS)
+def test_each_rule_set_finds_types_as_its_generator(version: str) -> None:
+    """The lookup by each version's rules, against the tables (0.4.x's held to every 0.4.x
+    generator by test_every_0_4_generator_...; master's read from 1.0.0.dev1621's generator)."""
+    for root, case in CROSSFILE_BY_VERSION[version].items():
+        ours = Sizes(load_schema(CROSSFILE, root=root), nanopb_version=version).all()
+        assert ours == {name: size for name, (_, size) in case.items()}, root
+
+
+# A singular field of loose.proto's Tone from nopackage.proto's rules: 0.4.x finds the enum,
+# master looks for np_Tone and stops ("Could not find enum type np_Tone").
+ONE_TONE = (
+    'syntax = "proto3";\nimport "nanopb.proto";\nimport "loose.proto";\n'
+    'option (nanopb_fileopt).package = "np";\nmessage OneTone { Tone tone = 1; }\n'
+)
+
+
+def _one_tone(tree: Path) -> Path:
+    tree.mkdir(exist_ok=True)
+    shutil.copy(CROSSFILE / "loose.proto", tree / "loose.proto")
+    (tree / "single.proto").write_text(ONE_TONE)
+    return tree
+
+
+def test_a_singular_enum_master_does_not_find_stops_it(tmp_path: Path) -> None:
+    schema = load_schema(_one_tone(tmp_path), root="OneTone")
+    assert Sizes(schema).all() == {"Loose": 11, "OneTone": 2}
+    master = Sizes(schema, nanopb_version="1.0.0-dev")
+    assert master.all() == {"Loose": 11, "OneTone": None}
+    with pytest.raises(erc_codec.SchemaError, match=r"OneTone\.tone: .*enum type Tone .* stops"):
+        master.max_size("OneTone")
 
 
 def test_a_singular_enum_nanopb_does_not_find_stops_it(tmp_path: Path) -> None:
@@ -371,7 +439,8 @@ def test_every_0_4_generator_sizes_as_the_0_4_9_rules(
 ) -> None:
     """Each 0.4.x generator gives every message of every rule tree it accepts erc_codec's size
     by the "0.4.9" rules, the pointer tree included; it refuses exactly the trees listed; and it
-    names and finds types under mangle_names as 0.4.9.1 does (the two tables above). (The
+    names and finds types under mangle_names as 0.4.9.1 does (the two tables above), but for
+    0.4.7 (CROSSFILE_0_4_7). (The
     test extra's 0.4.9.1 meets the rule trees in tests/test_sizes.py already: here it runs on the
     pointer tree alone.)"""
     generator = _generator(generators, version, tmp_path_factory)
@@ -402,7 +471,8 @@ def test_every_0_4_generator_sizes_as_the_0_4_9_rules(
         assert [mangled[c_name] for c_name in c_names] == list(MANGLED_SIZES)
     found, complaint = generator.run(CROSSFILE, _files(CROSSFILE), tmp_path_factory.mktemp("c"))
     assert found is not None, complaint
-    for case in CROSSFILE_CASES.values():
+    finds = CROSSFILE_0_4_7 if version.startswith("0.4.7") else CROSSFILE_CASES
+    for case in finds.values():
         assert {c_name: found[c_name] for c_name, _ in case.values()} == dict(case.values())
 
 
