@@ -21,10 +21,13 @@ every field whose bound is known whatever its allocation (its ``Field.encoded_si
 string or bytes), so a callback or pointer field counts as the static field it could have been.
 A type that contains itself still has no size there (master writes an expression naming the
 message's own size, which no compiler can evaluate). And master looks a field's type up otherwise
-from a file without a package but with a ``(nanopb_fileopt).package`` (see ``_names``). 0.4.7
-differs from the later 0.4.x in the lookup from a file with a ``(nanopb_fileopt).package`` (it
-looks every type up under that name, where 0.4.8 and later look a type outside the file's package
-up by its full name).
+from a file without a package but with a ``(nanopb_fileopt).package`` (see ``_names``). Each rule
+set is checked against its generator, PyPI's nanopb 0.4.9.1 and 1.0.0.dev1621, over the test
+corpus (whether the firmware's d68cd4e is older or newer than 1.0.0.dev1621, the 1621st commit of
+master, is not known here: the package names no commit); the older 0.4.x releases size alike,
+0.4.7 but for the type lookup from a file with a ``(nanopb_fileopt).package`` (it looks every
+type up under that name, where 0.4.8 and later look a type outside the file's package up by its
+full name).
 """
 
 from collections.abc import Sequence
