@@ -6,7 +6,8 @@ through ``Codec.from_source``.
 Sizes are held to nanopb's generator (PyPI ``nanopb``) run from the tree's root with the same
 ``-I``, ``-f`` and ``-s`` (``test_any_schema.generator_sizes``), and to a hand-computed number, so
 that two "no size" answers never pass as equal. The tree is ``tests/any_trees/include``
-(the version's, ``tests/nanopb_trees/pointers``, sized by hand in ``test_nanopb_rules``):
+(the version's, ``tests/nanopb_trees/pointers``, sized by hand in ``test_nanopb_rules``, which
+holds the table to each version's generator):
 ``main/app.proto`` imports ``shared/units.proto``, found only under ``inc/``, whose options files
 (``units.options``, ``units.nanopb``) sit beside it there.
 """

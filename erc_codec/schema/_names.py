@@ -9,6 +9,13 @@ is looked up by the name the *referring* file's rules make of it, among the C na
 canonical names (package and local name) the defining files registered: where the two files'
 rules disagree (a file that strips its package referring to a type of a file that does not) the
 generator finds nothing and writes a size guarded by a ``#if defined(...)`` that never holds.
+
+The lookup differs in one place between generator versions: a file *without* a package but with
+``(nanopb_fileopt).package = "NEW"`` looks every type up as ``NEW_<its full name>`` in nanopb's
+master after 0.4.9.1 (1.0.0.dev1621's ``MangleNames.mangle_field_typename`` returns the name as it
+is for a type outside the file's package only ``and self.canonical_base != Names()``, the file
+having a package), so it finds its own types but no other file's; 0.4.x looks a type up by its
+full name, and finds the types of files that mangle nothing too (``master_lookup``).
 """
 
 from typing import Any
@@ -39,23 +46,30 @@ def nanopb_name(package: str, file_options: FileOptions, full_name: str) -> str:
 
 
 def nanopb_finds(
-    referring: tuple[str, FileOptions], defining: tuple[str, FileOptions], full_name: str
+    referring: tuple[str, FileOptions],
+    defining: tuple[str, FileOptions],
+    full_name: str,
+    *,
+    master_lookup: bool = False,
 ) -> bool:
     """Whether nanopb's generator, writing a file of package and options ``referring``, finds
-    the message or enum ``full_name`` declared in a file of package and options ``defining``."""
+    the message or enum ``full_name`` declared in a file of package and options ``defining``;
+    by the lookup of nanopb's master after 0.4.9.1 with ``master_lookup`` (see the module's
+    docstring), else by 0.4.x's."""
     package, options = defining
     local = full_name[len(package) + 1 :] if package else full_name
     if options.mangle_names == _M_FLATTEN:
         local = local.rpartition(".")[2]
     registered = {_c_name(nanopb_name(*defining, full_name)), _c_name(f"{package}.{local}")}
-    return _looked_up(*referring, full_name) in registered
+    return _looked_up(*referring, full_name, master_lookup) in registered
 
 
-def _looked_up(package: str, options: FileOptions, full_name: str) -> str:
+def _looked_up(package: str, options: FileOptions, full_name: str, master_lookup: bool) -> str:
     """The C name a file of ``package`` with ``options`` looks the type ``full_name`` up by."""
     if options.mangle_names == _M_FLATTEN:
         return full_name.rpartition(".")[2]
-    if not _c_name(full_name).startswith(_c_name(package) + "_"):
+    outside = not _c_name(full_name).startswith(_c_name(package) + "_")
+    if outside and (package or not master_lookup):
         return _c_name(full_name)  # not of this file's package: as it is
     typename = f".{full_name}"
     replacement: str | None = None

@@ -13,14 +13,21 @@ generator refuses a file holding a proto2 ``group`` it must generate (``NotImple
 has no groups), and with it every file importing that file: their messages have no size and are
 not listed.
 
-Generator versions differ in one rule (``NANOPB_VERSIONS``): up to 0.4.9.1 (``"0.4.9"``, the rules
+Generator versions differ in two rules (``NANOPB_VERSIONS``). Up to 0.4.9.1 (``"0.4.9"``, the rules
 of every 0.4.x release) a ``FT_CALLBACK`` or ``FT_POINTER`` field has no size; nanopb's master
 after 0.4.9.1 (``"1.0.0-dev"``, as its headers name it; the ERC firmware pins commit d68cd4e) sizes
 every field whose bound is known whatever its allocation (its ``Field.encoded_size`` asks
 ``can_be_static``: a ``max_count`` for a repeated field, a ``max_size`` or ``max_length`` for a
 string or bytes), so a callback or pointer field counts as the static field it could have been.
 A type that contains itself still has no size there (master writes an expression naming the
-message's own size, which no compiler can evaluate).
+message's own size, which no compiler can evaluate). And master looks a field's type up otherwise
+from a file without a package but with a ``(nanopb_fileopt).package`` (see ``_names``). Each rule
+set is checked against its generator, PyPI's nanopb 0.4.9.1 and 1.0.0.dev1621, over the test
+corpus (whether the firmware's d68cd4e is older or newer than 1.0.0.dev1621, the 1621st commit of
+master, is not known here: the package names no commit); the older 0.4.x releases size alike,
+0.4.7 but for the type lookup from a file with a ``(nanopb_fileopt).package`` (it looks every
+type up under that name, where 0.4.8 and later look a type outside the file's package up by its
+full name).
 """
 
 from collections.abc import Sequence
@@ -569,6 +576,7 @@ class Sizes:
                 (referring.package, files[referring.name]),
                 (defining.package, files[defining.name]),
                 kind.full_name,
+                master_lookup=self._any_allocation,
             )
         return found
 
