@@ -6,6 +6,7 @@ it, from the tree's root with the same ``-I``, ``-f`` and ``-s``; tests/test_int
 the encode rules and decodes against nanopb's C library.
 """
 
+import json
 import re
 import subprocess
 import sys
@@ -301,9 +302,27 @@ def test_schemas_the_runtime_refuses_still_get_nanopbs_sizes(
         ("HoldsClash", r"JsonClash \(reached as HoldsClash\.clash\): fields foo_bar and fooBar"),
     ],
 )
-def test_a_message_the_runtime_refuses_is_a_schema_error(root: str, pattern: str) -> None:
-    with pytest.raises(SchemaError, match=pattern):
-        Codec.from_path(TREES / "runtime", root)
+def test_a_message_the_runtime_refuses_loads_and_refuses_to_encode_or_decode(
+    generator: None, tmp_path: Path, root: str, pattern: str
+) -> None:
+    """The root loads with nanopb's sizes; encoding, decoding, peeking and asking its class are
+    each the SchemaError saying why."""
+    theirs = generator_sizes(tmp_path, TREES / "runtime", ["many.proto"])
+    codec = Codec.from_path(TREES / "runtime", root)
+    assert codec.max_size(root) == theirs[root]
+    assert codec.sizes() == theirs
+    message = codec.schema.message_class(root, lenient=True)()
+    for attempt in (
+        lambda: codec.encode(message),
+        lambda: codec.encode(message, "pad"),
+        lambda: codec.decode(b""),
+        lambda: codec.decode(bytes([0x0D, 1, 0, 0, 0]), strict=True),
+        lambda: codec.peek(b"\x08\x01"),
+        lambda: codec.payload_class(root),
+        lambda: codec.message_class(root),
+    ):
+        with pytest.raises(SchemaError, match=pattern):
+            attempt()
 
 
 def test_the_rest_of_such_a_tree_works() -> None:
@@ -313,6 +332,114 @@ def test_the_rest_of_such_a_tree_works() -> None:
     assert codec.sizes()["ManyRequired"] == 405
     with pytest.raises(SchemaError, match=r"ManyRequired: 70 required fields"):
         codec.message_class("ManyRequired")
+
+
+# -- envelopes with members erc-codec cannot send: the rest works, sizes are nanopb's ------------
+
+UNSENDABLE = TREES / "unsendable"
+_COUNTS = r"env2\.proto:13:\d+: Counts\.n: label_override makes a single number an array"
+_CLASH = r"env2\.proto:17:\d+: Clash( \(reached as Env\.clash\))?: fields foo_bar and fooBar"
+_SEQ = r"env2\.proto:\d+:\d+: EnvMeta\.seq: label_override makes a single number an array"
+_GROUPED = r"editions\.proto:16:\d+: EnvEd\.grouped: protobuf writes it delimited"
+_HOLDER = r"editions\.proto:10:\d+: Holder\.inner: protobuf writes it delimited .* EnvEd\.holder"
+
+
+@pytest.fixture(scope="module")
+def unsendable_sizes(tmp_path_factory: pytest.TempPathFactory) -> dict[str, int | None]:
+    pytest.importorskip("nanopb")
+    out = tmp_path_factory.mktemp("unsendable")
+    return generator_sizes(out, UNSENDABLE, ["env2.proto", "editions.proto"])
+
+
+@pytest.mark.parametrize(
+    "root", ["Env", "EnvMeta", "EnvEd", "Fine", "Counts", "Clash", "Sub", "Holder"]
+)
+def test_every_root_of_such_a_tree_loads_with_nanopbs_sizes(
+    unsendable_sizes: dict[str, int | None], root: str
+) -> None:
+    """protoc and nanopb take the tree: every message has the generator's size, from Python and
+    from ``erc-codec sizes``, whether or not erc-codec can send it."""
+    file = "editions.proto" if root in ("EnvEd", "Sub", "Holder") else "env2.proto"
+    theirs = {
+        name: size
+        for name, size in unsendable_sizes.items()
+        if (name in ("EnvEd", "Sub", "Holder")) == (file == "editions.proto")
+    }
+    codec = Codec.from_path(UNSENDABLE, root)
+    assert codec.max_size(root) == theirs[root]
+    assert codec.sizes() == theirs
+    done = erc_codec_cli("sizes", "--proto", str(UNSENDABLE), "--root", root, "--format", "json")
+    assert done.returncode == 0, done.stderr
+    listed = json.loads(done.stdout)
+    assert listed["max_size"] == theirs[root]
+    assert listed["messages"] == theirs
+    assert [m["max_size"] for m in listed["members"]] == [
+        theirs[m.message] for m in codec.members()
+    ]
+
+
+def test_an_envelope_sends_its_other_members() -> None:
+    codec = Codec.from_path(UNSENDABLE, "Env")
+    assert codec.kinds() == {1: "fine", 2: "counts", 3: "clash"}
+    fine: Any = codec.message_class("fine")(x=-1)
+    for mode in ("exact", "strip", "pad"):
+        data = codec.encode(fine, mode, timeout=300)
+        decoded = codec.decode(data, strict=True)
+        assert (decoded, decoded.timeout) == (("fine", fine), 300)
+    assert codec.decode(codec.encode(fine)) == ("fine", fine)
+    # Counts builds a class (its trouble is nanopb's override); Clash has none
+    counts: Any = codec.schema.message_class("Counts")(n=1)
+    envelope: Any = codec.message_class("Env")()
+    envelope.counts.n = 1
+    clash = codec.schema.message_class("Clash", lenient=True)(foo_bar=1)
+    for why, attempt in (
+        (_COUNTS, lambda: codec.encode(counts)),
+        (_COUNTS, lambda: codec.encode(counts, "exact", timeout=1)),
+        (_COUNTS, lambda: codec.encode(envelope)),
+        (_COUNTS, lambda: codec.decode(b"\x12\x02\x08\x01")),  # what protobuf writes
+        (_COUNTS, lambda: codec.decode(b"\x12\x03\x0a\x01\x01", strict=True)),  # nanopb's
+        (_COUNTS, lambda: codec.payload_class("counts")),
+        (_COUNTS, lambda: codec.message_class("counts")),
+        (_CLASH, lambda: codec.encode(clash)),
+        (_CLASH, lambda: codec.decode(b"\x1a\x02\x08\x01")),
+        (_CLASH, lambda: codec.message_class("Clash")),
+    ):
+        with pytest.raises(SchemaError, match=why):
+            attempt()
+    assert codec.peek(b"\x12\x02\x08\x01") is None  # decode says why
+
+
+def test_a_delimited_member_or_one_holding_such_a_field() -> None:
+    codec = Codec.from_path(UNSENDABLE, "EnvEd")
+    sub: Any = codec.message_class("plain")(x=5)
+    assert codec.decode(codec.encode(sub), strict=True) == ("plain", sub)
+    holder: Any = codec.schema.message_class("Holder")()
+    holder.inner.x = 1
+    grouped: Any = codec.message_class("EnvEd")()
+    grouped.grouped.x = 1
+    for why, attempt in (
+        (_HOLDER, lambda: codec.encode(holder)),
+        (_HOLDER, lambda: codec.decode(b"\x1a\x04\x0a\x02\x08\x01")),  # nanopb's bytes
+        (_GROUPED, lambda: codec.encode(grouped)),
+        (_GROUPED, lambda: codec.decode(b"\x12\x02\x08\x01")),  # nanopb's: unknown to protobuf
+        (_GROUPED, lambda: codec.decode(grouped.SerializeToString())),  # protobuf's group
+    ):
+        with pytest.raises(SchemaError, match=why):
+            attempt()
+
+
+def test_trouble_in_a_metadata_field_stops_the_whole_envelope() -> None:
+    codec = Codec.from_path(UNSENDABLE, "EnvMeta")
+    fine: Any = codec.schema.message_class("Fine")(x=1)
+    for attempt in (
+        lambda: codec.encode(fine),
+        lambda: codec.encode(fine, "pad"),
+        lambda: codec.decode(b"\x0a\x02\x08\x01"),
+        lambda: codec.decode(b""),
+        lambda: codec.payload_class("fine"),
+    ):
+        with pytest.raises(SchemaError, match=_SEQ):
+            attempt()
 
 
 # -- proto2 groups: where nanopb's generator refuses the file, no size ----------------------------
@@ -364,9 +491,17 @@ def test_proto2_groups_size_as_nanopbs_generator_does(
         if file != "overridden.proto":
             assert Codec.from_path(GROUPS, root).max_size(root) == 11
             return
-        # nanopb writes the group as a length-prefixed message: no bytes are right for both
-        with pytest.raises(SchemaError, match=r"Overriding\.item: protobuf writes it delimited"):
-            Codec.from_path(GROUPS, root)
+        # nanopb writes the group as a length-prefixed message: no bytes are right for both, so
+        # the codec has nanopb's size and refuses to encode or decode
+        codec = Codec.from_path(GROUPS, root)
+        assert codec.max_size(root) == theirs[root]
+        message: Any = codec.schema.message_class(root)()
+        message.item.x = 1
+        for attempt in (lambda: codec.encode(message), lambda: codec.decode(b"\x0a\x02\x08\x01")):
+            with pytest.raises(
+                SchemaError, match=r"Overriding\.item: protobuf writes it delimited"
+            ):
+                attempt()
 
 
 def _chain(tree: Path, fields: int) -> None:

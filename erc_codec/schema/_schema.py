@@ -98,13 +98,16 @@ class Schema:
         location = self.location(full_name)
         return str(location) if location else full_name
 
-    def message_class(self, name: str) -> type[Message]:
+    def message_class(self, name: str, lenient: bool = False) -> type[Message]:
         """The message class for a full message name, e.g. ``SensorBoardGPSInfo``;
-        ``SchemaError`` when protobuf's Python runtime cannot build it (see ``refused``)."""
+        ``SchemaError`` when protobuf's Python runtime cannot build it (see ``refused``), unless
+        ``lenient``: then the class of the copy the pool holds (required fields optional, JSON
+        names the field names), for a caller that refuses to encode or decode such a message
+        itself (a codec: ``Sizes.unsendable``)."""
         cls = self._classes.get(name)
         if cls is None:
             descriptor = self.descriptor(name)
-            if self.refused:
+            if self.refused and not lenient:
                 self._buildable(descriptor)
             self._decodable(descriptor)
             try:
@@ -114,7 +117,8 @@ class Schema:
                     f"{self.where(name)}: {name} nests messages too deeply for protobuf's Python "
                     "runtime to build its class (nanopb's sizes still hold)"
                 ) from None
-            self._classes[name] = cls
+            if not (lenient and self.refused):  # unchecked: a strict call must still check
+                self._classes[name] = cls
         return cls
 
     def _decodable(self, descriptor: Descriptor) -> None:
