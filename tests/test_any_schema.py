@@ -442,6 +442,41 @@ def test_trouble_in_a_metadata_field_stops_the_whole_envelope() -> None:
             attempt()
 
 
+# -- a tree that ships nanopb.proto (and descriptor.proto) itself ---------------------------------
+
+
+@pytest.mark.parametrize("where", ["nanopb.proto", "third_party/nanopb.proto"])
+def test_a_shipped_nanopb_proto_is_no_part_of_the_listing(
+    generator: None, tmp_path: Path, where: str
+) -> None:
+    """nanopb's generator is run on the tree's own files: NanoPBOptions and descriptor.proto's
+    messages have no size it writes for the user, and none is listed, wherever the copy lies."""
+    import nanopb
+    from grpc_tools import _proto
+
+    tree = tmp_path / "tree"
+    vocabulary = Path(nanopb.__file__).parent / "generator" / "proto" / "nanopb.proto"
+    (tree / where).parent.mkdir(parents=True)
+    (tree / where).write_text(vocabulary.read_text())
+    (tree / "google" / "protobuf").mkdir(parents=True)
+    descriptor = Path(_proto.__path__[0]) / "google" / "protobuf" / "descriptor.proto"
+    (tree / "google" / "protobuf" / "descriptor.proto").write_text(descriptor.read_text())
+    (tree / "app.proto").write_text(
+        f'syntax = "proto3";\nimport "{where}";\n'
+        "message App { string name = 1 [(nanopb).max_size = 9]; uint32 id = 2; }\n"
+    )
+    out = tmp_path / "out"
+    out.mkdir()
+    theirs = generator_sizes(out, tree, ["app.proto"], "-I", ".")
+    assert theirs == {"App": 16}
+    codec = Codec.from_path(tree, "App")
+    assert {proto.name for proto in codec.schema.files} >= {where, "app.proto"}
+    assert codec.sizes() == theirs
+    done = erc_codec_cli("sizes", "--proto", str(tree), "--root", "App", "--format", "json")
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout)["messages"] == theirs
+
+
 # -- proto2 groups: where nanopb's generator refuses the file, no size ----------------------------
 
 GROUPS = TREES / "groups"

@@ -50,8 +50,13 @@ class Schema:
         self.include = tuple(include)
         self.shown = tree if shown is None else shown  # where messages say the files are
         self.files = tuple(files.file)
-        # The tree's own files, judged now: a git revision's scratch folder is gone once loaded.
-        self._own = tuple(proto for proto in self.files if (tree / proto.name).is_file())
+        # The tree's own files, judged now: a git revision's scratch folder is gone once loaded;
+        # a copy of nanopb.proto or descriptor.proto it ships is a vocabulary, not its schema.
+        self._own = tuple(
+            proto
+            for proto in self.files
+            if (tree / proto.name).is_file() and not _vocabulary(proto)
+        )
         self.pool = descriptor_pool.DescriptorPool()
         self.refused: dict[str, str] = {}  # full message name -> why the runtime has no class
         for proto in self.files:
@@ -208,7 +213,9 @@ class Schema:
         """Every message the tree's loaded files define, nested ones included, in file order.
 
         Files found on protoc's other search paths (google/protobuf/*, erc-codec's stand-in
-        nanopb.proto) are imports, not part of the tree, and are left out.
+        nanopb.proto) are imports, not part of the tree, and are left out, as are the option
+        vocabularies a tree ships itself (its nanopb.proto, its google/protobuf/descriptor.proto):
+        nanopb's generator is run on a tree's own files, not on those.
         """
         for proto in self._own:
             for declaration in declarations(proto):
@@ -287,6 +294,17 @@ def _hint(base: Path, root: str) -> str:
 _PACKAGE = re.compile(r"^\s*package\s+([\w.]+)\s*;", re.MULTILINE)
 _LIMIT_REQUIRED = 63  # upb's mini tables hold at most this many required fields per message
 _LIMIT_DEPTH = 100  # protobuf's runtimes decode messages nested at most this deep
+_NANOPB = 1010  # the number of nanopb.proto's extensions of protobuf's options
+
+
+def _vocabulary(proto: descriptor_pb2.FileDescriptorProto) -> bool:
+    """Whether ``proto`` is an option vocabulary, not part of a schema: protobuf's
+    descriptor.proto, or a copy of nanopb.proto under any name (the file that extends
+    ``google.protobuf.FieldOptions`` with nanopb's ``(nanopb)``, number 1010)."""
+    return proto.name == "google/protobuf/descriptor.proto" or any(
+        extension.extendee == ".google.protobuf.FieldOptions" and extension.number == _NANOPB
+        for extension in proto.extension
+    )
 
 
 def _add(
