@@ -122,12 +122,96 @@ def test_a_root_in_a_package_is_named_in_full(tmp_path: Path) -> None:
 
 
 def test_a_root_defined_twice_is_chosen_by_its_file() -> None:
-    with pytest.raises(SchemaError, match=r"name the file, e\.g\. a\.proto:Env"):
+    both = r"^message Env is defined in both a\.proto and copies/b\.proto: name the file, e\.g\. "
+    with pytest.raises(SchemaError, match=both + r"a\.proto:Env$"):
         Codec.from_path(SCHEMA_TREES / "twice", "Env")
+    assert Codec.from_path(SCHEMA_TREES / "twice", "a.proto:Env").kinds() == {1: "a"}
     codec = Codec.from_path(SCHEMA_TREES / "twice", "copies/b.proto:Env")
     assert codec.kinds() == {1: "b"}
     with pytest.raises(SchemaError, match=r"no such \.proto file"):
         Codec.from_path(SCHEMA_TREES / "twice", "c.proto:Env")
+
+
+def _write(tree: Path, files: dict[str, str]) -> Path:
+    for name, text in files.items():
+        (tree / name).parent.mkdir(parents=True, exist_ok=True)
+        (tree / name).write_text('syntax = "proto3";\n' + text)
+    return tree
+
+
+def test_a_duplicate_the_roots_files_are_not_compiled_with_does_not_matter(
+    generator: None, tmp_path: Path
+) -> None:
+    """Part again in a file the root's never import, Other twice in drafts protoc refuses
+    (y imports x): neither is compiled with env.proto, for nanopb nor for us."""
+    tree = _write(
+        tmp_path / "tree",
+        {
+            "env.proto": 'import "part.proto";\nmessage Env { oneof p { Part part = 1; } }\n',
+            "part.proto": "message Part { int32 x = 1; }\n",
+            "stray.proto": "message Part { string name = 1; }\n",
+            "drafts/x.proto": "message Other { int32 a = 1; }\n",
+            "drafts/y.proto": 'import "drafts/x.proto";\nmessage Other { int32 b = 1; }\n',
+        },
+    )
+    out = tmp_path / "out"
+    out.mkdir()
+    theirs = generator_sizes(out, tree, ["env.proto"])
+    assert theirs == {"Env": 13}
+    codec = Codec.from_path(tree, "Env")
+    assert codec.sizes() == {"Part": 11, **theirs}  # part.proto's own, as nanopb sizes it
+    assert codec.max_size("Env") == 13
+    part: Any = codec.message_class("part")(x=-1)
+    assert codec.decode(codec.encode(part)) == ("part", part)
+    done = erc_codec_cli("sizes", "--proto", str(tree), "--root", "Env", "--format", "json")
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout)["max_size"] == 13
+
+
+def test_a_duplicate_compiled_with_the_roots_files_is_protocs_error(tmp_path: Path) -> None:
+    tree = _write(
+        tmp_path,
+        {
+            "env.proto": 'import "part.proto";\nimport "stray.proto";\n'
+            "message Env { oneof p { Part part = 1; } }\n",
+            "part.proto": "message Part { int32 x = 1; }\n",
+            "stray.proto": "message Part { string name = 1; }\n",
+        },
+    )
+    pattern = r'stray\.proto:2:9: "Part" is already defined in file "part\.proto"'
+    with pytest.raises(SchemaError, match=pattern):
+        Codec.from_path(tree, "Env")
+
+
+def test_a_root_defined_again_in_a_file_compiled_with_it_is_ambiguous(
+    generator: None, tmp_path: Path
+) -> None:
+    """a.proto imports b.proto and both define Env: nanopb's generator refuses a.proto, takes
+    b.proto alone. Loading Env names both files and how to pick one, not b's Env unasked."""
+    tree = _write(
+        tmp_path / "tree",
+        {
+            "a.proto": 'import "b.proto";\nmessage Env { oneof p { Part a = 1; } }\n',
+            "b.proto": "message Part { int32 x = 1; }\nmessage Env { oneof p { Part b = 1; } }\n",
+        },
+    )
+    command = [sys.executable, "-m", "nanopb.generator.nanopb_generator", "-q", "-D", str(tmp_path)]
+    refused = subprocess.run([*command, "a.proto"], cwd=tree, capture_output=True, text=True)
+    assert refused.returncode != 0
+    assert '"Env" is already defined in file "b.proto"' in refused.stderr
+    pattern = (
+        r"^message Env is defined in both a\.proto and b\.proto, which are compiled together "
+        r"\(.*a\.proto:3:9: Env is already defined in b\.proto\): name the file, e\.g\. "
+        r"b\.proto:Env$"
+    )
+    with pytest.raises(SchemaError, match=pattern):
+        Codec.from_path(tree, "Env")
+    assert Codec.from_path(tree, "b.proto:Env").kinds() == {1: "b"}
+    with pytest.raises(SchemaError, match=r'a\.proto:3:9: "Env" is already defined'):
+        Codec.from_path(tree, "a.proto:Env")
+    done = erc_codec_cli("sizes", "--proto", str(tree), "--root", "Env")
+    assert done.returncode == 2
+    assert done.stderr.startswith("Error: message Env is defined in both a.proto and b.proto")
 
 
 # -- a plain message as the root ----------------------------------------------------------------

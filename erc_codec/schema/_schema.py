@@ -21,7 +21,7 @@ from google.protobuf.message import Message
 from .._errors import SchemaError
 from ._descriptors import Location, SourceIndex, declarations
 from ._files import FileError, proto_files, read_text
-from ._protoc import compile_files
+from ._protoc import ProtocError, compile_files
 from ._text import declared_names
 
 __all__ = ["Schema", "descriptor_of", "enum_of", "load_schema", "message_of"]
@@ -263,6 +263,7 @@ def load_schema(
         except FileError:
             raise  # a file protoc would read is refused: the tree is, whatever defines the root
         except SchemaError as error:
+            _require_one_root(error, name, root, named=bool(colon))
             failure = failure or error
             continue
         if any(d.name == root and d.is_message for d in declarations(compiled.file[-1])):
@@ -277,6 +278,23 @@ def load_schema(
     if failure is not None:
         raise failure
     raise SchemaError(f"{base}: no .proto file defines message {root}{_hint(base, root)}")
+
+
+def _require_one_root(error: SchemaError, name: str, root: str, named: bool) -> None:
+    """``SchemaError`` when protoc refused ``name`` because it defines ``root`` again beside a
+    file it imports (the two copies are compiled together), unless the caller ``named`` the
+    file: which copy is meant is the caller's to say. Any other refusal is left to the caller."""
+    if named:
+        return
+    clash = re.compile(rf'^(.*?): "{re.escape(root)}" is already defined in file "(.+)"\.$')
+    lines = error.lines if isinstance(error, ProtocError) else []
+    twice = next((found for found in map(clash.match, lines) if found), None)
+    if twice is not None:
+        where, other = twice[1], twice[2]
+        raise SchemaError(
+            f"message {root} is defined in both {name} and {other}, which are compiled together "
+            f"({where}: {root} is already defined in {other}): name the file, e.g. {other}:{root}"
+        )
 
 
 def _hint(base: Path, root: str) -> str:
