@@ -243,6 +243,8 @@ class Codec(Envelope):
         try:
             return self.message_class(kind_or_class)  # a kind or a message name
         except SchemaError:
+            if kind_or_class in kinds or _defined(self._schema, kind_or_class):
+                raise  # one the codec cannot send: why
             raise SchemaError(
                 f"{kind_or_class!r} is neither a payload kind of {self.root} ({', '.join(kinds)}) "
                 "nor a message of its schema"
@@ -271,6 +273,15 @@ class MessageCodec(Plain, Codec):
             functools.partial(refusal, self._sizes, schema.root),
             self._sizes.unsendable,
         )
+
+
+def _defined(schema: Schema, name: str) -> bool:
+    """Whether ``schema`` has a message named ``name``."""
+    try:
+        schema.descriptor(name)
+    except SchemaError:
+        return False
+    return True
 
 
 def _a_message(message: object) -> Message:

@@ -493,6 +493,18 @@ def test_an_envelope_sends_its_other_members() -> None:
     assert codec.peek(b"\x12\x02\x08\x01") is None  # decode says why
 
 
+def test_the_cli_sends_the_other_members_and_says_why_not_in_one_line() -> None:
+    tree = ("--proto", str(UNSENDABLE), "--root", "Env")
+    done = erc_codec_cli("encode", *tree, "fine", '{"x": 1}')
+    assert (done.returncode, done.stdout) == (0, "0a020801\n"), done.stderr
+    for refused in (
+        erc_codec_cli("encode", *tree, "counts", '{"n": 1}'),
+        erc_codec_cli("decode", *tree, "12020801"),
+    ):
+        assert refused.returncode == 2
+        assert re.fullmatch(rf"Error: \S*{_COUNTS}[^\n]*\n", refused.stderr), refused.stderr
+
+
 def test_a_delimited_member_or_one_holding_such_a_field() -> None:
     codec = Codec.from_path(UNSENDABLE, "EnvEd")
     sub: Any = codec.message_class("plain")(x=5)
