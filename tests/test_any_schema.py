@@ -7,9 +7,12 @@ the encode rules and decodes against nanopb's C library.
 """
 
 import json
+import os
 import re
+import shutil
 import subprocess
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, cast
 
@@ -26,10 +29,16 @@ _DEFINE = re.compile(r"^#define\s+(\w+)_size\s+(\d+)\s*$", re.MULTILINE)
 _RUNTIME = re.compile(r"/\*\s*(\w+)_size depends on runtime parameters\s*\*/")
 
 
-def generator_sizes(tmp: Path, tree: Path, files: list[str], *args: str) -> dict[str, int | None]:
-    """``<Msg>_size`` of every message nanopb's generator writes for ``files`` (run in ``tree``
-    with ``args``), ``None`` where it writes "depends on runtime parameters"."""
-    command = [sys.executable, "-m", "nanopb.generator.nanopb_generator", "-q", *args]
+_PYPI_GENERATOR = (sys.executable, "-m", "nanopb.generator.nanopb_generator")
+
+
+def generator_sizes(
+    tmp: Path, tree: Path, files: list[str], *args: str, generator: Sequence[str] = _PYPI_GENERATOR
+) -> dict[str, int | None]:
+    """``<Msg>_size`` of every message nanopb's ``generator`` (PyPI's 0.4.9.1 unless told)
+    writes for ``files`` (run in ``tree`` with ``args``), ``None`` where it writes "depends on
+    runtime parameters"."""
+    command = [*generator, "-q", *args]
     subprocess.run(
         [*command, "-D", str(tmp), *files],
         cwd=tree,
@@ -407,6 +416,20 @@ def test_a_message_the_runtime_refuses_loads_and_refuses_to_encode_or_decode(
     ):
         with pytest.raises(SchemaError, match=pattern):
             attempt()
+
+
+def test_debians_generator_sizes_them_alike(tmp_path: Path) -> None:
+    """Debian's nanopb 0.4.7 (its own protoc, no label_override nor editions) on the same tree."""
+    program = shutil.which("nanopb_generator.py")
+    if program is None:
+        if os.environ.get("ERC_REQUIRE_INTEROP") == "1":
+            pytest.fail("ERC_REQUIRE_INTEROP=1 but Debian's nanopb generator is not installed")
+        pytest.skip("Debian's nanopb generator (apt-get install nanopb) is not installed")
+    theirs = generator_sizes(tmp_path, TREES / "runtime", ["many.proto"], generator=[program])
+    assert theirs == {"ManyRequired": 405, "JsonClash": 22, "HoldsClash": 24, "Fine": 11}
+    for root, size in theirs.items():
+        codec = Codec.from_path(TREES / "runtime", root)
+        assert (codec.max_size(root), codec.sizes()) == (size, theirs)
 
 
 def test_the_rest_of_such_a_tree_works() -> None:
