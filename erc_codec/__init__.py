@@ -25,7 +25,7 @@ if _TYPE_CHECKING:
         AssemblerStats,
         DetectionAssembler,
         DetectionFrame,
-        FrameLoss,
+        DetectionLoss,
         Rejected,
     )
     from ._dispatch import Dispatcher, DispatchStats, Drop
@@ -52,7 +52,7 @@ _LAZY = {
     "AssemblerStats": "_detections",
     "DetectionAssembler": "_detections",
     "DetectionFrame": "_detections",
-    "FrameLoss": "_detections",
+    "DetectionLoss": "_detections",
     "Rejected": "_detections",
     "Dispatcher": "_dispatch",
     "DispatchStats": "_dispatch",
@@ -93,6 +93,7 @@ __all__ = [
     "DeframerStats",
     "DetectionAssembler",
     "DetectionFrame",
+    "DetectionLoss",
     "Direction",
     "DispatchStats",
     "Dispatcher",
@@ -101,7 +102,6 @@ __all__ = [
     "Failsafe",
     "FailsafeEvent",
     "FoxgloveView",
-    "FrameLoss",
     "Liveness",
     "McapWriter",
     "Member",
@@ -129,7 +129,11 @@ __all__ = [
 ]
 
 # Names renamed in 0.2, kept for one release: the detection side had the serial framing's words.
-_DEPRECATED = {"Frame": "DetectionFrame", "FrameAssembler": "DetectionAssembler"}
+_DEPRECATED = {
+    "Frame": "DetectionFrame",
+    "FrameAssembler": "DetectionAssembler",
+    "FrameLoss": "DetectionLoss",
+}
 
 
 def __getattr__(name: str) -> _Any:

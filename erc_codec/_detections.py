@@ -22,7 +22,7 @@ from typing import Any, NamedTuple
 
 from ._checks import count, duration, instant
 
-__all__ = ["AssemblerStats", "DetectionAssembler", "DetectionFrame", "FrameLoss", "Rejected"]
+__all__ = ["AssemblerStats", "DetectionAssembler", "DetectionFrame", "DetectionLoss", "Rejected"]
 
 _REMEMBERED = 64  # completed frame ids kept to recognise late duplicates
 
@@ -34,7 +34,7 @@ class DetectionFrame(NamedTuple):
     objects: tuple[Any, ...]  # the frame's BasestationDetectedObject messages, by index
 
 
-class FrameLoss(NamedTuple):
+class DetectionLoss(NamedTuple):
     """An incomplete frame that was given up."""
 
     frame_id: int
@@ -81,7 +81,7 @@ class DetectionAssembler:
         timeout: float = 1.0,
         keep_frames: int = 4,
         max_objects: int = 256,
-        on_loss: Callable[[FrameLoss], object] | None = None,
+        on_loss: Callable[[DetectionLoss], object] | None = None,
         on_reject: Callable[[Rejected], object] | None = None,
     ) -> None:
         self._timeout = duration("timeout", timeout)
@@ -125,7 +125,7 @@ class DetectionAssembler:
         del self._pending[frame_id]
         return self._complete(frame_id, [pending.objects[i] for i in range(total)])
 
-    def poll(self, now: float) -> list[FrameLoss]:
+    def poll(self, now: float) -> list[DetectionLoss]:
         """Drop the frames whose timeout passed; what was lost."""
         instant("now", now)
         lost = []
@@ -158,9 +158,9 @@ class DetectionAssembler:
             self._on_reject(rejected)
         return None
 
-    def _lose(self, frame_id: int, reason: str) -> FrameLoss:
+    def _lose(self, frame_id: int, reason: str) -> DetectionLoss:
         pending = self._pending.pop(frame_id)
-        loss = FrameLoss(frame_id, len(pending.objects), pending.total, reason)
+        loss = DetectionLoss(frame_id, len(pending.objects), pending.total, reason)
         self._lost[reason] = self._lost.get(reason, 0) + 1
         if self._on_loss is not None:
             self._on_loss(loss)

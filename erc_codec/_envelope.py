@@ -58,7 +58,7 @@ from .schema import (
     descriptor_of,
     encode_varint,
     message_of,
-    read_varint,
+    next_field,
     varint_size,
 )
 
@@ -614,10 +614,10 @@ class Envelope:
         if not self._blocked or not data or not data[0]:
             return None
         try:
-            key, _ = read_varint(data, 0)
+            number = next_field(data, 0, zeros_past_end=True).number
         except WireError:
             return None
-        return self._blocked.get(self._kinds.get(key >> 3, ""))
+        return self._blocked.get(self._kinds.get(number, ""))
 
     def _parse_restored(self, data: bytes) -> Message:
         if not data:
@@ -628,8 +628,7 @@ class Envelope:
         exact = self._forms.restore(data)
         if not exact:
             return DecodeError("datagram holds no payload (only zero bytes)", "no_payload")
-        key, _ = read_varint(exact, 0)
-        number, wire_type = key >> 3, key & 7
+        number, wire_type, _, _ = next_field(exact, 0)  # it parsed: its first field is whole
         if number in self.metadata_fields():
             return DecodeError(
                 f"datagram holds metadata ({self.metadata_fields()[number]}) but no payload",
@@ -640,7 +639,7 @@ class Envelope:
         if number in self._kinds:
             return DecodeError(
                 f"payload number {number} ({self._kinds[number]}) arrived with wire type "
-                f"{wire_type}, not 2 (length-delimited)"
+                f"{wire_type}, not {LEN} (length-delimited)"
             )
         return DecodeError(
             f"payload number {number} is not a member of {self._name} in this schema "

@@ -6,10 +6,13 @@ first arrival, ACTIVE while arrivals keep within the timeout, INACTIVE again onc
 timeout pass, which calls ``on_timeout(kind)`` once; the next arrival calls ``on_recover(kind)``.
 A clock that steps backwards never fires a timeout early and delays one by at most one timeout
 (the last arrival is re-anchored to the new clock). Every kind reported, watched or not, has its
-arrival rate measured; memory per kind is bounded (the rate is measured over the last arrivals
-only). Periods and timeouts must be positive and finite, ``now`` finite: a NaN or an infinity is
-a ``ValueError`` naming it, and changes nothing (a NaN arrival time would otherwise compare false
-with every later clock reading, and the kind would never time out again).
+arrival rate measured, two ways: ``rate`` over its last 16 arrivals, and ``recent_rate`` over the
+5 s before a given moment (what a live display shows: it falls to 0 once a kind stops, and a burst
+counts as so many arrivals in the window, not as the rate between two of them). Memory per kind is
+bounded (16 arrival times, 20 counters). Periods and timeouts must be positive and finite, ``now``
+finite: a NaN or an infinity is a ``ValueError`` naming it, and changes nothing (a NaN arrival
+time would otherwise compare false with every later clock reading, and the kind would never time
+out again).
 
 Timeouts from the wire: ``seen(kind, now, timeout=...)`` takes the timeout the sender advertised
 (the envelope's ``timeout`` metadata, converted to seconds). A kind nobody configured becomes
@@ -28,6 +31,9 @@ from ._checks import duration, instant
 __all__ = ["Liveness", "Watchdog"]
 
 _RATE_WINDOW = 16  # arrivals the measured rate is computed over
+_BUCKET = 0.25  # seconds: recent_rate counts arrivals per quarter second ...
+_RECENT = 5.0  # ... over the last 5 s
+_BUCKETS = int(_RECENT / _BUCKET)
 
 
 class Liveness(enum.Enum):
@@ -64,6 +70,10 @@ class Watchdog:
         self._timeout_periods = duration("timeout_periods", timeout_periods)
         self._watched: dict[str, _Watched] = {}
         self._arrivals: dict[str, deque[float]] = {}  # every kind seen: its last arrivals
+        # Every kind seen: [quarter-second number, arrivals in it] of its last 5 s, and when it
+        # first arrived (recent_rate).
+        self._recent: dict[str, deque[list[int]]] = {}
+        self._first: dict[str, float] = {}
 
     def watch(self, kind: str, period: float, timeout: float | None = None) -> None:
         """Expect ``kind`` every ``period`` seconds; time out after ``timeout`` (default: a
@@ -91,7 +101,14 @@ class Watchdog:
         arrivals = self._arrivals.get(kind)
         if arrivals is None:
             arrivals = self._arrivals[kind] = deque(maxlen=_RATE_WINDOW)
+            self._recent[kind] = deque(maxlen=_BUCKETS)
+            self._first[kind] = now
         arrivals.append(now)
+        recent, number = self._recent[kind], int(now // _BUCKET)
+        if recent and recent[-1][0] == number:
+            recent[-1][1] += 1
+        else:
+            recent.append([number, 1])
         watched = self._watched.get(kind)
         if timeout:
             if watched is None:
@@ -142,6 +159,18 @@ class Watchdog:
             return None
         span = arrivals[-1] - arrivals[0]
         return (len(arrivals) - 1) / span if span > 0 else None
+
+    def recent_rate(self, kind: str, now: float) -> float:
+        """Arrivals of ``kind`` per second over the 5 s before ``now`` (or since its first
+        arrival, if that is later, but over at least a second: one arrival is no rate of
+        thousands); 0.0 once it has not arrived for 5 s, and for a kind never seen."""
+        instant("now", now)
+        recent = self._recent.get(kind)
+        if not recent:
+            return 0.0
+        oldest = int(now // _BUCKET) - _BUCKETS
+        arrivals = sum(count for number, count in recent if number > oldest)
+        return arrivals / min(_RECENT, max(now - self._first[kind], 1.0))
 
     def expected(self, kind: str) -> float | None:
         """The expected rate in Hz (1 / period), ``None`` for a kind with no configured period

@@ -69,6 +69,10 @@ DEFAULT_OPTIONS_FILE = "%s.options"  # nanopb's generator's -f: each .proto's ow
 
 
 class Config(NamedTuple):
+    """What ``[tool.erc-lint]`` (or a ``--config`` file, or the command line) sets: the roots held
+    fixed-size, the rules and categories chosen, budgets, exclusions, and nanopb's generator
+    inputs; ``read_config`` reads one, and every field has the default a tree without one gets."""
+
     roots: tuple[str, ...] = _ROOTS  # embedded roots: fixed-size from here down
     ignore: frozenset[str] = frozenset()  # rule IDs
     exclude: tuple[str, ...] = ()  # fnmatch patterns on paths relative to a tree's root

@@ -29,7 +29,9 @@ from erc_codec.schema import (
     Repository,
     compile_files,
     declarations,
+    extensions,
     imports,
+    services,
 )
 
 from ._ledger import Entry, Key, Ledger
@@ -232,24 +234,23 @@ def _defines(
     everything it imports (protoc loads them all into one pool): packages, syntax, which imports
     are public, message and enum names, enum values and their numbers, extensions with their
     types, services."""
-    package = f"{proto.package}." if proto.package else ""
     names: set[tuple[object, ...]] = {
         ("file", proto.name, proto.package, proto.syntax, proto.edition),
         ("imports", proto.name, tuple(proto.dependency), tuple(proto.public_dependency)),
     }
-    extensions = [(package, f) for f in proto.extension]
+    extended = list(extensions(proto, nested=False))
     for declared in declarations(proto):
         element, name = declared.proto, declared.name
         if isinstance(element, descriptor_pb2.DescriptorProto):
             names.add((name, "message"))
-            extensions += [(f"{name}.", f) for f in element.extension]
+            extended += declared.extensions()
         else:
             names.add((name, "enum", tuple((v.name, v.number) for v in element.value)))
     names.update(
-        (scope + f.name, "extension", f.extendee, f.number, f.type, f.type_name)
-        for scope, f in extensions
+        (e.name, "extension", e.proto.extendee, e.proto.number, e.proto.type, e.proto.type_name)
+        for e in extended
     )
-    names.update((package + service.name, "service") for service in proto.service)
+    names.update((service.name, "service") for service in services(proto))
     for _, target in deps:
         found = results.get(target)
         if found is not None and found.defines is not None:

@@ -130,6 +130,14 @@ def test_a_root_in_a_package_is_named_in_full(tmp_path: Path) -> None:
         Codec.from_path(tmp_path, "Joint")
 
 
+def test_the_hint_names_the_package_protoc_reads_not_one_in_a_comment(tmp_path: Path) -> None:
+    (tmp_path / "p.proto").write_text(
+        'syntax = "proto3";\n/*\npackage old.arm;\n*/\npackage rover.arm;\nmessage Joint {}\n'
+    )
+    with pytest.raises(SchemaError, match=r"did you mean rover\.arm\.Joint\?"):
+        Codec.from_path(tmp_path, "Joint")
+
+
 def test_a_root_defined_twice_is_chosen_by_its_file() -> None:
     both = r"^message Env is defined in both a\.proto and copies/b\.proto: name the file, e\.g\. "
     with pytest.raises(SchemaError, match=both + r"a\.proto:Env$"):

@@ -94,3 +94,13 @@ def test_the_names_loaded_on_first_use_are_typed_from_their_own_modules() -> Non
     assert typed == table
     eager = {"CodecError", "DecodeError", "EncodeError", "SchemaError", "decode", "encode"}
     assert set(erc_codec.__all__) == set(table) | eager
+
+
+def test_the_cli_package_lists_its_own_names_main_among_them() -> None:
+    """``main`` loads on first use; ``dir`` shows it, and no import of the package's own."""
+    done = subprocess.run(
+        [sys.executable, "-c", "import erc_codec.cli as c; print(dir(c), callable(c.main))"],
+        capture_output=True,
+        text=True,
+    )
+    assert done.stdout == "['OneLineGroup', 'generator_options', 'main'] True\n", done.stderr

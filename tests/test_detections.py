@@ -9,7 +9,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import erc_codec
-from erc_codec import DetectionAssembler, DetectionFrame, FrameLoss, Rejected
+from erc_codec import DetectionAssembler, DetectionFrame, DetectionLoss, Rejected
 
 CODEC = erc_codec.Codec.default()
 Detected = CODEC.message_class("BasestationDetectedObject")
@@ -65,15 +65,15 @@ def test_impossible_objects_are_rejected(first: Message, second: Message, reason
 
 
 def test_incomplete_frames_time_out_or_are_superseded() -> None:
-    lost: list[FrameLoss] = []
+    lost: list[DetectionLoss] = []
     assembler = DetectionAssembler(timeout=0.5, keep_frames=2, on_loss=lost.append)
     assembler.add(obj(1, 3, 0), 0.0)
     assembler.add(obj(2, 3, 0), 0.1)
     assembler.add(obj(3, 2, 1), 0.2)  # a third incomplete frame: the oldest goes
-    assert lost == [FrameLoss(1, 1, 3, "superseded")]
+    assert lost == [DetectionLoss(1, 1, 3, "superseded")]
     assert assembler.poll(0.55) == []  # frame 2 started at 0.1: not yet
-    assert assembler.poll(0.65) == [FrameLoss(2, 1, 3, "timeout")]
-    assert assembler.poll(0.75) == [FrameLoss(3, 1, 2, "timeout")]
+    assert assembler.poll(0.65) == [DetectionLoss(2, 1, 3, "timeout")]
+    assert assembler.poll(0.75) == [DetectionLoss(3, 1, 2, "timeout")]
     assert assembler.stats().lost == {"superseded": 1, "timeout": 2}
     assert assembler.pending() == 0
 
@@ -99,7 +99,7 @@ def test_nothing_is_lost_or_invented_silently(
     case: tuple[dict[int, int], list[tuple[int, int]], list[float]], keep: int
 ) -> None:
     totals, sent, steps = case
-    lost: list[FrameLoss] = []
+    lost: list[DetectionLoss] = []
     assembler = DetectionAssembler(
         timeout=0.5, keep_frames=keep, max_objects=6, on_loss=lost.append
     )
@@ -156,7 +156,7 @@ def test_the_bounds_are_whole_numbers_of_at_least_one(name: str, bad: object) ->
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
 def test_a_clock_reading_that_is_not_finite_is_refused_and_changes_nothing(bad: float) -> None:
-    lost: list[FrameLoss] = []
+    lost: list[DetectionLoss] = []
     assembler = DetectionAssembler(timeout=0.5, on_loss=lost.append)
     assert assembler.add(obj(1, 2, 0), 0.0) is None
     with pytest.raises(ValueError, match=rf"^now must be a .* in seconds, not {bad}$"):
@@ -164,12 +164,17 @@ def test_a_clock_reading_that_is_not_finite_is_refused_and_changes_nothing(bad: 
     with pytest.raises(ValueError, match=r"^now must be a finite clock reading"):
         assembler.poll(bad)
     assert assembler.pending() == 1  # frame 2 was not started, frame 1 not dropped
-    assert assembler.poll(1.0) == [FrameLoss(1, 1, 2, "timeout")]  # and the timeout still works
-    assert lost == [FrameLoss(1, 1, 2, "timeout")]
+    assert assembler.poll(1.0) == [DetectionLoss(1, 1, 2, "timeout")]  # and the timeout still works
+    assert lost == [DetectionLoss(1, 1, 2, "timeout")]
 
 
 @pytest.mark.parametrize(
-    ("old", "new"), [("Frame", DetectionFrame), ("FrameAssembler", DetectionAssembler)]
+    ("old", "new"),
+    [
+        ("Frame", DetectionFrame),
+        ("FrameAssembler", DetectionAssembler),
+        ("FrameLoss", DetectionLoss),
+    ],
 )
 def test_the_old_names_still_work_for_a_release_and_say_so(old: str, new: type) -> None:
     with pytest.warns(

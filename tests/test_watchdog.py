@@ -240,3 +240,34 @@ def test_a_bad_advertised_timeout_is_refused_and_changes_nothing(advertised: flo
         watchdog.seen("drive_motor", 0.0, timeout=advertised)
     assert watchdog.state("drive_motor") is Liveness.UNCONFIGURED
     assert watchdog.rate("drive_motor") is None
+
+
+def test_the_rate_falls_to_zero_once_a_kind_stops() -> None:
+    """``rate`` (over the last 16 arrivals) stays at 10 Hz after traffic stopped; what listen
+    shows, ``recent_rate``, falls to 0."""
+    rates = Watchdog()
+    for tick in range(50):  # 10 Hz for 5 s
+        rates.seen("gps_info", 100.0 + tick / 10)
+    assert rates.recent_rate("gps_info", 104.95) == pytest.approx(10.0, rel=0.06)
+    assert rates.recent_rate("gps_info", 107.0) == pytest.approx(5.0, rel=0.1)  # half the window
+    assert rates.recent_rate("gps_info", 110.0) == 0.0
+    assert rates.last_seen("gps_info") == pytest.approx(104.9)
+    assert rates.rate("gps_info") == pytest.approx(10.0)
+    assert rates.recent_rate("never", 110.0) == 0.0
+
+
+def test_a_burst_is_what_it_is_not_thousands_of_hertz() -> None:
+    """100 datagrams in 7 ms showed as 14623 Hz."""
+    rates = Watchdog()
+    for i in range(100):
+        rates.seen("imu_info", 50.0 + i * 0.00007)
+    assert rates.recent_rate("imu_info", 50.01) == 100.0  # 100 arrivals, over at least a second
+    assert rates.recent_rate("imu_info", 54.9) == pytest.approx(100 / 4.9)  # since the burst
+    assert rates.recent_rate("imu_info", 55.1) == 0.0  # out of the 5 s window
+
+
+def test_a_recent_rate_asked_at_a_moment_that_is_no_number_is_a_value_error() -> None:
+    watchdog = Watchdog()
+    watchdog.seen("gps_info", 1.0)
+    with pytest.raises(ValueError, match="now"):
+        watchdog.recent_rate("gps_info", float("nan"))

@@ -5,7 +5,7 @@ command itself (``erc_codec.cli._main``: one module per command group beside it)
 when asked for: erc-lint, which imports this package for its group, does not pay for the
 commands."""
 
-from typing import Any
+from typing import Any as _Any
 
 from ._generator import generator_options
 from ._group import OneLineGroup
@@ -13,9 +13,13 @@ from ._group import OneLineGroup
 __all__ = ["OneLineGroup", "generator_options", "main"]
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> _Any:
     if name == "main":
         from ._main import main
 
         return main
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

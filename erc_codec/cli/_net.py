@@ -29,7 +29,6 @@ from .._foxglove import FoxgloveView
 from .._transport import UdpEndpoint, UdpStats, open_udp
 from .._watchdog import Watchdog
 from ._live import foxglove_view
-from ._rates import SlidingRates
 from ._shared import (
     FINITE,
     MODE,
@@ -257,7 +256,6 @@ class _Listening:
         self.watchdog = Watchdog(on_timeout=self._silent, on_recover=self._back)
         for kind, period in watches.items():
             self.watchdog.watch(kind, period)
-        self.rates = SlidingRates()
         self.silent: set[str] = set()
         self.udp: UdpStats | None = None  # the endpoint's counters, once it is closed
         self._endpoint: UdpEndpoint | None = None
@@ -351,9 +349,7 @@ class _Listening:
 
     def _render(self, view: "_Table") -> None:
         live = self._endpoint.stats() if self._endpoint is not None else None
-        view.render(
-            self.dispatcher.stats(), live, self.rates, self.watches, self.silent, self.watchdog
-        )
+        view.render(self.dispatcher.stats(), live, self.watches, self.silent, self.watchdog)
 
     def _shower(self, kind: str) -> Callable[[Message], None]:
         def show(message: Message) -> None:
@@ -368,8 +364,6 @@ class _Listening:
                         "message": self._to_dict(message),
                     }
                 )
-            else:
-                self.rates.seen(kind, time.monotonic())
 
         return show
 
@@ -418,7 +412,6 @@ class _Table:
         self,
         stats: DispatchStats,
         udp: UdpStats | None,
-        rates: SlidingRates,
         watches: dict[str, float],
         silent: set[str],
         watchdog: Watchdog,
@@ -426,7 +419,7 @@ class _Table:
         now = time.monotonic()
         lines = [f"{'kind':<34}{'count':>8}{'rate Hz':>10}{'last seen':>12}  watch"]
         for kind in sorted(set(stats.handled) | set(watches)):
-            last = rates.last.get(kind)
+            last = watchdog.last_seen(kind)
             age = "never" if last is None else f"{now - last:.1f} s ago"
             watch = ""
             timeout = watchdog.timeout(kind)
@@ -435,7 +428,7 @@ class _Table:
                 every = f"every {watches[kind]:g} s" if kind in watches else "advertised"
                 watch = f"{state} ({every}, timeout {timeout:g} s)"
             lines.append(
-                f"{kind:<34}{stats.handled.get(kind, 0):>8}{rates.rate(kind, now):>10.1f}"
+                f"{kind:<34}{stats.handled.get(kind, 0):>8}{watchdog.recent_rate(kind, now):>10.1f}"
                 f"{age:>12}  {watch}".rstrip()
             )
         drops = [

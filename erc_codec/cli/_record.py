@@ -1,6 +1,6 @@
 """``erc-codec record`` and ``erc-codec replay``: live datagrams into an MCAP file, and a recording
 (MCAP, pcap/pcapng, decode's JSON lines) back onto UDP with its timing; and ``decode --pcap
---mcap``'s conversion, and ``listen --foxglove``'s server.
+--mcap``'s conversion (``listen --foxglove``'s server is ``_live``'s).
 
 ``record`` is ``listen`` writing instead of printing: an ``open_udp`` endpoint whose dispatcher
 hands every payload to an ``McapWriter`` and every drop to its drops channel, with each

@@ -21,9 +21,11 @@ from pathlib import Path
 
 import click
 from google.protobuf.descriptor import Descriptor, EnumDescriptor, FieldDescriptor
+from google.protobuf.descriptor_pb2 import EnumDescriptorProto
 from google.protobuf.message import Message
 
 from .._codec import Codec
+from ..schema import declarations
 from ._shared import Fatal, load, schema_options
 
 __all__ = ["render_stubs", "stubs"]
@@ -188,9 +190,9 @@ def _reachable(codec: Codec) -> tuple[dict[str, Descriptor], dict[str, EnumDescr
                 enums[field.enum_type.full_name] = field.enum_type
         enums.update((enum.full_name, enum) for enum in descriptor.enum_types)
     for file in codec.schema.files:
-        for declared in file.enum_type:
-            name = f"{file.package}.{declared.name}" if file.package else declared.name
-            enums[name] = codec.schema.pool.FindEnumTypeByName(name)
+        for declared in declarations(file):
+            if declared.parent is None and isinstance(declared.proto, EnumDescriptorProto):
+                enums[declared.name] = codec.schema.pool.FindEnumTypeByName(declared.name)
     return messages, enums
 
 

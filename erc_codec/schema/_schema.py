@@ -22,7 +22,7 @@ from .._errors import SchemaError
 from ._descriptors import Location, SourceIndex, declarations
 from ._files import FileError, proto_files, read_text
 from ._protoc import ProtocError, compile_files
-from ._text import declared_names
+from ._text import declared_names, package_name
 
 __all__ = ["Schema", "descriptor_of", "enum_of", "load_schema", "message_of"]
 
@@ -303,13 +303,12 @@ def _hint(base: Path, root: str) -> str:
         return ""
     for name in proto_files(base):
         text = read_text(base / name, errors="replace")
-        package = _PACKAGE.search(text)
+        package = package_name(text)
         if package and root in declared_names(text):
-            return f" (did you mean {package[1]}.{root}? a root is named in full)"
+            return f" (did you mean {package}.{root}? a root is named in full)"
     return ""
 
 
-_PACKAGE = re.compile(r"^\s*package\s+([\w.]+)\s*;", re.MULTILINE)
 _LIMIT_REQUIRED = 63  # upb's mini tables hold at most this many required fields per message
 _LIMIT_DEPTH = 100  # protobuf's runtimes decode messages nested at most this deep
 _NANOPB = 1010  # the number of nanopb.proto's extensions of protobuf's options

@@ -1,5 +1,5 @@
 """A .proto file's text read as protoc's tokenizer reads it, for the two questions asked of it
-before anything is compiled: which files it imports, and which names it declares.
+before anything is compiled: which files it imports, which names it declares, and its package.
 
 Comments and string literals are skipped whole, so an ``import`` or a ``message`` inside one counts
 for nothing; an import's file name is its string literals joined (protoc joins adjacent ones, across
@@ -9,7 +9,7 @@ lines and comments too) and unescaped as protoc unescapes them.
 import re
 from collections.abc import Iterator
 
-__all__ = ["declared_names", "imports"]
+__all__ = ["declared_names", "imports", "package_name"]
 
 _STRING = r'"(?:\\.|[^"\\\n])*"|\'(?:\\.|[^\'\\\n])*\''
 _COMMENT = r"//[^\n]*|/\*.*?\*/"
@@ -26,6 +26,10 @@ _DECLARATIONS = re.compile(
     rf"{_COMMENT}|{_STRING}|\b(?:message|enum)\b{_GAP}+([A-Za-z_]\w*)"
     rf"|\bgroup\b{_GAP}+([A-Za-z_]\w*){_GAP}*=",
     re.DOTALL,
+)
+# Comments and strings whole, and the package statement with its name.
+_PACKAGE = re.compile(
+    rf"{_COMMENT}|{_STRING}|\bpackage\b{_GAP}+([A-Za-z_][\w.]*){_GAP}*;", re.DOTALL
 )
 # The literals of a run of them (and the comments between them, to skip), and the escapes
 # protoc's tokenizer reads inside one. Rarely needed: compiled on first use (re caches them).
@@ -59,6 +63,11 @@ def declared_names(text: str) -> frozenset[str]:
     return frozenset(
         match[1] or match[2] for match in _DECLARATIONS.finditer(text) if match[1] or match[2]
     )
+
+
+def package_name(text: str) -> str | None:
+    """The package ``text`` declares, ``None`` when it declares none."""
+    return next((match[1] for match in _PACKAGE.finditer(text) if match[1]), None)
 
 
 def _unquote(literals: str) -> str:

@@ -160,7 +160,9 @@ def report(
         sys.stdout.flush()
     except BrokenPipeError:
         # Python flushes stdout again at exit: point it at nothing, so that flush is silent.
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        sink = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(sink, sys.stdout.fileno())
+        os.close(sink)
     click.echo(summary(outcome, baseline), err=True)
     if failed:
         raise SystemExit(1)

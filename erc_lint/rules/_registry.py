@@ -112,6 +112,10 @@ class Found(NamedTuple):
 
 
 class Rule(NamedTuple):
+    """One rule of ``erc-lint``, as ``erc-lint rules`` lists it: its ID, one line on what it
+    guards, its severity, the pairs it compares, the function that compares them (whose docstring
+    is ``rules --explain``), and the categories it belongs to."""
+
     id: str
     purpose: str
     severity: Severity  # a tree rule's is "error", a warning where OLD has the damage too
