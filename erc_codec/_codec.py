@@ -51,9 +51,14 @@ class Codec(Envelope):
 
     Loading compiles the root's file and its imports, computes every message's nanopb maximum size
     and checks that everything reachable from the root is fixed-size; any problem is a
-    ``SchemaError`` naming the file and line. ``options_file`` and ``settings`` are nanopb's
-    generator's ``-f`` and ``-s``, ``nanopb_version`` whose sizing rules apply (``"0.4.9"``, or
-    ``"1.0.0-dev"``, master after 0.4.9.1: see ``erc_codec.schema.Sizes``).
+    ``SchemaError`` naming the file and line. A message erc-codec cannot encode or decode as
+    nanopb does (one protobuf's Python runtime cannot build: more than 63 required fields,
+    clashing JSON names; an editions DELIMITED field; an override protobuf does not write as
+    nanopb reads it) keeps nanopb's size in ``sizes()`` and ``max_size``: only encoding or
+    decoding it (a member carrying it, or the whole root) is a ``SchemaError`` saying why.
+    ``options_file`` and ``settings`` are nanopb's generator's ``-f`` and ``-s``,
+    ``nanopb_version`` whose sizing rules apply (``"0.4.9"``, or ``"1.0.0-dev"``, master after
+    0.4.9.1: see ``erc_codec.schema.Sizes``).
     """
 
     def __init__(
@@ -65,10 +70,11 @@ class Codec(Envelope):
     ) -> None:
         self._load(schema, options_file, settings, nanopb_version)
         super().__init__(
-            schema.message_class(self.root),
+            schema.message_class(self.root, lenient=True),
             self._sizes.max_size(self.root),
             functools.partial(contract, self._sizes),
             functools.partial(refusal, self._sizes, schema.root),
+            self._sizes.unsendable,
         )
 
     def _load(
@@ -166,9 +172,13 @@ class Codec(Envelope):
 
     def message_class(self, name: str) -> type[Message]:
         """The message class for a kind (``"gps_info"``) or a full message name
-        (``"SensorBoardGPSInfo"``); a kind wins where a message has the same name."""
+        (``"SensorBoardGPSInfo"``); a kind wins where a message has the same name. A member
+        or root the codec cannot send (see the class's docstring) is a ``SchemaError`` saying
+        why; an envelope with other members that it sends gives its class."""
         if name in self.kinds().values():
             return self.payload_class(name)
+        if name == self.root:
+            return self._root_class()
         return self._schema.message_class(name)
 
     def members(self) -> tuple[Member, ...]:
@@ -233,6 +243,8 @@ class Codec(Envelope):
         try:
             return self.message_class(kind_or_class)  # a kind or a message name
         except SchemaError:
+            if kind_or_class in kinds or _defined(self._schema, kind_or_class):
+                raise  # one the codec cannot send: why
             raise SchemaError(
                 f"{kind_or_class!r} is neither a payload kind of {self.root} ({', '.join(kinds)}) "
                 "nor a message of its schema"
@@ -255,11 +267,21 @@ class MessageCodec(Plain, Codec):
         self._load(schema, options_file, settings, nanopb_version)
         Plain.__init__(
             self,
-            schema.message_class(self.root),
+            schema.message_class(self.root, lenient=True),
             self._sizes.max_size(self.root),
             functools.partial(contract, self._sizes),
             functools.partial(refusal, self._sizes, schema.root),
+            self._sizes.unsendable,
         )
+
+
+def _defined(schema: Schema, name: str) -> bool:
+    """Whether ``schema`` has a message named ``name``."""
+    try:
+        schema.descriptor(name)
+    except SchemaError:
+        return False
+    return True
 
 
 def _a_message(message: object) -> Message:

@@ -37,11 +37,11 @@ treats every top-level field alike, so stripping, padding and restoring need not
 datagram without metadata (the usual one) decodes exactly as before.
 """
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from types import MappingProxyType
 from typing import Any, NamedTuple
 
-from google.protobuf.descriptor import Descriptor, OneofDescriptor
+from google.protobuf.descriptor import Descriptor, FieldDescriptor, OneofDescriptor
 from google.protobuf.message import DecodeError as ProtobufDecodeError
 from google.protobuf.message import EncodeError as ProtobufEncodeError
 from google.protobuf.message import Message
@@ -54,6 +54,7 @@ from ._truncation import Table, cut_reason, presence_table
 from ._unknown import UnknownField, own_unknown_fields, unknown_fields
 from .schema import (
     LEN,
+    WireError,
     descriptor_of,
     encode_varint,
     message_of,
@@ -73,6 +74,9 @@ _Member = tuple[
 
 
 _NO_METADATA: Mapping[str, object] = MappingProxyType({})
+# Why a message (through the given fields of it, or all) cannot be encoded or decoded as nanopb
+# does, or None: ``Sizes.unsendable``.
+Unsendable = Callable[[Descriptor, Sequence[FieldDescriptor] | None], str | None]
 
 
 class _Payload(NamedTuple):
@@ -159,7 +163,11 @@ class Envelope:
         max_size: int,
         contract: Callable[[Descriptor], Contract | None],
         refusal: Callable[[Message, bytes], str | None] | None = None,
+        unsendable: Unsendable | None = None,
     ) -> None:
+        """``unsendable`` says which members (or the envelope itself) cannot be encoded or
+        decoded as nanopb does: those are left out of every table, and encoding or decoding
+        them is a ``SchemaError`` saying why, while every other member works."""
         descriptor = descriptor_of(envelope)
         self._refusal = refusal  # what nanopb's decoder refuses, for strict decodes
         oneofs = [oneof for oneof in descriptor.oneofs if not _synthetic(oneof)]
@@ -182,6 +190,11 @@ class Envelope:
                     "fields, each a single scalar (a number, bool, enum or string)"
                 )
         self._name = descriptor.full_name
+        # Why nothing of the envelope can be sent (itself, or a metadata field, is the trouble);
+        # kind -> why it cannot be sent or received; payload full name -> why.
+        self._whole, self._blocked, self._blocked_types = _blocked(
+            descriptor, members, list(self._metadata.values()), unsendable
+        )
         self._class = envelope
         self._from_string = envelope.FromString
         self._oneof = descriptor.oneofs[0].name
@@ -214,6 +227,8 @@ class Envelope:
             payload = field.message_type
             if payload is None:
                 raise SchemaError(f"{field.full_name} must be a message, not a scalar")
+            if field.name in self._blocked:
+                continue  # in no table: encode and decode find it blocked on the general path
             rules = self._contracts[field.name] = contract(payload)
             tag = encode_varint(field.number << 3 | LEN)
             headers = [
@@ -241,6 +256,8 @@ class Envelope:
             if len(tag) == 1:
                 self._first[tag[0]] = self._tags[tag[0]]
         self._by_name = {cls.DESCRIPTOR.full_name: member for cls, member in self._members.items()}
+        for name in self._by_name:
+            self._blocked_types.pop(name, None)  # also another, unblocked member's type
         # The verdicts on classes built elsewhere that encode is given.
         self._foreign = Foreign([envelope, *self._members])
 
@@ -252,11 +269,20 @@ class Envelope:
         """The envelope's metadata fields (those beside its oneof): field number → name."""
         return {field.number: name for name, field in self._metadata.items()}
 
+    def _root_class(self) -> type[Message]:
+        """The envelope's class; ``SchemaError`` where none of it can be sent."""
+        if self._whole is not None:
+            raise SchemaError(self._whole)
+        return self._class
+
     def payload_class(self, kind: str) -> type[Message]:
         """The message class member ``kind`` carries."""
         try:
             return self._payloads[kind]
         except KeyError:
+            why = self._blocked.get(kind)
+            if why is not None:
+                raise SchemaError(why) from None
             raise SchemaError(f"{kind!r} is not a payload kind of {self._name}") from None
 
     # -- encoding ------------------------------------------------------------------------------
@@ -327,28 +353,13 @@ class Envelope:
         refused = self._foreign.refusal(type(message))
         if refused is not None:
             raise refused
+        if self._whole is not None:
+            raise SchemaError(self._whole)
         if name == self._name:
-            kind = message.WhichOneof(self._oneof)
-            if kind is None:
-                raise EncodeError(f"{self._name} has no payload set")
-            rules = self._contracts[kind]
-            if rules is not None:
-                rules.check(getattr(message, kind))
-            data = message.SerializePartialToString()  # required fields: the check's, as nanopb's
-            if len(data) > self._max_size:
-                raise self._too_long(message, [b""], data)
-            datagram = self._forms.in_form(data, mode)
-            # An envelope parsed from bytes keeps the fields this schema does not know, and some
-            # (a group at the top level) are what decode refuses: never send those.
-            try:
-                self.decode(datagram)
-            except DecodeError as error:
-                raise EncodeError(
-                    f"{self._name} cannot be sent: its own decoder would refuse the datagram "
-                    f"({error}; unknown fields from a newer sender?)"
-                ) from None
-            return datagram
+            return self._encode_envelope(message, mode)
         member = self._by_name.get(name, ())
+        if not member and name in self._blocked_types:
+            raise SchemaError(self._blocked_types[name])
         if not member:
             raise EncodeError(
                 f"{name} is twice a payload type of {self._name}: build the envelope yourself "
@@ -363,6 +374,31 @@ class Envelope:
         if len(body) >= len(headers):
             raise self._too_long(message, headers, body)
         return self._forms.in_form(headers[len(body)] + body, mode)
+
+    def _encode_envelope(self, message: Message, mode: Mode) -> bytes:
+        """A whole envelope (of this schema's class or an equal one), checked and in ``mode``."""
+        kind = message.WhichOneof(self._oneof)
+        if kind is None:
+            raise EncodeError(f"{self._name} has no payload set")
+        if kind in self._blocked:
+            raise SchemaError(self._blocked[kind])
+        rules = self._contracts[kind]
+        if rules is not None:
+            rules.check(getattr(message, kind))
+        data = message.SerializePartialToString()  # required fields: the check's, as nanopb's
+        if len(data) > self._max_size:
+            raise self._too_long(message, [b""], data)
+        datagram = self._forms.in_form(data, mode)
+        # An envelope parsed from bytes keeps the fields this schema does not know, and some
+        # (a group at the top level) are what decode refuses: never send those.
+        try:
+            self.decode(datagram)
+        except DecodeError as error:
+            raise EncodeError(
+                f"{self._name} cannot be sent: its own decoder would refuse the datagram "
+                f"({error}; unknown fields from a newer sender?)"
+            ) from None
+        return datagram
 
     def _with_metadata(self, exact: bytes, metadata: Mapping[str, object]) -> bytes:
         """The exact datagram ``exact`` with ``metadata`` set: protobuf writes every field in
@@ -544,10 +580,20 @@ class Envelope:
 
     def _decode_envelope(self, data: bytes) -> Decoded:
         """The general path: restore the whole envelope, parse it, find the payload."""
-        envelope = self._parse_restored(data)
+        if self._whole is not None:
+            raise SchemaError(self._whole)
+        try:
+            envelope = self._parse_restored(data)
+        except DecodeError:
+            why = self._blocked_first(data)  # protobuf's group for a DELIMITED member, say
+            if why is not None:
+                raise SchemaError(why) from None
+            raise
         kind = envelope.WhichOneof(self._oneof)
         if kind is None:
             raise self._no_payload(data)
+        if kind in self._blocked:
+            raise SchemaError(self._blocked[kind])
         decoded = _decoded(Decoded, (kind, getattr(envelope, kind)))
         decoded.envelope = envelope
         outside = own_unknown_fields(envelope, self._name)
@@ -563,12 +609,22 @@ class Envelope:
                 decoded.metadata = MappingProxyType(carried)
         return decoded
 
+    def _blocked_first(self, data: bytes) -> str | None:
+        """Why the member the datagram's first field is cannot be received, if it is blocked."""
+        if not self._blocked or not data or not data[0]:
+            return None
+        try:
+            number = next_field(data, 0, zeros_past_end=True).number
+        except WireError:
+            return None
+        return self._blocked.get(self._kinds.get(number, ""))
+
     def _parse_restored(self, data: bytes) -> Message:
         if not data:
             raise DecodeError("empty datagram", "empty")
         return self._forms.parse(data)
 
-    def _no_payload(self, data: bytes) -> DecodeError:
+    def _no_payload(self, data: bytes) -> DecodeError | SchemaError:
         exact = self._forms.restore(data)
         if not exact:
             return DecodeError("datagram holds no payload (only zero bytes)", "no_payload")
@@ -578,6 +634,8 @@ class Envelope:
                 f"datagram holds metadata ({self.metadata_fields()[number]}) but no payload",
                 "no_payload",
             )
+        if self._kinds.get(number) in self._blocked:  # nanopb's bytes for a DELIMITED member
+            return SchemaError(self._blocked[self._kinds[number]])
         if number in self._kinds:
             return DecodeError(
                 f"payload number {number} ({self._kinds[number]}) arrived with wire type "
@@ -588,6 +646,26 @@ class Envelope:
             "(sent by a newer schema?)",
             "unknown_member",
         )
+
+
+def _blocked(
+    envelope: Descriptor,
+    members: Sequence[FieldDescriptor],
+    metadata: Sequence[FieldDescriptor],
+    unsendable: Unsendable | None,
+) -> tuple[str | None, dict[str, str], dict[str, str]]:
+    """Why nothing of ``envelope`` can be sent (``None``: something can), why each blocked
+    member cannot (by kind, the first reason under every kind), and the same by payload type."""
+    whole = None if unsendable is None else unsendable(envelope, metadata)
+    kinds: dict[str, str] = {}
+    types: dict[str, str] = {}
+    for field in members:
+        why = whole or (None if unsendable is None else unsendable(envelope, [field]))
+        if why is not None:
+            kinds[field.name] = why
+            if field.message_type is not None:
+                types.setdefault(field.message_type.full_name, why)
+    return whole, kinds, types
 
 
 def is_envelope(descriptor: Descriptor) -> bool:

@@ -11,7 +11,10 @@ checks, which it shares with ``_envelope``):
   ``"truncated"``; with ``strict``, unknown fields (reason ``"unknown_fields"``) and what nanopb's
   decoder refuses are errors too, as for envelopes, in the same words.
 - Every failure is a ``DecodeError``/``EncodeError`` saying what and where; what is no message
-  or no datagram a ``TypeError``.
+  or no datagram a ``TypeError``. A root that cannot be encoded or decoded as nanopb does
+  (``Sizes.unsendable``: a message protobuf's Python runtime cannot build, a DELIMITED field, an
+  override protobuf does not write as nanopb reads it) still loads, with nanopb's size; encoding,
+  decoding or peeking is then a ``SchemaError`` saying why.
 """
 
 from collections.abc import Callable
@@ -20,7 +23,7 @@ from google.protobuf.descriptor import Descriptor
 from google.protobuf.message import Message
 
 from ._contract import Contract
-from ._envelope import Decoded
+from ._envelope import Decoded, Unsendable
 from ._errors import EncodeError, SchemaError
 from ._foreign import Foreign
 from ._forms import Forms, Mode, as_bytes, strict_error
@@ -38,6 +41,7 @@ class Plain:
         max_size: int,
         contract: Callable[[Descriptor], Contract | None],
         refusal: Callable[[Message, bytes], str | None] | None = None,
+        unsendable: Unsendable | None = None,
     ) -> None:
         descriptor = descriptor_of(cls)
         self._refusal = refusal
@@ -45,7 +49,9 @@ class Plain:
         self._class = cls
         self._forms = Forms(cls, max_size, f"{self._name}'s", groups=True, inside=False)
         self._foreign = Foreign([cls])  # classes built elsewhere: of this schema's root, or not
-        rules = contract(descriptor)
+        # why the root cannot be encoded or decoded as nanopb does (then it has no contract)
+        self._root_blocked = unsendable(descriptor, None) if unsendable is not None else None
+        rules = contract(descriptor) if self._root_blocked is None else None
         self._check = rules.check if rules is not None else None
 
     def kinds(self) -> dict[int, str]:
@@ -56,10 +62,15 @@ class Plain:
         """A plain message has no envelope metadata fields: ``{}``."""
         return {}
 
+    def _root_class(self) -> type[Message]:
+        return self.payload_class(self._name)
+
     def payload_class(self, kind: str) -> type[Message]:
         """The root's class, for ``kind`` its full name (what a decode returns as the kind)."""
         if kind != self._name:
             raise SchemaError(f"{kind!r} is not {self._name}, the plain message this codec sends")
+        if self._root_blocked is not None:
+            raise SchemaError(self._root_blocked)
         return self._class
 
     def encode(self, message: Message, mode: Mode = "strip", /, **metadata: object) -> bytes:
@@ -69,6 +80,8 @@ class Plain:
             raise TypeError(
                 f"encode takes a protobuf message (a {self._name}), not {type(message).__name__}"
             )
+        if self._root_blocked is not None:
+            raise SchemaError(self._root_blocked)
         if metadata:
             raise EncodeError(
                 f"{self._name} is no envelope: it has no metadata fields to set "
@@ -92,6 +105,8 @@ class Plain:
     def peek(self, data: bytes) -> tuple[str, bytes] | None:
         """The kind and exact bytes of a datagram in exact, stripped or padded form; ``None``
         where only ``decode`` can say what is wrong with it (a cut datagram among them)."""
+        if self._root_blocked is not None:
+            raise SchemaError(self._root_blocked)
         exact = self._forms.peek(as_bytes(data))
         return None if exact is None else (self._name, exact)
 
@@ -99,6 +114,8 @@ class Plain:
         """The message of a datagram in exact, stripped or zero-padded form (bytes or any
         bytes-like object); with ``strict``, a ``DecodeError`` too for fields the schema does not
         know and for what nanopb's decoder refuses (as ``Envelope.decode``)."""
+        if self._root_blocked is not None:
+            raise SchemaError(self._root_blocked)
         received = as_bytes(data)
         message = self._forms.parse(received)
         if strict:

@@ -327,12 +327,13 @@ def delimited(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Peer]:
     [("Holder", "delimited", 10), ("Track", "last", 11)],
     ids=["field-feature", "file-feature"],
 )
-def test_a_delimited_field_is_refused_at_load(
+def test_a_delimited_field_keeps_nanopbs_size_and_is_refused_on_encode_and_decode(
     delimited: Peer, root: str, field: str, line: int
 ) -> None:
     """nanopb writes an editions DELIMITED field as a length-prefixed message and refuses
     protobuf's group; protobuf keeps nanopb's bytes as an unknown field: no bytes are right for
-    both, so the codec refuses the schema, saying where and why, and sizes stay nanopb's."""
+    both. The codec loads with nanopb's sizes (the C library's own), and encoding or decoding
+    the message is the SchemaError saying where and why."""
     tree = ANY_TREES / "delimited"
     schema = erc_codec.schema.load_schema(tree, root)
     cls = schema.message_class(root)
@@ -347,13 +348,20 @@ def test_a_delimited_field_is_refused_at_load(
     ((ok, listed),) = delimited.ask("S")
     assert ok
     assert listed == "Holder=26 Track=13"
-    assert erc_codec.schema.Sizes(schema).max_size(root) == (26 if root == "Holder" else 13)
+    size = 26 if root == "Holder" else 13
+    assert erc_codec.schema.Sizes(schema).max_size(root) == size
+    codec = erc_codec.Codec.from_path(tree, root)
+    assert codec.max_size(root) == size
+    assert codec.sizes()[root] == size
     file = "fields.proto" if root == "Holder" else "whole.proto"
-    with pytest.raises(
-        erc_codec.SchemaError,
-        match=rf"{file}:{line}:\d+: {root}\.{field}: protobuf writes it delimited .*\(wire type 2",
+    pattern = rf"{file}:{line}:\d+: {root}\.{field}: protobuf writes it delimited .*\(wire type 2"
+    for attempt in (
+        lambda: codec.encode(message),
+        lambda: codec.decode(theirs),
+        lambda: codec.decode(theirs, strict=True),
     ):
-        erc_codec.Codec.from_path(tree, root)
+        with pytest.raises(erc_codec.SchemaError, match=pattern):
+            attempt()
 
 
 @pytest.fixture(scope="module")

@@ -120,13 +120,22 @@ def test_what_the_raw_descriptor_would_refuse_is_sent() -> None:
 def test_an_override_protobuf_cannot_write_as_nanopb_reads_it_is_a_schema_error(
     tmp_path: Path, field: str, why: str
 ) -> None:
+    """The codec loads with nanopb's size; encoding or decoding M is the SchemaError."""
     (tmp_path / "m.proto").write_text(
         f'syntax = "proto3";\nimport "nanopb.proto";\nmessage M {{\n  {field}\n}}\n'
     )
-    sizes = Sizes(load_schema(tmp_path, root="M"))
-    assert sizes.max_size("M") > 0  # nanopb sizes it all the same
-    with pytest.raises(erc_codec.SchemaError, match=rf"M\.x: .*{why}"):
-        erc_codec.Codec.from_path(tmp_path, root="M")
+    size = Sizes(load_schema(tmp_path, root="M")).max_size("M")
+    assert size > 0  # nanopb sizes it all the same
+    codec = erc_codec.Codec.from_path(tmp_path, root="M")
+    assert codec.max_size("M") == codec.sizes()["M"] == size
+    message = codec.schema.message_class("M")()
+    for attempt in (
+        lambda: codec.encode(message),
+        lambda: codec.decode(b"\x08\x01"),
+        lambda: codec.message_class("M"),
+    ):
+        with pytest.raises(erc_codec.SchemaError, match=rf"M\.x: .*{why}"):
+            attempt()
 
 
 @pytest.mark.parametrize("root", sorted(CODECS))

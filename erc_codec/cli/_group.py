@@ -7,6 +7,8 @@ from typing import Any
 
 import click
 
+from .._errors import CodecError, SchemaError
+
 __all__ = ["OneLineGroup"]
 
 
@@ -14,7 +16,9 @@ class OneLineGroup(click.Group):
     """A command group whose every error is one line on stderr: click's usage errors print
     usage, hint and error on three. Exit statuses stay click's (2 for usage errors); output that
     cannot be written is one line and 2, except a reader that went away (``| head``), which ends
-    the command quietly with status 1."""
+    the command quietly with status 1. A codec error no command turned into its own words is
+    one line too: 2 for a ``SchemaError`` (a message of the schema erc-codec cannot encode or
+    decode, say), else 1."""
 
     def main(self, *args: Any, **kwargs: Any) -> Any:
         kwargs["standalone_mode"] = False
@@ -29,6 +33,9 @@ class OneLineGroup(click.Group):
         except click.Abort:
             click.echo("Aborted!", err=True)
             sys.exit(1)
+        except CodecError as error:
+            click.echo(f"Error: {' '.join(str(error).split())}", err=True)
+            sys.exit(2 if isinstance(error, SchemaError) else 1)
         except BrokenPipeError:
             _silence_unwritable_stdout()
             sys.exit(1)

@@ -10,6 +10,7 @@ device or a file over ``SOURCE_LIMIT`` is refused, naming it); symlinked folders
 
 import functools
 import os
+import re
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
@@ -20,7 +21,7 @@ from google.protobuf.message import Message
 from .._errors import SchemaError
 from ._descriptors import Location, SourceIndex, declarations
 from ._files import FileError, proto_files, read_text
-from ._protoc import compile_files
+from ._protoc import ProtocError, compile_files
 from ._text import declared_names, package_name
 
 __all__ = ["Schema", "descriptor_of", "enum_of", "load_schema", "message_of"]
@@ -49,8 +50,13 @@ class Schema:
         self.include = tuple(include)
         self.shown = tree if shown is None else shown  # where messages say the files are
         self.files = tuple(files.file)
-        # The tree's own files, judged now: a git revision's scratch folder is gone once loaded.
-        self._own = tuple(proto for proto in self.files if (tree / proto.name).is_file())
+        # The tree's own files, judged now: a git revision's scratch folder is gone once loaded;
+        # a copy of nanopb.proto or descriptor.proto it ships is a vocabulary, not its schema.
+        self._own = tuple(
+            proto
+            for proto in self.files
+            if (tree / proto.name).is_file() and not _vocabulary(proto)
+        )
         self.pool = descriptor_pool.DescriptorPool()
         self.refused: dict[str, str] = {}  # full message name -> why the runtime has no class
         for proto in self.files:
@@ -97,13 +103,16 @@ class Schema:
         location = self.location(full_name)
         return str(location) if location else full_name
 
-    def message_class(self, name: str) -> type[Message]:
+    def message_class(self, name: str, lenient: bool = False) -> type[Message]:
         """The message class for a full message name, e.g. ``SensorBoardGPSInfo``;
-        ``SchemaError`` when protobuf's Python runtime cannot build it (see ``refused``)."""
+        ``SchemaError`` when protobuf's Python runtime cannot build it (see ``refused``), unless
+        ``lenient``: then the class of the copy the pool holds (required fields optional, JSON
+        names the field names), for a caller that refuses to encode or decode such a message
+        itself (a codec: ``Sizes.unsendable``)."""
         cls = self._classes.get(name)
         if cls is None:
             descriptor = self.descriptor(name)
-            if self.refused:
+            if self.refused and not lenient:
                 self._buildable(descriptor)
             self._decodable(descriptor)
             try:
@@ -113,7 +122,8 @@ class Schema:
                     f"{self.where(name)}: {name} nests messages too deeply for protobuf's Python "
                     "runtime to build its class (nanopb's sizes still hold)"
                 ) from None
-            self._classes[name] = cls
+            if not (lenient and self.refused):  # unchecked: a strict call must still check
+                self._classes[name] = cls
         return cls
 
     def _decodable(self, descriptor: Descriptor) -> None:
@@ -203,7 +213,9 @@ class Schema:
         """Every message the tree's loaded files define, nested ones included, in file order.
 
         Files found on protoc's other search paths (google/protobuf/*, erc-codec's stand-in
-        nanopb.proto) are imports, not part of the tree, and are left out.
+        nanopb.proto) are imports, not part of the tree, and are left out, as are the option
+        vocabularies a tree ships itself (its nanopb.proto, its google/protobuf/descriptor.proto):
+        nanopb's generator is run on a tree's own files, not on those.
         """
         for proto in self._own:
             for declaration in declarations(proto):
@@ -251,6 +263,7 @@ def load_schema(
         except FileError:
             raise  # a file protoc would read is refused: the tree is, whatever defines the root
         except SchemaError as error:
+            _require_one_root(error, name, root, named=bool(colon))
             failure = failure or error
             continue
         if any(d.name == root and d.is_message for d in declarations(compiled.file[-1])):
@@ -267,6 +280,23 @@ def load_schema(
     raise SchemaError(f"{base}: no .proto file defines message {root}{_hint(base, root)}")
 
 
+def _require_one_root(error: SchemaError, name: str, root: str, named: bool) -> None:
+    """``SchemaError`` when protoc refused ``name`` because it defines ``root`` again beside a
+    file it imports (the two copies are compiled together), unless the caller ``named`` the
+    file: which copy is meant is the caller's to say. Any other refusal is left to the caller."""
+    if named:
+        return
+    clash = re.compile(rf'^(.*?): "{re.escape(root)}" is already defined in file "(.+)"\.$')
+    lines = error.lines if isinstance(error, ProtocError) else []
+    twice = next((found for found in map(clash.match, lines) if found), None)
+    if twice is not None:
+        where, other = twice[1], twice[2]
+        raise SchemaError(
+            f"message {root} is defined in both {name} and {other}, which are compiled together "
+            f"({where}: {root} is already defined in {other}): name the file, e.g. {other}:{root}"
+        )
+
+
 def _hint(base: Path, root: str) -> str:
     """``" (did you mean pkg.Root?)"`` when ``root`` is a short name some package declares."""
     if "." in root:
@@ -281,6 +311,17 @@ def _hint(base: Path, root: str) -> str:
 
 _LIMIT_REQUIRED = 63  # upb's mini tables hold at most this many required fields per message
 _LIMIT_DEPTH = 100  # protobuf's runtimes decode messages nested at most this deep
+_NANOPB = 1010  # the number of nanopb.proto's extensions of protobuf's options
+
+
+def _vocabulary(proto: descriptor_pb2.FileDescriptorProto) -> bool:
+    """Whether ``proto`` is an option vocabulary, not part of a schema: protobuf's
+    descriptor.proto, or a copy of nanopb.proto under any name (the file that extends
+    ``google.protobuf.FieldOptions`` with nanopb's ``(nanopb)``, number 1010)."""
+    return proto.name == "google/protobuf/descriptor.proto" or any(
+        extension.extendee == ".google.protobuf.FieldOptions" and extension.number == _NANOPB
+        for extension in proto.extension
+    )
 
 
 def _add(

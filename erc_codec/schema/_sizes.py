@@ -8,7 +8,8 @@ bytes ``varint(max_size) + max_size``, repeated fields ``(tag + item) * max_coun
 string, bytes or repeated field with no limit, a callback or pointer field, a type that contains
 itself) has no size, exactly where nanopb writes "depends on runtime parameters". nanopb reads the
 descriptors as written: an editions field with ``message_encoding = DELIMITED`` is sized as the
-message field it is written as (which ``require_fixed`` refuses: see ``_DELIMITED``). nanopb's
+message field it is written as (which erc-codec cannot send as nanopb reads it: ``unsendable``,
+``_DELIMITED``). nanopb's
 generator refuses a file holding a proto2 ``group`` it must generate (``NotImplementedError``: it
 has no groups), and with it every file importing that file: their messages have no size and are
 not listed.
@@ -72,7 +73,8 @@ _SIZED_VARINTS = {
 # has a length-prefixed message: an editions DELIMITED field (or a proto2 group whose nanopb
 # type_override is TYPE_MESSAGE). nanopb's C library answers protobuf's bytes "wrong wire type"
 # and protobuf keeps nanopb's as an unknown field, so no bytes are right for both: the codec
-# refuses it rather than pick one side. Without the feature nanopb's code is the same.
+# refuses to encode or decode a message holding it rather than pick one side (its size stays
+# nanopb's). Without the feature nanopb's code is the same.
 _DELIMITED = (
     "protobuf writes it delimited (a group: wire types 3 and 4) and nanopb as a length-prefixed "
     "message (wire type 2), so each side refuses or drops the other's bytes; make it a "
@@ -394,10 +396,8 @@ class Sizes:
             )
 
     def require_fixed(self, root: Descriptor) -> None:
-        """``SchemaError`` naming the first field, and its path from ``root``, nanopb can't size;
-        else the first field whose bytes nanopb and protobuf disagree on (``_DELIMITED``)."""
+        """``SchemaError`` naming the first field, and its path from ``root``, nanopb can't size."""
         self._require_generated(root)  # the files root reaches are all imported by its own
-        delimited: tuple[FieldDescriptor, str] | None = None
         # Depth first with a stack of its own: messages nest as deeply as protoc lets them.
         pending: list[tuple[Descriptor, str, tuple[str, ...]]] = [
             (root, root.full_name, (root.full_name,))
@@ -409,8 +409,6 @@ class Sizes:
                 if self.ignored(field):
                     continue
                 here = f"{path}.{field.name}"
-                if field.type == _T.TYPE_GROUP and delimited is None:  # in a file nanopb takes
-                    delimited = field, here
                 problem = self._problem(field)
                 if field.message_type is not None and problem is None:
                     sub = message_of(field)
@@ -424,12 +422,51 @@ class Sizes:
                         f"nanopb cannot size it (reached from {stack[0]} as {here})"
                     )
             pending.extend(reversed(inner))
-        if delimited is not None:
-            field, here = delimited
-            raise SchemaError(
-                f"{self._schema.where(field.full_name)}: {field.full_name}: {_DELIMITED} "
-                f"(reached from {root.full_name} as {here})"
-            )
+
+    def unsendable(
+        self, root: Descriptor, fields: Sequence[FieldDescriptor] | None = None
+    ) -> str | None:
+        """Why erc-codec cannot encode or decode ``root`` as nanopb does, or ``None``: the first
+        thing, depth first from ``root`` (through ``fields`` of it, default all), that is a
+        message protobuf's Python runtime refuses to build (``Schema.refused``), a field written
+        as a group where nanopb has a length-prefixed message (``_DELIMITED``), or a field whose
+        nanopb overrides protobuf does not write as nanopb reads them (``wire_mismatch``). nanopb's
+        sizes hold all the same: a codec loads such a schema and refuses only to encode or decode
+        the messages this names a reason for."""
+        refused = self._schema.refused
+        pending: list[tuple[Descriptor, str, Sequence[FieldDescriptor]]] = [
+            (root, root.full_name, root.fields if fields is None else fields)
+        ]
+        seen = {root.full_name}
+        while pending:
+            message, path, own = pending.pop()
+            why = refused.get(message.full_name)
+            if why is not None:
+                reached = "" if path == root.full_name else f" (reached as {path})"
+                return (
+                    f"{self._schema.where(message.full_name)}: {message.full_name}{reached}: "
+                    f"{why}; protobuf's Python runtime cannot encode or decode it (nanopb's "
+                    "sizes still hold)"
+                )
+            inner: list[tuple[Descriptor, str, Sequence[FieldDescriptor]]] = []
+            for field in own:
+                if self.ignored(field):
+                    continue
+                here = f"{path}.{field.name}"
+                mismatch = _DELIMITED if field.type == _T.TYPE_GROUP else None
+                mismatch = mismatch or self.wire_mismatch(field)
+                if mismatch is not None:
+                    return (
+                        f"{self._schema.where(field.full_name)}: {field.full_name}: {mismatch} "
+                        f"(reached from {root.full_name} as {here}); erc-codec cannot encode or "
+                        "decode it as nanopb does (nanopb's sizes still hold)"
+                    )
+                sub = field.message_type
+                if sub is not None and sub.full_name not in seen:
+                    seen.add(sub.full_name)
+                    inner.append((sub, here, sub.fields))
+            pending.extend(reversed(inner))
+        return None
 
     def _problem(self, field: FieldDescriptor) -> str | None:
         """Why ``field`` itself (not what it contains) has no static size, if it hasn't."""
