@@ -137,14 +137,22 @@ def resolve_options(
                 resolved.enums[name] = _merge(parent, rules, seen, annotated)
                 continue
             own = resolved.messages[name] = _merge(base, rules, seen, message.options)
+            fields, prefix = resolved.fields, f"{name}."
             for field in message.field:
+                if not rules and not field.HasField("options"):
+                    # What _merge gives, without the call: nothing applies. Most fields, and
+                    # some 20% of this resolution on bench_lint's proto2+editions pair (its ratio
+                    # to buf, target <= 1.0x); the sizes are held to nanopb's generator's by
+                    # test_generator_inputs, test_sizes and test_nanopb_rules.
+                    fields[prefix + field.name] = own
+                    continue
                 options = field.options if field.HasField("options") else None
                 dotted = f"{seen}.{field.name}"
-                resolved.fields[f"{name}.{field.name}"] = _merge(own, rules, dotted, options)
+                fields[prefix + field.name] = _merge(own, rules, dotted, options)
             for oneof in message.oneof_decl:
                 # oneofs carry no (nanopb) annotation: only .options lines reach them
                 dotted = f"{seen}.{oneof.name}"
-                resolved.oneofs[f"{name}.{oneof.name}"] = _merge(own, rules, dotted, None)
+                resolved.oneofs[prefix + oneof.name] = _merge(own, rules, dotted, None)
     return resolved
 
 
