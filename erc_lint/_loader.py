@@ -46,7 +46,8 @@ __all__ = [
     "utf8_name",
 ]
 
-_DIAGNOSTIC = re.compile(r"^(.*?):(\d+):(\d+): (.*)$")
+# Read only when protoc refused a file: compiled on first use (re caches it).
+_DIAGNOSTIC = r"^(.*?):(\d+):(\d+): (.*)$"
 
 
 class LoadProblem(NamedTuple):
@@ -211,7 +212,7 @@ def _report(
     """
     prefix = str(base) + os.sep
     for line in lines:
-        match = _DIAGNOSTIC.match(line)
+        match = re.match(_DIAGNOSTIC, line)
         if match is None:
             where, text = Location(str(tree.root / name), 1, 1), line
         else:

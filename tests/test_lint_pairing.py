@@ -1,6 +1,7 @@
 """erc_lint's pairing of OLD and NEW: fields by number and by name, enum values by number,
 renamed messages with what they declare, map entries with their map fields."""
 
+import dataclasses
 from pathlib import Path
 
 import pytest
@@ -202,3 +203,34 @@ def test_a_moved_message_brings_what_it_declares(tmp_path: Path) -> None:
             '"double".',
         ),
     ]
+
+
+def test_paired_behaves_as_the_frozen_dataclass_it_replaces(tmp_path: Path) -> None:
+    """Paired is a plain class for start-up time: it unpacks, equals, hashes, prints and refuses
+    assignment as ``@dataclass(frozen=True, slots=True)`` with the same two fields does."""
+    from erc_lint._loader import load_tree
+    from erc_lint._model import Message, build
+    from erc_lint._pairing import Paired
+
+    @dataclasses.dataclass(frozen=True, slots=True)
+    class Plain:
+        old: Message
+        new: Message
+
+    messages = build(load_tree(tree(tmp_path, {"a.proto": "message A {}\nmessage B {}\n"})))
+    a, b = messages.messages["A"], messages.messages["B"]
+    fast, plain = Paired(a, b), Plain(a, b)
+    assert tuple(fast) == (a, b) == (plain.old, plain.new)
+    assert (fast == Paired(a, b), fast == Paired(b, a), fast == (a, b)) == (True, False, False)
+    assert (plain == Plain(a, b), plain == Plain(b, a)) == (True, False)
+    assert hash(fast) == hash(Paired(a, b))
+    assert hash(plain) == hash(Plain(a, b))
+    assert repr(fast) == repr(plain).replace(Plain.__qualname__, "Paired")
+    with pytest.raises(AttributeError):
+        fast.old = b
+    with pytest.raises(AttributeError):
+        plain.old = b  # type: ignore[misc]
+    with pytest.raises((AttributeError, TypeError)):
+        fast.other = b
+    with pytest.raises((AttributeError, TypeError)):
+        plain.other = b  # type: ignore[attr-defined]

@@ -449,6 +449,31 @@ def test_an_extension_turned_into_a_field_of_the_same_type_is_not_deleted(tmp_pa
     ]
 
 
+CASES = Path(__file__).resolve().parent / "lint_cases"
+
+
+def test_nanopb_shortcut_agrees_with_the_plain_rules() -> None:
+    """The limit rules and the layout rule skip a field of the same type, cardinality and nanopb
+    options in both revisions; over every lint case (each nanopb case among them), they find
+    with the shortcut exactly what they find without it."""
+    from erc_lint._pairing import Change
+    from erc_lint.rules.nanopb import layout_changes, limit_changes_of
+
+    compared = 0
+    for new in sorted(CASES.glob("**/new")):
+        old = new.parent / "old"
+        if not old.is_dir():
+            continue
+        change = Change(build(load_tree(old)), build(load_tree(new)), Config())
+        compared += change.compares_nanopb
+        for pair in change.fields():
+            assert limit_changes_of(pair, change) == limit_changes_of(pair, change, alike=False)
+        for paired in change.messages:
+            quick = list(layout_changes(paired, change))
+            assert quick == list(layout_changes(paired, change, alike=False)), new
+    assert compared >= 10  # the nanopb rules' cases, and others with options
+
+
 def test_limit_changes_once_per_pair(tmp_path: Path) -> None:
     """The two limit rules share one computation per field pair: the memo gives what the plain
     computation gives, for every pair."""

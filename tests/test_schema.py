@@ -11,11 +11,13 @@ from typing import Any, cast
 
 import pytest
 from conftest import PROTO
+from google.protobuf import descriptor_pb2
 from google.protobuf.descriptor import Descriptor
 
 import erc_codec
 from erc_codec import Codec, Decoded, DecodeError, EncodeError, MessageCodec, SchemaError
-from erc_codec.schema import ProtocError, compile_files
+from erc_codec.schema import ProtocError, compile_files, options_class
+from erc_codec.schema._options import VOCABULARY, compile_vocabulary
 
 TREES = Path(__file__).resolve().parent / "schema_trees"
 ENVELOPE_PROTO = PROTO / "components" / "common" / "envelope.proto"
@@ -441,3 +443,18 @@ def test_decode_errors_of_a_small_tree(shared: Codec) -> None:
         shared.decode(h("22 00"))
     with pytest.raises(DecodeError, match=r"14 bytes.*13"):
         shared.decode(bytes(14))
+
+
+def test_shipped_vocabulary_is_protocs() -> None:
+    """nanopb.pb, which options_class reads instead of running protoc on every run, is what
+    protoc makes of the shipped nanopb.proto now, and what NanoPBOptions is built from. (After
+    an edit of nanopb.proto: ``VOCABULARY.write_bytes(compile_vocabulary().SerializeToString(
+    deterministic=True))``.)"""
+    compiled = compile_vocabulary()
+    shipped = descriptor_pb2.FileDescriptorSet.FromString(VOCABULARY.read_bytes())
+    assert [file.name for file in compiled.file] == ["nanopb.proto"]
+    assert shipped == compiled
+    assert VOCABULARY.read_bytes() == compiled.SerializeToString(deterministic=True)
+    built = descriptor_pb2.FileDescriptorProto()
+    options_class().DESCRIPTOR.file.CopyToProto(built)
+    assert built == compiled.file[0]

@@ -57,7 +57,8 @@ _LOCK = threading.Lock()
 _LOG_NOTICE = (
     "WARNING: All log messages before absl::InitializeLog() is called are written to STDERR"
 )
-_LOG_PREFIX = re.compile(r"[IWEF]\d{4} [\d:.]+ +\d+ [\w.]+:\d+\] ")
+# Read only when protoc refused: compiled on first use (re caches it).
+_LOG_PREFIX = r"[IWEF]\d{4} [\d:.]+ +\d+ [\w.]+:\d+\] "
 # google/protobuf/*.proto, shipped with grpcio-tools.
 _WELL_KNOWN = str(Path(grpc_tools.__file__).parent / "_proto")
 # A nanopb.proto of our own, used only when a tree imports "nanopb.proto" without shipping it.
@@ -146,7 +147,7 @@ def compile_files(
             status = _run_main([arg.encode() for arg in args])
         if status != 0:
             text = _read_all(errors).decode(errors="replace")
-            lines = [_LOG_PREFIX.sub("", line, count=1) for line in text.splitlines()]
+            lines = [re.sub(_LOG_PREFIX, "", line, count=1) for line in text.splitlines()]
             lines = [line for line in lines if line and line != _LOG_NOTICE]
             raise ProtocError(lines or [f"protoc exited with status {status}"])
         return descriptor_pb2.FileDescriptorSet.FromString(_read_all(out))
