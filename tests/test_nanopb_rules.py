@@ -23,6 +23,7 @@ ERC_REQUIRE_INTEROP=1 (CI), where it fails.
 import os
 import re
 import shutil
+import site
 import subprocess
 import sys
 import sysconfig
@@ -110,7 +111,11 @@ def _pypi_generator(version: str, folder: Path) -> Generator:
         text=True,
         check=True,
     ).stdout.strip()
+    # This environment's site folders, and the system's beneath a venv made with
+    # --system-site-packages; the venv's own nanopb comes first all the same (a .pth file's
+    # folders are appended after the venv's own).
     shared = {sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"]}
+    shared.update(site.getsitepackages())
     (Path(purelib) / "erc_test_shared.pth").write_text("".join(f"{p}\n" for p in sorted(shared)))
     return Generator(version, (str(python), "-m", "nanopb.generator.nanopb_generator"))
 
