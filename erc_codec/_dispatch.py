@@ -76,14 +76,21 @@ class Dispatcher:
         # kind → [handler or None, datagrams handled, payload parser]: one lookup finds all
         # three on the hot path.
         self._kinds: dict[str, list[Any]] = {
-            kind: [None, 0, self._codec.payload_class(kind).FromString]
-            for kind in self._codec.kinds().values()
+            kind: [None, 0, self._parser(kind)] for kind in self._codec.kinds().values()
         }
         self._on_drop = on_drop
         self._unhandled: dict[str, int] = {}
         self._undecodable: dict[str, int] = {}
         self._handler_errors: dict[str, int] = {}
         self._unkept: dict[int, int] = {}
+
+    def _parser(self, kind: str) -> Callable[[bytes], Message] | None:
+        """The payload class's parser; ``None`` for a member nobody can read as nanopb does,
+        whose datagrams peek never finds and decode counts as ``"unsupported"``."""
+        try:
+            return self._codec.payload_class(kind).FromString
+        except SchemaError:
+            return None
 
     @property
     def codec(self) -> Codec:
@@ -95,6 +102,8 @@ class Dispatcher:
         entry = self._kinds.get(kind)
         if entry is None:
             raise SchemaError(f"{kind!r} is not a payload kind of {self._codec.root}")
+        if entry[2] is None:
+            self._codec.payload_class(kind)  # raises why no datagram of it can be read
         entry[0] = handler
 
     def on(self, kind: str) -> Callable[[H], H]:

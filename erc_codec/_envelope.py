@@ -47,7 +47,7 @@ from google.protobuf.message import EncodeError as ProtobufEncodeError
 from google.protobuf.message import Message
 
 from ._contract import Contract, sender
-from ._errors import DecodeError, EncodeError, SchemaError
+from ._errors import DecodeError, EncodeError, SchemaError, UnreadableKind
 from ._foreign import Foreign
 from ._forms import Forms, Mode, as_bytes, cut_short, strict_error
 from ._truncation import Table, cut_reason, presence_table
@@ -581,19 +581,19 @@ class Envelope:
     def _decode_envelope(self, data: bytes) -> Decoded:
         """The general path: restore the whole envelope, parse it, find the payload."""
         if self._whole is not None:
-            raise SchemaError(self._whole)
+            raise UnreadableKind(self._whole)
         try:
             envelope = self._parse_restored(data)
         except DecodeError:
             why = self._blocked_first(data)  # protobuf's group for a DELIMITED member, say
             if why is not None:
-                raise SchemaError(why) from None
+                raise UnreadableKind(why) from None
             raise
         kind = envelope.WhichOneof(self._oneof)
         if kind is None:
             raise self._no_payload(data)
         if kind in self._blocked:
-            raise SchemaError(self._blocked[kind])
+            raise UnreadableKind(self._blocked[kind])
         decoded = _decoded(Decoded, (kind, getattr(envelope, kind)))
         decoded.envelope = envelope
         outside = own_unknown_fields(envelope, self._name)
@@ -624,7 +624,7 @@ class Envelope:
             raise DecodeError("empty datagram", "empty")
         return self._forms.parse(data)
 
-    def _no_payload(self, data: bytes) -> DecodeError | SchemaError:
+    def _no_payload(self, data: bytes) -> DecodeError:
         exact = self._forms.restore(data)
         if not exact:
             return DecodeError("datagram holds no payload (only zero bytes)", "no_payload")
@@ -635,7 +635,7 @@ class Envelope:
                 "no_payload",
             )
         if self._kinds.get(number) in self._blocked:  # nanopb's bytes for a DELIMITED member
-            return SchemaError(self._blocked[self._kinds[number]])
+            return UnreadableKind(self._blocked[self._kinds[number]])
         if number in self._kinds:
             return DecodeError(
                 f"payload number {number} ({self._kinds[number]}) arrived with wire type "

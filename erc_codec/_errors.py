@@ -4,7 +4,7 @@ Every error names what was wrong and where (a file:line for schemas, a field pat
 byte offset for datagrams), so a caller can print ``str(error)`` as a complete one-line diagnosis.
 """
 
-__all__ = ["CodecError", "DecodeError", "EncodeError", "SchemaError"]
+__all__ = ["CodecError", "DecodeError", "EncodeError", "SchemaError", "UnreadableKind"]
 
 
 class CodecError(Exception):
@@ -25,9 +25,20 @@ class DecodeError(CodecError):
     ``reason`` sorts the failure for counters: ``"empty"``, ``"too_long"``, ``"no_payload"``,
     ``"unknown_member"`` (a payload number this schema lacks: a newer sender), ``"truncated"``
     (cut short, not stripped: restoring its zeros would make what no encoder sends, a field
-    without presence at its default or a varint ending in ``80 00``) or ``"corrupt"``.
+    without presence at its default or a varint ending in ``80 00``), ``"unsupported"`` (a member
+    the schema has but nobody can read as nanopb does: ``UnreadableKind``) or ``"corrupt"``.
     """
 
     def __init__(self, message: str, reason: str = "corrupt") -> None:
         super().__init__(message)
         self.reason = reason
+
+
+class UnreadableKind(SchemaError, DecodeError):
+    """A datagram of a member the schema declares but which cannot be decoded as nanopb decodes
+    it (an editions ``DELIMITED`` field, a message the protobuf runtime cannot build): the
+    schema's fault, so a ``SchemaError``, and a ``DecodeError`` of reason ``"unsupported"``, so
+    that whatever counts datagrams by reason (``Dispatcher``, ``Router``) counts it."""
+
+    def __init__(self, message: str) -> None:
+        DecodeError.__init__(self, message, "unsupported")

@@ -13,8 +13,9 @@ checks, which it shares with ``_envelope``):
 - Every failure is a ``DecodeError``/``EncodeError`` saying what and where; what is no message
   or no datagram a ``TypeError``. A root that cannot be encoded or decoded as nanopb does
   (``Sizes.unsendable``: a message protobuf's Python runtime cannot build, a DELIMITED field, an
-  override protobuf does not write as nanopb reads it) still loads, with nanopb's size; encoding,
-  decoding or peeking is then a ``SchemaError`` saying why.
+  override protobuf does not write as nanopb reads it) still loads, with nanopb's size; encoding
+  is then a ``SchemaError`` saying why, decoding an ``UnreadableKind`` (a ``SchemaError`` and a
+  ``DecodeError`` of reason ``"unsupported"``), and ``peek`` finds nothing.
 """
 
 from collections.abc import Callable
@@ -24,7 +25,7 @@ from google.protobuf.message import Message
 
 from ._contract import Contract
 from ._envelope import Decoded, Unsendable
-from ._errors import EncodeError, SchemaError
+from ._errors import EncodeError, SchemaError, UnreadableKind
 from ._foreign import Foreign
 from ._forms import Forms, Mode, as_bytes, strict_error
 from .schema import descriptor_of
@@ -106,7 +107,7 @@ class Plain:
         """The kind and exact bytes of a datagram in exact, stripped or padded form; ``None``
         where only ``decode`` can say what is wrong with it (a cut datagram among them)."""
         if self._root_blocked is not None:
-            raise SchemaError(self._root_blocked)
+            return None  # decode says why
         exact = self._forms.peek(as_bytes(data))
         return None if exact is None else (self._name, exact)
 
@@ -115,7 +116,7 @@ class Plain:
         bytes-like object); with ``strict``, a ``DecodeError`` too for fields the schema does not
         know and for what nanopb's decoder refuses (as ``Envelope.decode``)."""
         if self._root_blocked is not None:
-            raise SchemaError(self._root_blocked)
+            raise UnreadableKind(self._root_blocked)
         received = as_bytes(data)
         message = self._forms.parse(received)
         if strict:

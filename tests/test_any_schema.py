@@ -406,8 +406,9 @@ def test_schemas_the_runtime_refuses_still_get_nanopbs_sizes(
 def test_a_message_the_runtime_refuses_loads_and_refuses_to_encode_or_decode(
     generator: None, tmp_path: Path, root: str, pattern: str
 ) -> None:
-    """The root loads with nanopb's sizes; encoding, decoding, peeking and asking its class are
-    each the SchemaError saying why."""
+    """The root loads with nanopb's sizes; encoding, decoding and asking its class are each the
+    SchemaError saying why (decoding's a DecodeError of reason "unsupported" too, for counters),
+    and peek finds nothing."""
     theirs = generator_sizes(tmp_path, TREES / "runtime", ["many.proto"])
     codec = Codec.from_path(TREES / "runtime", root)
     assert codec.max_size(root) == theirs[root]
@@ -418,12 +419,15 @@ def test_a_message_the_runtime_refuses_loads_and_refuses_to_encode_or_decode(
         lambda: codec.encode(message, "pad"),
         lambda: codec.decode(b""),
         lambda: codec.decode(bytes([0x0D, 1, 0, 0, 0]), strict=True),
-        lambda: codec.peek(b"\x08\x01"),
         lambda: codec.payload_class(root),
         lambda: codec.message_class(root),
     ):
         with pytest.raises(SchemaError, match=pattern):
             attempt()
+    assert codec.peek(b"\x08\x01") is None
+    with pytest.raises(DecodeError, match=pattern) as refused:
+        codec.decode(b"\x08\x01")
+    assert refused.value.reason == "unsupported"
 
 
 def test_debians_generator_sizes_them_alike(tmp_path: Path) -> None:
@@ -528,12 +532,15 @@ def test_the_cli_sends_the_other_members_and_says_why_not_in_one_line() -> None:
     tree = ("--proto", str(UNSENDABLE), "--root", "Env")
     done = erc_codec_cli("encode", *tree, "fine", '{"x": 1}')
     assert (done.returncode, done.stdout) == (0, "0a020801\n"), done.stderr
-    for refused in (
-        erc_codec_cli("encode", *tree, "counts", '{"n": 1}'),
-        erc_codec_cli("decode", *tree, "12020801"),
-    ):
-        assert refused.returncode == 2
-        assert re.fullmatch(rf"Error: \S*{_COUNTS}[^\n]*\n", refused.stderr), refused.stderr
+    refused = erc_codec_cli("encode", *tree, "counts", '{"n": 1}')
+    assert refused.returncode == 2
+    assert re.fullmatch(rf"Error: \S*{_COUNTS}[^\n]*\n", refused.stderr), refused.stderr
+    # A datagram of it is one that cannot be read, reported as every undecodable datagram is.
+    unread = erc_codec_cli("decode", *tree, "12020801")
+    assert unread.returncode == 1, unread.stderr
+    record = json.loads(unread.stdout)
+    assert (record["reason"], record["length"]) == ("unsupported", 4)
+    assert re.search(_COUNTS, record["error"]), record
 
 
 def test_a_delimited_member_or_one_holding_such_a_field() -> None:
@@ -790,3 +797,19 @@ def test_map_entries_are_listed_where_nanopb_generates_them(
     ours = erc_codec.Codec.from_path(tree, root="A").sizes()
     assert ours == theirs
     assert ("A.MEntry" in ours) is not discard
+
+
+def test_a_dispatcher_counts_a_member_nobody_can_read_and_handles_the_others() -> None:
+    """Its datagrams end in the "unsupported" counter (not an exception out of feed), and a
+    handler for it is refused, saying why."""
+    codec = Codec.from_path(UNSENDABLE, "Env")
+    dispatcher = erc_codec.Dispatcher(codec)
+    handled: list[Any] = []
+    dispatcher.register("fine", handled.append)
+    with pytest.raises(SchemaError, match=_COUNTS):
+        dispatcher.register("counts", handled.append)
+    assert not dispatcher.feed(bytes.fromhex("12020801"))
+    assert dispatcher.feed(bytes.fromhex("0a020801"))
+    stats = dispatcher.stats()
+    assert (stats.undecodable, stats.handled) == ({"unsupported": 1}, {"fine": 1})
+    assert handled[0].x == 1
