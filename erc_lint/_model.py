@@ -362,7 +362,7 @@ class Revision:
     def allocation(self, field: Field) -> str:
         """How nanopb stores ``field`` (``allocation``): ``static``, ``callback``, ``pointer`` or
         ``ignore``."""
-        options = self.nanopb().fields.get(f"{field.owner}.{field.name}")
+        options = self._field_options(field)
         return "static" if options is None else allocation(field, options)
 
     def enum_options(self, name: str) -> Options | None:
@@ -396,8 +396,17 @@ class Revision:
         return self._has_options
 
     def field_options(self, field: Field) -> Options:
-        """nanopb's resolved options for a field (defaults where nothing applies)."""
-        return self.nanopb().fields[f"{field.owner}.{field.name}"]
+        """nanopb's resolved options for a field or extension (defaults where nothing
+        applies)."""
+        options = self._field_options(field)
+        assert options is not None, field  # every field and extension of the tree has some
+        return options
+
+    def _field_options(self, field: Field) -> Options | None:
+        resolved = self.nanopb()
+        if field.extension:  # an extension's name is its full name
+            return resolved.extensions.get(field.name)
+        return resolved.fields.get(f"{field.owner}.{field.name}")
 
     def oneof_options(self, message: str, oneof: str) -> Options:
         """nanopb's resolved options for a oneof (its message's and file's included)."""

@@ -16,7 +16,7 @@ import pytest
 
 import erc_codec
 from erc_codec import Codec, DecodeError, EncodeError, MessageCodec, SchemaError
-from erc_codec.schema import Sizes, load_schema
+from erc_codec.schema import Sizes, compile_files, load_schema, resolve_options
 
 TREES = Path(__file__).resolve().parent / "any_trees"
 INCLUDE = TREES / "include"
@@ -501,3 +501,41 @@ def test_map_entries_are_listed_where_nanopb_generates_them(
     ours = erc_codec.Codec.from_path(tree, root="A").sizes()
     assert ours == theirs
     assert ("A.MEntry" in ours) is not discard
+
+
+_EXTENSION_TYPE = re.compile(r"pb_extension_type_t (\w+); /\* field type: char \w+\[(\d+)\]; \*/")
+
+
+def test_extension_options_resolve_as_nanopbs_generator_resolves_them(
+    generator: None, tmp_path: Path
+) -> None:
+    """An extension starts from its file's options and is matched as its full name (``pk.ex``,
+    ``pk.R.inner``; not its own name): the storage the generator writes for each agrees."""
+    tree = tmp_path / "tree"
+    tree.mkdir()
+    (tree / "e.proto").write_text(
+        'syntax = "proto2";\nimport "nanopb.proto";\npackage pk;\n'
+        "option (nanopb_fileopt).max_size = 3;\n"
+        "message R {\n  extensions 100 to 110;\n"
+        "  extend R { optional string inner = 101; optional string plain = 102; }\n}\n"
+        "extend R {\n  optional string ex = 100 [(nanopb).max_size = 10];\n"
+        "  optional string other = 103;\n}\n"
+    )
+    (tree / "e.options").write_text(
+        "ex max_size:7\npk.ex max_size:8\npk.R.inner max_size:9\nR.plain max_size:4\n"
+        "pk.other max_size:6\n"
+    )
+    out = tmp_path / "out"
+    out.mkdir()
+    command = [sys.executable, "-m", "nanopb.generator.nanopb_generator", "-q", "-D", str(out)]
+    subprocess.run([*command, "e.proto"], cwd=tree, check=True)
+    header = (out / "e.pb.h").read_text()
+    theirs = {c: int(size) for c, size in _EXTENSION_TYPE.findall(header)}
+    files = compile_files(tree, ["e.proto"]).file
+    resolved = resolve_options(tree, files)
+    ours = {
+        name.replace(".", "_"): int(options.max_size)
+        for name, options in resolved.extensions.items()
+        if name.startswith("pk.")  # not nanopb.proto's own
+    }
+    assert ours == theirs == {"pk_ex": 10, "pk_R_inner": 9, "pk_R_plain": 3, "pk_other": 6}

@@ -99,8 +99,10 @@ def limit_widened(pair: FieldPair, change: Change) -> Reports:
     """## What it does
     Reports a field that kept its number and a wire-compatible type whose nanopb limit is
     larger in NEW and holds every value the old one did (`max_size`, `max_length`,
-    `max_count`, `int_size`, `enum_intsize`), with how its message's nanopb size changes. A
-    wider integer type (`int32` to `int64`) is no option that grew and is not reported.
+    `max_count`, `int_size`, `enum_intsize`), with how its message's nanopb size changed (the
+    whole message's, where it did: an `int32`'s `int_size` grows the struct, not the encoding;
+    an extension's storage is no part of `<Message>_size`). A wider integer type (`int32` to
+    `int64`) is no option that grew and is not reported.
 
     ## Why is this bad?
     It breaks nothing at once, so it is a warning. But the C struct grows on every board that
@@ -133,17 +135,32 @@ def limit_widened(pair: FieldPair, change: Change) -> Reports:
         # compatible, and any growth of the root's size is ENVELOPE_SIZE_GROWN's.
         retyped = what == "int" and not before[2].startswith(("int_size:", "enum_intsize:"))
         if not retyped and not _narrowed(before, after):
-            old_size = change.old.max_size(pair.old_owner.name)
-            new_size = change.new.max_size(pair.new_owner.name)
-            c_name = pair.new_owner.name.replace(".", "_")
-            if old_size is None or new_size is None:
-                grows = f"the struct grows ({c_name} has no fixed size)"
-            else:
-                grows = f"the struct grows, and {c_name}_size from {old_size} to {new_size} bytes"
             yield Report(
                 _now(pair).location,
-                f'{_field(pair)} changed nanopb limit from "{before[2]}" to "{after[2]}": {grows}.',
+                f'{_field(pair)} changed nanopb limit from "{before[2]}" to "{after[2]}": '
+                f"{_grows(pair, change)}.",
             )
+
+
+def _grows(pair: FieldPair, change: Change) -> str:
+    """What a widened limit grows: an extension's own storage (no ``<Message>_size`` counts
+    extensions), else the message's struct, with the message's size where it changed (the sum
+    of every change to the message, not this field's share)."""
+    if _now(pair).extension:
+        return "the extension's C storage grows"
+    old_size = change.old.max_size(pair.old_owner.name)
+    new_size = change.new.max_size(pair.new_owner.name)
+    c_name = pair.new_owner.name.replace(".", "_")
+    if new_size is None:
+        return f"the struct grows ({c_name} has no fixed size)"
+    if old_size is None:
+        return f"the struct grows, and the message's {c_name}_size is {new_size} bytes"
+    if old_size == new_size:
+        return "the struct grows"
+    return (
+        f"the struct grows, and the message's {c_name}_size went from {old_size} to "
+        f"{new_size} bytes"
+    )
 
 
 @message_rule(
@@ -154,9 +171,10 @@ def limit_widened(pair: FieldPair, change: Change) -> Reports:
 )
 def layout_changed(pair: Paired[Message], change: Change) -> Reports:
     """## What it does
-    Reports, in a message of both revisions, a field that kept its number and type whose
-    nanopb storage changed (its `type`: static, callback, pointer or ignore, as the generator
-    settles `FT_DEFAULT` and its `fallback_type`; `fixed_length`; `fixed_count`), a field whose
+    Reports, in a message of both revisions, a field (or extension) that kept its number and
+    type whose nanopb storage changed (its `type`: static, callback, pointer or ignore, as the
+    generator settles `FT_DEFAULT` and its `fallback_type`; `fixed_length`; `fixed_count`), a
+    field whose
     `type_override` makes nanopb encode it as a type that does not read the old one's bytes
     (the test `FIELD_TYPE_CHANGED` applies to the declared types: `int32` overridden to
     `sint32`), and a oneof whose `no_unions` or `anonymous_oneof` changed.
@@ -194,8 +212,8 @@ def layout_changed(pair: Paired[Message], change: Change) -> Reports:
     if not change.compares_nanopb:
         return
     old, new = pair
-    for number, before in old.fields.items():
-        after = new.fields.get(number)
+    for number, before in [*old.fields.items(), *old.extensions.items()]:
+        after = (new.extensions if before.extension else new.fields).get(number)
         if after is None or not change.compatible(before, after):
             continue  # FIELD_TYPE_CHANGED's
         old_options, new_options = change.old.field_options(before), change.new.field_options(after)
@@ -314,8 +332,10 @@ def limit_changes_of(pair: FieldPair, change: Change) -> _Changes:
     differs between them. A field that changed its type within a group that shares a wire
     encoding (``int64`` to ``int32``) changed its ``int`` limit: the values its C member holds."""
     old, now = pair.old, pair.by_number
-    if now is None or now.extension or now.cardinality != old.cardinality:
+    if now is None or now.cardinality != old.cardinality:
         return []
+    if now.extension and now.cardinality == "repeated":
+        return []  # nanopb's generator skips it: "only optional type of extension fields"
     if not change.compares_nanopb and (old.kind != "scalar" or old.type == now.type):
         return []  # nanopb's defaults on both sides, the same type: nothing can differ
     if not change.compatible(old, now):
