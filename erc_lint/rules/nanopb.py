@@ -261,7 +261,8 @@ def envelope_over_budget(revision: Revision, change: Change) -> Reports:
     305 }`) whose maximum encoded size, as nanopb's generator computes it, exceeds that many
     bytes: the size, the budget and the headroom (negative). A root nanopb gives no size at
     all (a string without `max_size`, a callback or pointer field on the way, a type that holds
-    itself) is reported too: no budget holds it. `erc-lint check` reports it too.
+    itself, a proto2 group the generator refuses) is reported too: no budget holds it.
+    `erc-lint check` reports it too.
 
     ## Why is this bad?
     The budget is what the link or the receivers' buffers allow: a radio's MTU, a UART frame, a
@@ -290,10 +291,15 @@ def envelope_over_budget(revision: Revision, change: Change) -> Reports:
             continue  # EMBEDDED_ROOT_MISSING's
         size = revision.max_size(root)
         if size is None:
+            refusal = revision.refusal(root)
+            why = (
+                refusal
+                or f"nanopb writes {root.replace('.', '_')}_size depends on runtime parameters"
+            )
             yield Report(
                 message.location,
                 f'Message "{root}" has no fixed size: its budget of {budget} bytes cannot hold '
-                f"(nanopb writes {root.replace('.', '_')}_size depends on runtime parameters).",
+                f"({why}).",
                 key=root,
             )
         elif size > budget:
