@@ -262,7 +262,9 @@ def envelope_over_budget(revision: Revision, change: Change) -> Reports:
     bytes: the size, the budget and the headroom (negative). A root nanopb gives no size at
     all (a string without `max_size`, a callback or pointer field on the way, a type that holds
     itself, a proto2 group the generator refuses) is reported too: no budget holds it.
-    `erc-lint check` reports it too.
+    `erc-lint check` reports it too. Comparing OLD and NEW, a root OLD had over its budget by
+    as much (or without a size) is a warning; one that grew past OLD's size, or lost its size,
+    is an error.
 
     ## Why is this bad?
     The budget is what the link or the receivers' buffers allow: a radio's MTU, a UART frame, a
@@ -290,6 +292,13 @@ def envelope_over_budget(revision: Revision, change: Change) -> Reports:
         if message is None:
             continue  # EMBEDDED_ROOT_MISSING's
         size = revision.max_size(root)
+        if size is not None and size <= budget:
+            continue
+        # Old damage (a warning) only where NEW is over by no more than OLD was, or OLD had no
+        # size either: a root that grew past OLD's overage, or lost its size, is new damage.
+        key = root
+        if revision is change.new and not _no_worse(change, root, size):
+            key = f"{root}:worse"
         if size is None:
             refusal = revision.refusal(root)
             why = (
@@ -300,15 +309,24 @@ def envelope_over_budget(revision: Revision, change: Change) -> Reports:
                 message.location,
                 f'Message "{root}" has no fixed size: its budget of {budget} bytes cannot hold '
                 f"({why}).",
-                key=root,
+                key=key,
             )
-        elif size > budget:
+        else:
             yield Report(
                 message.location,
                 f'Maximum size of message "{root}" is {size} bytes, over its budget of {budget} '
                 f"bytes: headroom {budget - size} bytes.",
-                key=root,
+                key=key,
             )
+
+
+def _no_worse(change: Change, root: str, size: int | None) -> bool:
+    """Whether NEW's ``size`` of ``root`` (over its budget, or none) is no worse than OLD's:
+    OLD had no size, or a size at least as large (then OLD was over the budget too)."""
+    if root not in change.old.messages:
+        return False
+    before = change.old.max_size(root)
+    return before is None or (size is not None and size <= before)
 
 
 # What a limit allows (the lowest and highest value, or 0 and the most bytes or elements) and
