@@ -185,3 +185,23 @@ def test_a_budget_for_a_root_the_tree_lacks_is_reported_at_its_line(tmp_path: Pa
     done = erc_lint_cli("check", str(root))
     assert done.returncode == 1
     assert done.stdout.startswith(f"{root / 'pyproject.toml'}:3:1: EMBEDDED_ROOT_MISSING")
+
+
+@pytest.mark.parametrize(
+    ("budget", "complaint"),
+    [
+        ({"Ghost": 5}, "Config: budget names 'Ghost', which is not one of the roots (PBEnvelope)"),
+        ({"PBEnvelope": 0}, "Config: budget for 'PBEnvelope' must be a positive number of bytes"),
+        ({"PBEnvelope": -5}, "Config: budget for 'PBEnvelope' must be a positive number of bytes"),
+    ],
+)
+def test_a_config_built_in_code_is_checked_as_a_table_is(
+    tmp_path: Path, budget: dict[str, int], complaint: str
+) -> None:
+    """The API refuses what ``[tool.erc-lint]`` refuses, in the same words: a budget for no
+    root would check nothing, in silence."""
+    root = tree(tmp_path / "t", {"a.proto": "message PBEnvelope { float x = 1; }\n"})
+    for run in (lambda c: erc_lint.check(root, c), lambda c: erc_lint.lint(root, root, c)):
+        with pytest.raises(erc_lint.ConfigError) as raised:
+            run(erc_lint.Config(budget=budget))
+        assert str(raised.value) == complaint
