@@ -201,7 +201,10 @@ def test_a_config_built_in_code_is_checked_as_a_table_is(
     """The API refuses what ``[tool.erc-lint]`` refuses, in the same words: a budget for no
     root would check nothing, in silence."""
     root = tree(tmp_path / "t", {"a.proto": "message PBEnvelope { float x = 1; }\n"})
-    for run in (lambda c: erc_lint.check(root, c), lambda c: erc_lint.lint(root, root, c)):
-        with pytest.raises(erc_lint.ConfigError) as raised:
-            run(erc_lint.Config(budget=budget))
-        assert str(raised.value) == complaint
+    config = Config(budget=budget)
+    with pytest.raises(erc_lint.ConfigError) as raised:
+        erc_lint.check(root, config)
+    assert str(raised.value) == complaint
+    with pytest.raises(erc_lint.ConfigError) as raised:
+        erc_lint.lint(root, root, config)
+    assert str(raised.value) == complaint
