@@ -362,10 +362,16 @@ def test_proto2_groups_size_as_nanopbs_generator_does(
         assert ours == {}  # Unrelated too: there is no header
         with pytest.raises(SchemaError, match=rf"nanopb's generator refuses {file} \(.*{expected}"):
             sizes.max_size(root)
+        refusal = sizes.refusal(root)  # erc-lint's words: no location in them
+        assert refusal is not None
+        assert refusal.startswith(f"nanopb's generator refuses {file}: ")
+        assert refusal.endswith("is a proto2 group, which nanopb's generator does not implement")
+        assert not re.search(r"\.proto:\d", refusal)
         with pytest.raises(SchemaError, match=rf"refuses {file}"):
             Codec.from_path(GROUPS, root)
     else:
         assert run.returncode == 0, run.stderr
+        assert sizes.refusal(root) is None
         header = (tmp_path / file).with_suffix(".pb.h").read_text()
         theirs = {c.replace("_", "."): int(size) for c, size in _DEFINE.findall(header)}
         assert ours == theirs == expected
