@@ -335,6 +335,7 @@ GROUP_FILES: dict[str, tuple[str, dict[str, int] | str]] = {
     "imports.proto": ("Importer", rf"it imports group\.proto, and .*{_GROUP_FIELD}"),
     "extension.proto": ("Extended", r"extension\.proto: extension added is a proto2 group"),
     "ignored.proto": ("Ignoring", {"Ignoring": 11, "Ignoring.Item": 11}),
+    "ignored_extension.proto": ("KeptExtended", {"KeptExtended": 11, "Spared": 11}),
     "skipped.proto": ("Kept", {"Skipped.Item": 11, "Kept": 11}),
     "deprecated.proto": ("Discarding", {"Discarding": 11, "Discarding.Old": 11}),
     "overridden.proto": ("Overriding", {"Overriding": 24, "Overriding.Item": 11}),

@@ -187,9 +187,14 @@ class Sizes:
                         why = f"{dotted} is a proto2 group, {_NO_GROUPS}"
                         refused[proto.name] = (f"{self._schema.where(dotted)}: {why}", why)
                         break
-            # An extension that is a group fails the generator too. (Its FT_IGNORE, which would
-            # spare the file, is not looked for: options are resolved for messages' own fields.)
-            grouped = (e for e in extensions(proto) if e.proto.type == _T.TYPE_GROUP)
+            # An extension that is a group fails the generator too, unless its FT_IGNORE spares
+            # the file (the generator then builds nothing of it).
+            grouped = (
+                e
+                for e in extensions(proto)
+                if e.proto.type == _T.TYPE_GROUP
+                and self._options.extensions[e.name].type != _FT_IGNORE
+            )
             extension = next(grouped, None)
             if extension is not None and proto.name not in refused:
                 why = f"extension {extension.name} is a proto2 group, {_NO_GROUPS}"
