@@ -36,6 +36,7 @@ __all__ = [
     "LEDGER",
     "LEDGER_LIMIT",
     "Config",
+    "check_config",
     "find_config",
     "read_config",
 ]
@@ -251,16 +252,31 @@ def _budget(path: Path, value: object, roots: tuple[str, ...]) -> Mapping[str, i
             raise ConfigError(
                 f'{where} [tool.erc-lint] budget: quote a dotted root name ("{root}.…" = bytes)'
             )
-        if not isinstance(limit, int) or isinstance(limit, bool) or limit <= 0:
-            raise ConfigError(
-                f"{where} [tool.erc-lint] budget for {root!r} must be a positive number of bytes"
-            )
-        if root not in roots:
-            raise ConfigError(
-                f"{where} [tool.erc-lint] budget names {root!r}, which is not one of the roots "
-                f"({', '.join(roots)})"
-            )
+    problem = _budget_problem(value, roots)
+    if problem:
+        raise ConfigError(f"{where} [tool.erc-lint] {problem}")
     return MappingProxyType(dict(value))
+
+
+def check_config(config: Config) -> None:
+    """``ConfigError`` for a ``Config`` built in code that ``read_config`` would refuse: a
+    budget that is no positive number of bytes, or for a message that is not a root (it would
+    check nothing, in silence)."""
+    problem = _budget_problem(config.budget, config.roots)
+    if problem:
+        where = f"{config.source}: [tool.erc-lint]" if config.source else "Config:"
+        raise ConfigError(f"{where} {problem}")
+
+
+def _budget_problem(budget: Mapping[str, object], roots: tuple[str, ...]) -> str:
+    """What is wrong with ``budget`` for ``roots``, in the words of ``[tool.erc-lint]`` errors
+    ("" when nothing is)."""
+    for root, limit in budget.items():
+        if not isinstance(limit, int) or isinstance(limit, bool) or limit <= 0:
+            return f"budget for {root!r} must be a positive number of bytes"
+        if root not in roots:
+            return f"budget names {root!r}, which is not one of the roots ({', '.join(roots)})"
+    return ""
 
 
 def _at(path: Path, key: str) -> str:

@@ -281,6 +281,7 @@ class Revision:
         "_nanopb",
         "_nanopb_version",
         "_options_file",
+        "_refusals",
         "_settings",
         "_sizes",
         "definitions",
@@ -315,6 +316,7 @@ class Revision:
         self._nanopb: ResolvedOptions | None = None  # nanopb's options, when first asked
         self._has_options: bool | None = None  # whether anything sets one, when first asked
         self._sizes: dict[str, int | None] = {}  # by root: nanopb's size, when first asked
+        self._refusals: dict[str, str] = {}  # by root without a size: the generator refuses it
         self._failed_names: frozenset[str] | None = None  # what files that failed declare
 
     @property
@@ -362,7 +364,7 @@ class Revision:
     def allocation(self, field: Field) -> str:
         """How nanopb stores ``field`` (``allocation``): ``static``, ``callback``, ``pointer`` or
         ``ignore``."""
-        options = self.nanopb().fields.get(f"{field.owner}.{field.name}")
+        options = self._field_options(field)
         return "static" if options is None else allocation(field, options)
 
     def enum_options(self, name: str) -> Options | None:
@@ -396,8 +398,17 @@ class Revision:
         return self._has_options
 
     def field_options(self, field: Field) -> Options:
-        """nanopb's resolved options for a field (defaults where nothing applies)."""
-        return self.nanopb().fields[f"{field.owner}.{field.name}"]
+        """nanopb's resolved options for a field or extension (defaults where nothing
+        applies)."""
+        options = self._field_options(field)
+        assert options is not None, field  # every field and extension of the tree has some
+        return options
+
+    def _field_options(self, field: Field) -> Options | None:
+        resolved = self.nanopb()
+        if field.extension:  # an extension's name is its full name
+            return resolved.extensions.get(field.name)
+        return resolved.fields.get(f"{field.owner}.{field.name}")
 
     def oneof_options(self, message: str, oneof: str) -> Options:
         """nanopb's resolved options for a oneof (its message's and file's included)."""
@@ -453,6 +464,9 @@ class Revision:
             try:
                 schema = Schema(self.root, root, set_, self.tree.includes)
                 sizes = Sizes(schema, self._options_file, self._settings, self._nanopb_version)
+                refusal = sizes.refusal(root)
+                if refusal is not None:
+                    self._refusals[root] = refusal
                 size = sizes.max_size(root)
             except FileError:
                 raise  # a .options file that is no file stops the run; it is no missing size
@@ -461,17 +475,37 @@ class Revision:
         self._sizes[root] = size
         return size
 
+    def refusal(self, root: str) -> str | None:
+        """Why nanopb's generator writes no code for message ``root``, if it refuses its file
+        (a proto2 group in it, or in a file it imports): ``nanopb's generator refuses a.proto:
+        A.g is a proto2 group, ...``. Sized only where a file ``root`` needs holds a group
+        (bench_lint's 30-file ratio: sizing a root costs some 35 ms)."""
+        files = self._root_files(root).values()
+        if not any(_has_group(file) for file in files):
+            return None
+        self.max_size(root)
+        return self._refusals.get(root)
+
     def size_inputs(self, root: str) -> dict[tuple[str, str], object]:
         """What nanopb computes ``root``'s size from: the descriptor of every message and enum it
         reaches (without source locations, so comments and layout don't count) and, for each file
-        holding one, its package, syntax, edition, file options and ``.options`` text. Equal
-        inputs, equal sizes: comparing them spares two size computations."""
+        holding one, its package, syntax, edition, file options and ``.options`` text; and every
+        file it needs that declares a proto2 group, whole. Equal inputs, equal sizes: comparing
+        them spares two size computations."""
         files = self._root_files(root)
         index: dict[str, tuple[descriptor_pb2.FileDescriptorProto, Declaration]] = {}
         for file in files.values():
             for declared in declarations(file):
                 index.setdefault(declared.name, (file, declared))
         found: dict[tuple[str, str], object] = {}
+        for file in files.values():
+            # A group anywhere in a file the root needs may make the generator refuse it (and
+            # what it leaves out is decided by options of messages the root may not reach).
+            if _has_group(file):
+                whole = descriptor_pb2.FileDescriptorProto()
+                whole.CopyFrom(file)
+                whole.ClearField("source_code_info")
+                found["grouped", file.name] = whole.SerializeToString(deterministic=True)
         pending = [root]
         while pending:
             name = pending.pop()
@@ -514,6 +548,15 @@ class Revision:
                 stack.append((after, iter(files[after].dependency)))
         self._files[root] = order
         return order
+
+
+def _has_group(file: descriptor_pb2.FileDescriptorProto) -> bool:
+    """Whether a file declares a proto2 group: a field of one of its messages, or an extension."""
+    fields = [e.proto for e in extensions(file)]
+    for declared in declarations(file):
+        if isinstance(declared.proto, descriptor_pb2.DescriptorProto):
+            fields.extend(declared.proto.field)
+    return any(f.type == _FD.TYPE_GROUP for f in fields)
 
 
 # nanopb's FieldType values as the generator stores them (FT_INLINE is static fixed_length).

@@ -16,7 +16,7 @@ from erc_codec.schema import (
     resolve_options,
 )
 
-from ._config import DEFAULT_OPTIONS_FILE, LEDGER, Config
+from ._config import DEFAULT_OPTIONS_FILE, LEDGER, Config, check_config
 from ._errors import ConfigError, LintError
 from ._finding import Finding
 from ._inputs import baseline_keys, missing_folder, missing_in_git, opened, relocate
@@ -83,7 +83,9 @@ def compare(
     less those ``baseline`` holds. Both are loaded with ``includes`` (else the configuration's
     ``include`` folders) and its nanopb ``options_file`` and ``settings``, sized by the rules
     of its ``nanopb_version``; a setting nanopb cannot read, or an options file found nowhere,
-    is a ``SchemaError``."""
+    is a ``SchemaError``; a ``config`` a ``[tool.erc-lint]`` table could not hold (a budget for
+    no root, or of no bytes) is a ``ConfigError``."""
+    check_config(config)
     roots = [Path(folder) for folder in includes or config.include]
     nanopb = (config.options_file, config.settings)
     if nanopb != (DEFAULT_OPTIONS_FILE, ()):  # checked now: sizes that cannot be are no finding

@@ -20,7 +20,7 @@ import pytest
 
 import erc_codec
 from erc_codec import Codec, DecodeError, EncodeError, MessageCodec, SchemaError
-from erc_codec.schema import Sizes, load_schema
+from erc_codec.schema import Sizes, compile_files, load_schema, resolve_options
 
 TREES = Path(__file__).resolve().parent / "any_trees"
 INCLUDE = TREES / "include"
@@ -623,6 +623,7 @@ GROUP_FILES: dict[str, tuple[str, dict[str, int] | str]] = {
     "imports.proto": ("Importer", rf"it imports group\.proto, and .*{_GROUP_FIELD}"),
     "extension.proto": ("Extended", r"extension\.proto: extension added is a proto2 group"),
     "ignored.proto": ("Ignoring", {"Ignoring": 11, "Ignoring.Item": 11}),
+    "ignored_extension.proto": ("KeptExtended", {"KeptExtended": 11, "Spared": 11}),
     "skipped.proto": ("Kept", {"Skipped.Item": 11, "Kept": 11}),
     "deprecated.proto": ("Discarding", {"Discarding": 11, "Discarding.Old": 11}),
     "overridden.proto": ("Overriding", {"Overriding": 24, "Overriding.Item": 11}),
@@ -650,10 +651,16 @@ def test_proto2_groups_size_as_nanopbs_generator_does(
         assert ours == {}  # Unrelated too: there is no header
         with pytest.raises(SchemaError, match=rf"nanopb's generator refuses {file} \(.*{expected}"):
             sizes.max_size(root)
+        refusal = sizes.refusal(root)  # erc-lint's words: no location in them
+        assert refusal is not None
+        assert refusal.startswith(f"nanopb's generator refuses {file}: ")
+        assert refusal.endswith("is a proto2 group, which nanopb's generator does not implement")
+        assert not re.search(r"\.proto:\d", refusal)
         with pytest.raises(SchemaError, match=rf"refuses {file}"):
             Codec.from_path(GROUPS, root)
     else:
         assert run.returncode == 0, run.stderr
+        assert sizes.refusal(root) is None
         header = (tmp_path / file).with_suffix(".pb.h").read_text()
         theirs = {c.replace("_", "."): int(size) for c, size in _DEFINE.findall(header)}
         assert ours == theirs == expected
@@ -813,3 +820,41 @@ def test_a_dispatcher_counts_a_member_nobody_can_read_and_handles_the_others() -
     stats = dispatcher.stats()
     assert (stats.undecodable, stats.handled) == ({"unsupported": 1}, {"fine": 1})
     assert handled[0].x == 1
+
+
+_EXTENSION_TYPE = re.compile(r"pb_extension_type_t (\w+); /\* field type: char \w+\[(\d+)\]; \*/")
+
+
+def test_extension_options_resolve_as_nanopbs_generator_resolves_them(
+    generator: None, tmp_path: Path
+) -> None:
+    """An extension starts from its file's options and is matched as its full name (``pk.ex``,
+    ``pk.R.inner``; not its own name): the storage the generator writes for each agrees."""
+    tree = tmp_path / "tree"
+    tree.mkdir()
+    (tree / "e.proto").write_text(
+        'syntax = "proto2";\nimport "nanopb.proto";\npackage pk;\n'
+        "option (nanopb_fileopt).max_size = 3;\n"
+        "message R {\n  extensions 100 to 110;\n"
+        "  extend R { optional string inner = 101; optional string plain = 102; }\n}\n"
+        "extend R {\n  optional string ex = 100 [(nanopb).max_size = 10];\n"
+        "  optional string other = 103;\n}\n"
+    )
+    (tree / "e.options").write_text(
+        "ex max_size:7\npk.ex max_size:8\npk.R.inner max_size:9\nR.plain max_size:4\n"
+        "pk.other max_size:6\n"
+    )
+    out = tmp_path / "out"
+    out.mkdir()
+    command = [sys.executable, "-m", "nanopb.generator.nanopb_generator", "-q", "-D", str(out)]
+    subprocess.run([*command, "e.proto"], cwd=tree, check=True)
+    header = (out / "e.pb.h").read_text()
+    theirs = {c: int(size) for c, size in _EXTENSION_TYPE.findall(header)}
+    files = compile_files(tree, ["e.proto"]).file
+    resolved = resolve_options(tree, files)
+    ours = {
+        name.replace(".", "_"): int(options.max_size)
+        for name, options in resolved.extensions.items()
+        if name.startswith("pk.")  # not nanopb.proto's own
+    }
+    assert ours == theirs == {"pk_ex": 10, "pk_R_inner": 9, "pk_R_plain": 3, "pk_other": 6}

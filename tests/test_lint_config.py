@@ -185,3 +185,48 @@ def test_a_budget_for_a_root_the_tree_lacks_is_reported_at_its_line(tmp_path: Pa
     done = erc_lint_cli("check", str(root))
     assert done.returncode == 1
     assert done.stdout.startswith(f"{root / 'pyproject.toml'}:3:1: EMBEDDED_ROOT_MISSING")
+
+
+@pytest.mark.parametrize(
+    ("budget", "complaint"),
+    [
+        ({"Ghost": 5}, "Config: budget names 'Ghost', which is not one of the roots (PBEnvelope)"),
+        ({"PBEnvelope": 0}, "Config: budget for 'PBEnvelope' must be a positive number of bytes"),
+        ({"PBEnvelope": -5}, "Config: budget for 'PBEnvelope' must be a positive number of bytes"),
+    ],
+)
+def test_a_config_built_in_code_is_checked_as_a_table_is(
+    tmp_path: Path, budget: dict[str, int], complaint: str
+) -> None:
+    """The API refuses what ``[tool.erc-lint]`` refuses, in the same words: a budget for no
+    root would check nothing, in silence."""
+    root = tree(tmp_path / "t", {"a.proto": "message PBEnvelope { float x = 1; }\n"})
+    config = Config(budget=budget)
+    with pytest.raises(erc_lint.ConfigError) as raised:
+        erc_lint.check(root, config)
+    assert str(raised.value) == complaint
+    with pytest.raises(erc_lint.ConfigError) as raised:
+        erc_lint.lint(root, root, config)
+    assert str(raised.value) == complaint
+
+
+@pytest.mark.parametrize(
+    "selection", ['use = ["WIRE"]', 'except = ["TREE"]', 'except = ["ENVELOPE_OVER_BUDGET"]']
+)
+def test_a_budget_whose_rule_is_left_out_is_a_warning_on_stderr(
+    tmp_path: Path, selection: str
+) -> None:
+    """As ruff warns of settings that contradict each other: one line, and the run goes on."""
+    root = tree(tmp_path / "t", BUDGET)  # PBEnvelope_size 20: over a budget of 12
+    config = root / "pyproject.toml"
+    config.write_text(f"[tool.erc-lint]\n{selection}\nbudget = {{ PBEnvelope = 12 }}\n")
+    done = erc_lint_cli("check", str(root))
+    assert done.returncode == 0, done.stdout
+    assert done.stderr.splitlines()[0] == (
+        f"{config}:3: warning: budget is set, but use/except leave out ENVELOPE_OVER_BUDGET: "
+        "no budget is checked"
+    )
+    config.write_text("[tool.erc-lint]\nbudget = { PBEnvelope = 12 }\n")
+    done = erc_lint_cli("check", str(root))
+    assert done.returncode == 1
+    assert "warning: budget" not in done.stderr

@@ -474,6 +474,23 @@ def test_nanopb_shortcut_agrees_with_the_plain_rules() -> None:
     assert compared >= 10  # the nanopb rules' cases, and others with options
 
 
+def test_an_extension_of_a_file_that_no_longer_compiles_is_not_deleted(tmp_path: Path) -> None:
+    """As for a message of such a file: what it declares is unknown in NEW, not gone. COMPILE
+    says so; an extension still declared in a file that compiles and gone from it is deleted."""
+    head = 'syntax = "proto2";\n'
+    host = head + "message Host { extensions 100 to 199; }\n"
+    ext = head + 'import "host.proto";\nextend Host { optional int32 e = 100; }\n'
+    broken = ext.replace('import "host.proto";', 'import "host.proto";\nimport "missing.proto";')
+    old, new = tmp_path / "old", tmp_path / "new"
+    for root, text in ((old, ext), (new, broken)):
+        root.mkdir()
+        (root / "host.proto").write_text(host)
+        (root / "e.proto").write_text(text)
+    assert set(rules(erc_lint.lint(old, new))) == {"COMPILE"}
+    (new / "e.proto").write_text(head + 'import "host.proto";\n')
+    assert rules(erc_lint.lint(old, new)) == ["EXTENSION_DELETED"]
+
+
 def test_limit_changes_once_per_pair(tmp_path: Path) -> None:
     """The two limit rules share one computation per field pair: the memo gives what the plain
     computation gives, for every pair."""

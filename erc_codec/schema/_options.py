@@ -8,8 +8,8 @@ generator finds it (``-f``'s pattern, by default ``%s.options``, ``%s`` the file
 ``PATTERN option:value ...`` matched with ``fnmatchcase`` against dotted names, or the file's own
 name); and in-file annotations (``[(nanopb).max_size = 32]``, ``option (nanopb_msgopt)...``,
 ``option (nanopb_fileopt)...``). Every message, nested or not, starts from its file's options; a
-field or oneof starts from its message's. At each level matching options lines merge in file
-order, then the annotation, which wins.
+field or oneof starts from its message's; an extension, wherever declared, from its file's. At
+each level matching options lines merge in file order, then the annotation, which wins.
 
 A pattern matches the name nanopb gives an element under its file's ``mangle_names`` and
 ``(nanopb_fileopt).package`` (``nanopb_name``: ``Outer.Inner`` for ``pkg.Outer.Inner`` under
@@ -30,7 +30,7 @@ from google.protobuf.message import DecodeError as ProtobufDecodeError
 from google.protobuf.message import Message
 
 from .._errors import SchemaError
-from ._descriptors import declarations
+from ._descriptors import declarations, extensions
 from ._files import file_exists, read_text
 from ._names import nanopb_name
 from ._protoc import FALLBACK_INCLUDE, compile_files
@@ -58,7 +58,8 @@ Rules = list[tuple[str, Options]]
 class ResolvedOptions:
     """nanopb options resolved for a schema, by full name: ``messages["Msg"]``,
     ``fields["Msg.f"]``, ``oneofs["Msg.o"]``, ``enums["Msg.Kind"]``, and each file's own by its
-    name, ``files["a/b.proto"]`` (its ``mangle_names`` and ``package`` among them)."""
+    name, ``files["a/b.proto"]`` (its ``mangle_names`` and ``package`` among them), and each
+    extension's by its full name, ``extensions["pkg.Scope.ext"]``."""
 
     def __init__(self) -> None:
         self.files: dict[str, Options] = {}
@@ -66,6 +67,7 @@ class ResolvedOptions:
         self.fields: dict[str, Options] = {}
         self.oneofs: dict[str, Options] = {}
         self.enums: dict[str, Options] = {}
+        self.extensions: dict[str, Options] = {}
 
 
 # nanopb.proto compiled, as ``compile_vocabulary`` compiles it, shipped beside it: no run compiles
@@ -153,6 +155,13 @@ def resolve_options(
                 # oneofs carry no (nanopb) annotation: only .options lines reach them
                 dotted = f"{seen}.{oneof.name}"
                 resolved.oneofs[prefix + oneof.name] = _merge(own, rules, dotted, None)
+        for extension in extensions(proto):
+            # The generator starts an extension from its file's options (not its scope's) and
+            # matches it as its full name: ``pkg.ext``, ``pkg.Scope.ext`` under M_NONE.
+            declared = extension.proto
+            annotation = declared.options if declared.HasField("options") else None
+            seen = nanopb_name(proto.package, base, extension.name)
+            resolved.extensions[extension.name] = _merge(base, rules, seen, annotation)
     return resolved
 
 

@@ -82,6 +82,7 @@ _DELIMITED = (
 )
 # nanopb's int_size values (IS_8 .. IS_64; IS_DEFAULT is 0) as bits.
 _INT_BITS = {8: 8, 16: 16, 32: 32, 64: 64}
+_NO_GROUPS = "which nanopb's generator does not implement"
 # Varint integer types: how nanopb's decoder reads them (pb_dec_varint), and their own width.
 _VARINT_KIND = {
     _T.TYPE_INT32: ("signed", 32),
@@ -167,11 +168,12 @@ class Sizes:
         self._memo: dict[str, int | None] = {}
         self._lookups: dict[str, bool] = {}  # field -> whether nanopb finds its type
 
-    def _refused_files(self) -> dict[str, str]:
-        """File name -> why nanopb's generator writes no code for it: a message it generates holds
-        a proto2 group it does not leave out (by ``FT_IGNORE``, ``discard_deprecated`` or a
-        ``type_override``), or the file imports such a file (the generator parses every import)."""
-        refused: dict[str, str] = {}
+    def _refused_files(self) -> dict[str, tuple[str, str]]:
+        """File name -> why nanopb's generator writes no code for it, located (for an error) and
+        as plain words: a message it generates holds a proto2 group it does not leave out (by
+        ``FT_IGNORE``, ``discard_deprecated`` or a ``type_override``), or the file imports such a
+        file (the generator parses every import)."""
+        refused: dict[str, tuple[str, str]] = {}
         for proto in self._schema.files:  # protoc lists a file's imports before the file
             for declaration in declarations(proto):
                 message = declaration.proto
@@ -191,24 +193,37 @@ class Sizes:
                         options.discard_deprecated and field.options.deprecated
                     )
                     if kind == _T.TYPE_GROUP and not left_out:
-                        refused[proto.name] = (
-                            f"{self._schema.where(dotted)}: {dotted} is a proto2 group, which "
-                            "nanopb's generator does not implement"
-                        )
+                        why = f"{dotted} is a proto2 group, {_NO_GROUPS}"
+                        refused[proto.name] = (f"{self._schema.where(dotted)}: {why}", why)
                         break
-            # An extension that is a group fails the generator too. (Its FT_IGNORE, which would
-            # spare the file, is not looked for: options are resolved for messages' own fields.)
-            grouped = (e for e in extensions(proto) if e.proto.type == _T.TYPE_GROUP)
+            # An extension that is a group fails the generator too, unless its FT_IGNORE spares
+            # the file (the generator then builds nothing of it).
+            grouped = (
+                e
+                for e in extensions(proto)
+                if e.proto.type == _T.TYPE_GROUP
+                and self._options.extensions[e.name].type != _FT_IGNORE
+            )
             extension = next(grouped, None)
             if extension is not None and proto.name not in refused:
-                refused[proto.name] = (
-                    f"{self._schema.shown / proto.name}: extension {extension.name} is a proto2 "
-                    "group, which nanopb's generator does not implement"
-                )
+                why = f"extension {extension.name} is a proto2 group, {_NO_GROUPS}"
+                refused[proto.name] = (f"{self._schema.shown / proto.name}: {why}", why)
             imported = next((name for name in proto.dependency if name in refused), None)
             if imported is not None and proto.name not in refused:
-                refused[proto.name] = f"it imports {imported}, and {refused[imported]}"
+                located, plain = refused[imported]
+                refused[proto.name] = (
+                    f"it imports {imported}, and {located}",
+                    f"it imports {imported}, where {plain}",
+                )
         return refused
+
+    def refusal(self, name: str) -> str | None:
+        """Why nanopb's generator writes no code for message ``name``, if it refuses its file
+        (``nanopb's generator refuses a.proto: A.g is a proto2 group, ...``), in words that
+        name files as the tree does and no location."""
+        file = self._schema.descriptor(name).file.name
+        refused = self._refused.get(file)
+        return None if refused is None else f"nanopb's generator refuses {file}: {refused[1]}"
 
     # -- field limits --------------------------------------------------------------------------
 
@@ -388,8 +403,8 @@ class Sizes:
 
     def _require_generated(self, message: Descriptor) -> None:
         """``SchemaError`` when nanopb's generator refuses the file of ``message``."""
-        why = self._refused.get(message.file.name)
-        if why is not None:
+        why = self._refused.get(message.file.name, ("",))[0]
+        if why:
             raise SchemaError(
                 f"nanopb's generator refuses {message.file.name} ({why}): it writes no code "
                 f"for {message.full_name}, so no size"

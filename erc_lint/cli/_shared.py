@@ -20,7 +20,7 @@ from .._errors import LintError
 from .._inputs import opened
 from .._report import FORMATS, render
 from .._run import Outcome
-from ..rules import CATEGORIES, RULES
+from ..rules import CATEGORIES, RULES, select
 
 __all__ = [
     "BASELINE_OPTION",
@@ -97,6 +97,14 @@ def settings(
         categories=set(CATEGORIES),
         base=shown if copied else None,
     )
+    if read.budget and "ENVELOPE_OVER_BUDGET" not in select(read):
+        # ruff's way with settings that contradict each other: a warning, and the run goes on
+        where = f"{read.source}:{read.budget_line}: " if read.source else ""
+        click.echo(
+            f"{where}warning: budget is set, but use/except leave out ENVELOPE_OVER_BUDGET: "
+            "no budget is checked",
+            err=True,
+        )
     return read._replace(
         include=tuple(map(str, includes)) or read.include,
         options_file=read.options_file if options_file is None else options_file,

@@ -1,6 +1,7 @@
 """Rules on extensions and extension ranges: what the field rules cannot say of them (an extension's
 type, cardinality, number and name are judged by the field rules, as buf judges them)."""
 
+from .._loader import relative
 from .._model import Message
 from .._pairing import Change, FieldPair, Paired
 from ._registry import Report, Reports, field_rule, message_rule
@@ -12,9 +13,10 @@ def deleted(pair: FieldPair, change: Change) -> Reports:
     Reports an extension of OLD that NEW no longer has, by number and by name, on the message
     it extended, while NEW does not declare the number reserved in its extension range. Not
     reported: an extension that became an ordinary field of the message with the same number,
-    cardinality and a wire-compatible type (its bytes read as before), and a custom option (an
+    cardinality and a wire-compatible type (its bytes read as before), a custom option (an
     extension of `google.protobuf.FieldOptions` or another `*Options`: it annotates the
-    descriptors, no datagram carries it; buf's WIRE rules pass it too).
+    descriptors, no datagram carries it; buf's WIRE rules pass it too), and an extension whose
+    file no longer compiles (`COMPILE` reports it: what it declares is unknown, not gone).
 
     ## Why is this bad?
     Boards built from OLD keep setting the extension, and receivers built from NEW keep its
@@ -50,6 +52,8 @@ def deleted(pair: FieldPair, change: Change) -> Reports:
         return
     if old.owner.startswith("google.protobuf.") and old.owner.endswith("Options"):
         return  # a custom option: it annotates descriptors, no message on the wire carries it
+    if relative(change.old.root, old.source.path) in change.new.tree.failed:
+        return  # its file no longer compiles: unknown in NEW, not gone (COMPILE says so)
     plain = pair.new_owner.fields.get(old.number)
     if plain is not None and plain.cardinality == old.cardinality and change.compatible(old, plain):
         return  # now an ordinary field with the same number and type: the same bytes

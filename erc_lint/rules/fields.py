@@ -326,6 +326,7 @@ def default_changed(pair: FieldPair, change: Change) -> Reports:
     Reports a singular scalar or enum field that kept its number and type while the value a
     reader holds for it when it is absent changed: its `default` (proto2 and editions fields
     with explicit presence), or for an enum without one, the first value the enum declares.
+    An enum value that kept its name but took another number is shown with both numbers.
 
     ## Why is this bad?
     The bytes are identical: a default is never sent. A sender leaves the field out when it
@@ -366,6 +367,8 @@ def default_changed(pair: FieldPair, change: Change) -> Reports:
     before, shown_before = change.old.default(old)
     after, shown_after = change.new.default(taken)
     if before != after:
+        if shown_before == shown_after:  # an enum value that kept its name, not its number
+            shown_before, shown_after = f"{shown_before} ({before})", f"{shown_after} ({after})"
         yield Report(
             taken.location,
             f"{_field(taken, pair)} changed default value from {shown_before} to {shown_after}.",

@@ -155,14 +155,17 @@ def reserved_removed(pair: Paired[Any], change: Change) -> Reports:
 
 @message_rule(
     "ENVELOPE_SIZE_GROWN",
-    "An embedded root's nanopb maximum size grew: receivers built with the old size drop more.",
+    "An embedded root's nanopb maximum size grew (or is none now): receivers built with the old"
+    " size drop more.",
     severity="warning",
     categories=("NANOPB",),
 )
 def envelope_size_grown(pair: Paired[Message], change: Change) -> Reports:
     """## What it does
     Reports an embedded root (`roots` of `[tool.erc-lint]`, `PBEnvelope` by default) whose
-    maximum encoded size, as nanopb's generator computes it, is larger in NEW than in OLD.
+    maximum encoded size, as nanopb's generator computes it, is larger in NEW than in OLD, or
+    that had one in OLD and has none in NEW (with why: a field nanopb cannot bound, or a proto2
+    group for which the generator refuses the file).
 
     ## Why is this bad?
     Receivers size their buffer with the `<Root>_size` of the header they were built with, and
@@ -198,14 +201,27 @@ def envelope_size_grown(pair: Paired[Message], change: Change) -> Reports:
     if change.old.size_inputs(root) == change.new.size_inputs(root):
         return  # nothing nanopb sizes the root from has changed
     before, after = change.old.max_size(root), change.new.max_size(root)
+    c_name = root.replace(".", "_")
+    if before is not None and after is None:
+        refusal = change.new.refusal(root)
+        why = refusal or f"nanopb writes {c_name}_size depends on runtime parameters"
+        damage = (
+            "no board's code can be generated from NEW"
+            if refusal
+            else f"receivers built with the old {c_name}_size drop the longer datagrams"
+        )
+        yield Report(
+            pair.new.location,
+            f'Maximum size of message "{root}" was {before} bytes and is none in NEW ({why}): '
+            f"{damage}.",
+        )
     if before is not None and after is not None and after > before:
         budget = change.config.budget.get(root)
         room = f" (budget {budget} bytes: headroom {budget - after} bytes)" if budget else ""
         yield Report(
             pair.new.location,
             f'Maximum size of message "{root}" grew from {before} to {after} bytes{room}: '
-            f"receivers built with the old {root.replace('.', '_')}_size drop the longer "
-            "datagrams.",
+            f"receivers built with the old {c_name}_size drop the longer datagrams.",
         )
 
 

@@ -99,8 +99,10 @@ def limit_widened(pair: FieldPair, change: Change) -> Reports:
     """## What it does
     Reports a field that kept its number and a wire-compatible type whose nanopb limit is
     larger in NEW and holds every value the old one did (`max_size`, `max_length`,
-    `max_count`, `int_size`, `enum_intsize`), with how its message's nanopb size changes. A
-    wider integer type (`int32` to `int64`) is no option that grew and is not reported.
+    `max_count`, `int_size`, `enum_intsize`), with how its message's nanopb size changed (the
+    whole message's, where it did: an `int32`'s `int_size` grows the struct, not the encoding;
+    an extension's storage is no part of `<Message>_size`). A wider integer type (`int32` to
+    `int64`) is no option that grew and is not reported.
 
     ## Why is this bad?
     It breaks nothing at once, so it is a warning. But the C struct grows on every board that
@@ -133,17 +135,32 @@ def limit_widened(pair: FieldPair, change: Change) -> Reports:
         # compatible, and any growth of the root's size is ENVELOPE_SIZE_GROWN's.
         retyped = what == "int" and not before[2].startswith(("int_size:", "enum_intsize:"))
         if not retyped and not _narrowed(before, after):
-            old_size = change.old.max_size(pair.old_owner.name)
-            new_size = change.new.max_size(pair.new_owner.name)
-            c_name = pair.new_owner.name.replace(".", "_")
-            if old_size is None or new_size is None:
-                grows = f"the struct grows ({c_name} has no fixed size)"
-            else:
-                grows = f"the struct grows, and {c_name}_size from {old_size} to {new_size} bytes"
             yield Report(
                 _now(pair).location,
-                f'{_field(pair)} changed nanopb limit from "{before[2]}" to "{after[2]}": {grows}.',
+                f'{_field(pair)} changed nanopb limit from "{before[2]}" to "{after[2]}": '
+                f"{_grows(pair, change)}.",
             )
+
+
+def _grows(pair: FieldPair, change: Change) -> str:
+    """What a widened limit grows: an extension's own storage (no ``<Message>_size`` counts
+    extensions), else the message's struct, with the message's size where it changed (the sum
+    of every change to the message, not this field's share)."""
+    if _now(pair).extension:
+        return "the extension's C storage grows"
+    old_size = change.old.max_size(pair.old_owner.name)
+    new_size = change.new.max_size(pair.new_owner.name)
+    c_name = pair.new_owner.name.replace(".", "_")
+    if new_size is None:
+        return f"the struct grows ({c_name} has no fixed size)"
+    if old_size is None:
+        return f"the struct grows, and the message's {c_name}_size is {new_size} bytes"
+    if old_size == new_size:
+        return "the struct grows"
+    return (
+        f"the struct grows, and the message's {c_name}_size went from {old_size} to "
+        f"{new_size} bytes"
+    )
 
 
 @message_rule(
@@ -154,9 +171,10 @@ def limit_widened(pair: FieldPair, change: Change) -> Reports:
 )
 def layout_changed(pair: Paired[Message], change: Change) -> Reports:
     """## What it does
-    Reports, in a message of both revisions, a field that kept its number and type whose
-    nanopb storage changed (its `type`: static, callback, pointer or ignore, as the generator
-    settles `FT_DEFAULT` and its `fallback_type`; `fixed_length`; `fixed_count`), a field whose
+    Reports, in a message of both revisions, a field (or extension) that kept its number and
+    type whose nanopb storage changed (its `type`: static, callback, pointer or ignore, as the
+    generator settles `FT_DEFAULT` and its `fallback_type`; `fixed_length`; `fixed_count`), a
+    field whose
     `type_override` makes nanopb encode it as a type that does not read the old one's bytes
     (the test `FIELD_TYPE_CHANGED` applies to the declared types: `int32` overridden to
     `sint32`), and a oneof whose `no_unions` or `anonymous_oneof` changed.
@@ -200,8 +218,8 @@ def layout_changes(pair: Paired[Message], change: Change, alike: bool = True) ->
     if not change.compares_nanopb:
         return
     old, new = pair
-    for number, before in old.fields.items():
-        after = new.fields.get(number)
+    for number, before in [*old.fields.items(), *old.extensions.items()]:
+        after = (new.extensions if before.extension else new.fields).get(number)
         if after is not None and change.compatible(before, after):  # else FIELD_TYPE_CHANGED's
             yield from _field_layout(change, new, before, after, alike)
     for oneof, at in new.oneofs.items():
@@ -257,7 +275,10 @@ def envelope_over_budget(revision: Revision, change: Change) -> Reports:
     305 }`) whose maximum encoded size, as nanopb's generator computes it, exceeds that many
     bytes: the size, the budget and the headroom (negative). A root nanopb gives no size at
     all (a string without `max_size`, a callback or pointer field on the way, a type that holds
-    itself) is reported too: no budget holds it. `erc-lint check` reports it too.
+    itself, a proto2 group the generator refuses) is reported too: no budget holds it.
+    `erc-lint check` reports it too. Comparing OLD and NEW, a root OLD had over its budget by
+    as much (or without a size) is a warning; one that grew past OLD's size, or lost its size,
+    is an error.
 
     ## Why is this bad?
     The budget is what the link or the receivers' buffers allow: a radio's MTU, a UART frame, a
@@ -285,20 +306,41 @@ def envelope_over_budget(revision: Revision, change: Change) -> Reports:
         if message is None:
             continue  # EMBEDDED_ROOT_MISSING's
         size = revision.max_size(root)
+        if size is not None and size <= budget:
+            continue
+        # Old damage (a warning) only where NEW is over by no more than OLD was, or OLD had no
+        # size either: a root that grew past OLD's overage, or lost its size, is new damage.
+        key = root
+        if revision is change.new and not _no_worse(change, root, size):
+            key = f"{root}:worse"
         if size is None:
+            refusal = revision.refusal(root)
+            why = (
+                refusal
+                or f"nanopb writes {root.replace('.', '_')}_size depends on runtime parameters"
+            )
             yield Report(
                 message.location,
                 f'Message "{root}" has no fixed size: its budget of {budget} bytes cannot hold '
-                f"(nanopb writes {root.replace('.', '_')}_size depends on runtime parameters).",
-                key=root,
+                f"({why}).",
+                key=key,
             )
-        elif size > budget:
+        else:
             yield Report(
                 message.location,
                 f'Maximum size of message "{root}" is {size} bytes, over its budget of {budget} '
                 f"bytes: headroom {budget - size} bytes.",
-                key=root,
+                key=key,
             )
+
+
+def _no_worse(change: Change, root: str, size: int | None) -> bool:
+    """Whether NEW's ``size`` of ``root`` (over its budget, or none) is no worse than OLD's:
+    OLD had no size, or a size at least as large (then OLD was over the budget too)."""
+    if root not in change.old.messages:
+        return False
+    before = change.old.max_size(root)
+    return before is None or (size is not None and size <= before)
 
 
 # What a limit allows (the lowest and highest value, or 0 and the most bytes or elements) and
@@ -329,8 +371,10 @@ def limit_changes_of(pair: FieldPair, change: Change, alike: bool = True) -> _Ch
     encoding (``int64`` to ``int32``) changed its ``int`` limit: the values its C member holds.
     (``alike=False``: no shortcut for a field ``_alike`` in both, for the tests.)"""
     old, now = pair.old, pair.by_number
-    if now is None or now.extension or now.cardinality != old.cardinality:
+    if now is None or now.cardinality != old.cardinality:
         return []
+    if now.extension and now.cardinality == "repeated":
+        return []  # nanopb's generator skips it: "only optional type of extension fields"
     if not change.compares_nanopb and (old.kind != "scalar" or old.type == now.type):
         return []  # nanopb's defaults on both sides, the same type: nothing can differ
     if not change.compatible(old, now):

@@ -224,7 +224,7 @@ def embedded_repeated(revision: Revision, change: Change) -> Reports:
 @tree_rule(
     "EMBEDDED_UNBOUNDED",
     "A field nanopb gives no fixed size (a string or bytes without max_size, a callback or"
-    " pointer) in a message an embedded root reaches.",
+    " pointer, a proto2 group) in a message an embedded root reaches.",
     categories=("TREE", "NANOPB"),
 )
 def embedded_unbounded(revision: Revision, change: Change) -> Reports:
@@ -232,7 +232,10 @@ def embedded_unbounded(revision: Revision, change: Change) -> Reports:
     Reports a `string` or `bytes` field without nanopb's `max_size` (or `max_length`), from a
     `.options` file or an annotation, and any field set to `FT_CALLBACK` or `FT_POINTER`
     (whatever its `max_size`: nanopb bounds only static fields), in any message an embedded root
-    reaches. A repeated field without `max_count` is `EMBEDDED_REPEATED`'s.
+    reaches. A repeated field without `max_count` is `EMBEDDED_REPEATED`'s. A proto2 group it
+    reaches is reported too, and a root whose file nanopb's generator refuses for a group it
+    does not reach (elsewhere in its file, or in a file it imports): the generator has no
+    groups, and writes no code for the file at all (`NotImplementedError`).
 
     ## Why is this bad?
     nanopb turns an unbounded string or bytes field into a callback with no storage, and every
@@ -257,21 +260,42 @@ def embedded_unbounded(revision: Revision, change: Change) -> Reports:
     `string label = 2 [(nanopb).max_size = 16];`.
     """
     for root in change.config.roots:
+        grouped = False
         for path, field in revision.reach(root):
             why = _unbounded(revision, field)
             if why is not None:
+                grouped = grouped or why.startswith(_GROUP)
                 yield Report(
                     field.location,
                     f'{field_prefix(field, field.owner)} is {why}, and embedded root "{root}" '
                     f"reaches it as {path}.",
                     key=_reached(revision, change, root, field),
                 )
+        message = revision.messages.get(root)
+        refusal = revision.refusal(root) if message is not None and not grouped else None
+        if message is not None and refusal is not None:
+            yield Report(
+                message.location,
+                f'Embedded root "{root}" has no fixed size: {refusal}.',
+                key=f"{root}:refused",
+            )
+
+
+_GROUP = "a proto2 group"
 
 
 def _unbounded(revision: Revision, field: Field) -> str | None:
     """Why nanopb gives ``field`` no fixed size, if it gives it none: a string or bytes field
-    without a limit, any field set to be a callback or pointer (``max_size`` or not). A repeated
-    field without ``max_count`` is EMBEDDED_REPEATED's."""
+    without a limit, any field set to be a callback or pointer (``max_size`` or not), a proto2
+    group (the generator refuses its file) unless nanopb leaves it out or encodes it as another
+    type. A repeated field without ``max_count`` is EMBEDDED_REPEATED's."""
+    if field.encoding == "group":
+        if revision.has_nanopb_options() and (
+            revision.allocation(field) == "ignore"
+            or revision.field_options(field).HasField("type_override")
+        ):
+            return None  # left out, or not written as a group: the generator takes the file
+        return f"{_GROUP}, which nanopb's generator does not implement (it refuses the file)"
     text = field.type in ("string", "bytes")
     if not text and not revision.has_nanopb_options():
         return None  # nanopb's defaults: every other field is static
