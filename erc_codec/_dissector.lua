@@ -8,7 +8,8 @@
 --    tags of at most 5 bytes, varints of at most 10, field number 0, wire types 6 and 7, groups
 --    left open or closed by another field, lengths past the end, 100 levels of nesting, bad
 --    UTF-8 in a proto3 string, a packed field cut inside an element are all corrupt; a known
---    field on another wire type, and an unknown field, are kept aside as unknown fields;
+--    field on another wire type, an unknown field, and a map entry holding one are kept aside
+--    as unknown fields;
 -- 4. where zeros were restored, a restoration no encoder could have sent is a datagram cut short,
 --    refused with reason "truncated" (erc_codec's _truncation): a field without presence at its
 --    default as the deepest last field, or the last byte that arrived continuing a varint;
@@ -310,6 +311,13 @@ parse_message = function(s, pos, stop, mi, depth, group)
                 local sub, _, err = parse_message(s, content, content + clo, f.message, depth + 1)
                 if not sub then return nil, nil, err end
                 entry.sub, entry.content, pos = sub, content, content + clo
+                if SCHEMA.messages[f.message].map_entry then
+                    for _, e in ipairs(sub.entries) do -- upb keeps such an entry out of the map
+                        if not e.f then
+                            entry.f, entry.known_number, entry.map_entry = nil, true, true
+                        end
+                    end
+                end
             elseif wt == 2 then -- string, bytes
                 local clo, chi, content = varint(s, after, stop, 5)
                 if not clo then return nil, nil, chi end
@@ -748,7 +756,10 @@ show_message = function(tree, tvb, s, message)
     for _, entry in ipairs(message.entries) do
         if not entry.f then
             local why
-            if entry.undeclared then
+            if entry.map_entry then
+                why = "Field " .. entry.number .. " is a map entry holding a field it does not " ..
+                    "know: protobuf keeps the whole entry as an unknown field"
+            elseif entry.undeclared then
                 why = "Field " .. entry.number .. " holds " .. string.format("%d", entry.undeclared)
                     .. ", not a value of its closed enum: protobuf keeps it as an unknown field"
             elseif entry.known_number then

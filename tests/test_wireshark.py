@@ -738,3 +738,39 @@ def test_a_cut_datagram_dissects_as_decode_refuses_it(
         assert error is not None
         assert error.attrib["show"] == record["error"]  # decode's words, path and all
         assert tree.find(".//field[@name='erc.refused']") is not None  # the expert info
+
+
+def test_a_map_entry_holding_an_unknown_field_is_kept_aside_whole(
+    tshark: str, tmp_path: Path
+) -> None:
+    """upb keeps a map entry holding a field the entry does not know out of the map, as one
+    unknown field of the message; a field the map's value does not know stays in the value."""
+    args = SCHEMAS["limits"]
+    codec = erc_codec.Codec.from_path(Path(args[1]), args[3])
+    sent = [
+        h("0a 06 32 04 08 01 30 0c"),  # palette: key 1, then field 6
+        h("0a 0a 52 08 08 07 12 02 10 05 30 01"),  # places: key 7, x = -3, then field 6
+        h("0a 08 52 06 08 07 12 02 18 01"),  # places: key 7, its value holding field 3
+    ]
+    lua = dissector(tmp_path, *args)
+    capture = tmp_path / "maps.pcap"
+    write_pcap(capture, sent)
+    records = assert_as_decode(tshark, lua, capture, codec, *args)
+    assert [(r["message"]["palette"], list(r["message"]["places"])) for r in records] == [
+        ({}, []),
+        ({}, []),
+        ({}, ["7"]),
+    ]
+    first, second, third = trees(tshark, lua, capture)
+    for tree, shown in [(first, "Unknown field 6 (LEN)"), (second, "Unknown field 10 (LEN)")]:
+        assert tree is not None
+        (entry,) = tree.findall(".//field[@name='erc.unknown']")
+        assert entry.attrib["showname"] == shown
+        why = entry.find(".//field[@name='_ws.expert.message']")
+        assert why is not None
+        assert "a map entry holding a field it does not know" in why.attrib["show"]
+    assert third is not None
+    (inside,) = third.findall(
+        ".//field[@name='erc.LimitsRecord.places']//field[@name='erc.unknown']"
+    )
+    assert inside.attrib["showname"] == "Unknown field 3 (VARINT)"
