@@ -647,17 +647,18 @@ def test_envelope_metadata_dissects_as_decode_reads_it(
             assert error.attrib["show"] == record["error"], data  # decode's words
             assert tree.find(".//field[@name='erc.refused']") is not None  # the expert info
         else:
-            assert tree.find("field[@name='erc.kind']").attrib["show"] == "gps_info"  # type: ignore[union-attr]
-    by_data = dict(zip((data for data, _ in METADATA), seen, strict=True))
+            kind = tree.find("field[@name='erc.kind']")
+            assert kind is not None
+            assert kind.attrib["show"] == "gps_info"
+    shown = {data: tree for (data, _), tree in zip(METADATA, seen, strict=True) if tree is not None}
     assert records[9]["metadata"] == {"timeout": 300}
-    (timeout,) = by_data["62 02 40 03 f0 01 ac 02"].findall("field[@name='erc.PBEnvelope.timeout']")  # type: ignore[union-attr]
-    assert timeout.attrib["showname"] == "timeout: 300"
-    first, last = by_data["f0 01 05 62 00 f0 01 06"].findall(
-        "field[@name='erc.PBEnvelope.timeout']"
-    )  # type: ignore[union-attr]
+    timeout = "field[@name='erc.PBEnvelope.timeout']"
+    (only,) = shown["62 02 40 03 f0 01 ac 02"].findall(timeout)
+    assert only.attrib["showname"] == "timeout: 300"
+    first, last = shown["f0 01 05 62 00 f0 01 06"].findall(timeout)
     assert first.find(".//field[@name='erc.overridden']") is not None
     assert last.find(".//field[@name='erc.overridden']") is None
-    (unknown,) = by_data["62 00 f2 01 00"].findall("field[@name='erc.unknown']")  # type: ignore[union-attr]
+    (unknown,) = shown["62 00 f2 01 00"].findall("field[@name='erc.unknown']")
     assert unknown.attrib["showname"] == "Unknown field 30 (LEN)"
     assert unknown.find(".//field[@name='erc.unknown_field']") is not None
 
