@@ -8,12 +8,15 @@
 --    tags of at most 5 bytes, varints of at most 10, field number 0, wire types 6 and 7, groups
 --    left open or closed by another field, lengths past the end, 100 levels of nesting, bad
 --    UTF-8 in a proto3 string, a packed field cut inside an element are all corrupt; a known
---    field on another wire type, and an unknown field, are kept aside as unknown fields;
+--    field on another wire type, an unknown field, and a map entry holding one are kept aside
+--    as unknown fields;
 -- 4. where zeros were restored, a restoration no encoder could have sent is a datagram cut short,
 --    refused with reason "truncated" (erc_codec's _truncation): a field without presence at its
 --    default as the deepest last field, or the last byte that arrived continuing a varint;
 -- 5. the payload is the last envelope member on the wire; without one the datagram is refused
---    (no payload, an unknown member, or a member on the wrong wire type).
+--    (no payload, metadata but no payload, an unknown member, a member on the wrong wire type).
+--    The envelope's fields beside its members (metadata: the rover's timeout) are shown as
+--    fields, never taken for the payload; a restored default in one is a cut as in any field.
 -- Nothing is added to the tree before the whole datagram has parsed, so a corrupt datagram shows
 -- its reason and its bytes, never a field that is not there. Numbers are exact: 64-bit varints
 -- go through UInt64/Int64 (Lua 5.2's numbers are doubles), floats are labelled with the
@@ -36,9 +39,10 @@ local function wire_of(ftype) return WIRE[ftype] or 0 end
 -- -- the protocol and its fields -------------------------------------------------------------
 
 local erc = Proto("erc", "ERC rover PBEnvelope")
-local member_names = {}
+local member_names, metadata_names = {}, {} -- the members (messages), the fields beside them
 for _, field in ipairs(SCHEMA.messages[SCHEMA.root].fields) do
-    member_names[field.number] = field.name
+    if field.message then member_names[field.number] = field.name
+    else metadata_names[field.number] = field.name end
 end
 local hf = {
     kind = ProtoField.string("erc.kind", "Kind"),
@@ -307,6 +311,13 @@ parse_message = function(s, pos, stop, mi, depth, group)
                 local sub, _, err = parse_message(s, content, content + clo, f.message, depth + 1)
                 if not sub then return nil, nil, err end
                 entry.sub, entry.content, pos = sub, content, content + clo
+                if SCHEMA.messages[f.message].map_entry then
+                    for _, e in ipairs(sub.entries) do -- upb keeps such an entry out of the map
+                        if not e.f then
+                            entry.f, entry.known_number, entry.map_entry = nil, true, true
+                        end
+                    end
+                end
             elseif wt == 2 then -- string, bytes
                 local clo, chi, content = varint(s, after, stop, 5)
                 if not clo then return nil, nil, chi end
@@ -555,6 +566,9 @@ end
 -- by key (LimitsRecord.places[key=7].x).
 local function cut_path(s, envelope, chain)
     local member = chain[1].f
+    if not member.message then -- a metadata field: named from the envelope
+        return SCHEMA.messages[SCHEMA.root].name .. "." .. member.name
+    end
     local path = SCHEMA.messages[member.message].name
     local current = merged({ envelope }, member)
     local i = 2
@@ -599,7 +613,8 @@ local function cut_reason(s, envelope, n)
     if last >= 128 then
         local chain = varint_cut(envelope, root, n - 1)
         if chain then
-            local where = #chain > 1 and ("in " .. cut_path(s, envelope, chain) .. " ") or ""
+            local named = #chain > 1 or not chain[1].f.message -- not a member's tag or length
+            local where = named and ("in " .. cut_path(s, envelope, chain) .. " ") or ""
             return "its last byte " .. where .. "continues a varint that only a restored zero " ..
                 "would end (" .. string.format("0x%02x", last) .. " 0x00, which no encoder writes)"
         end
@@ -741,7 +756,10 @@ show_message = function(tree, tvb, s, message)
     for _, entry in ipairs(message.entries) do
         if not entry.f then
             local why
-            if entry.undeclared then
+            if entry.map_entry then
+                why = "Field " .. entry.number .. " is a map entry holding a field it does not " ..
+                    "know: protobuf keeps the whole entry as an unknown field"
+            elseif entry.undeclared then
                 why = "Field " .. entry.number .. " holds " .. string.format("%d", entry.undeclared)
                     .. ", not a value of its closed enum: protobuf keeps it as an unknown field"
             elseif entry.known_number then
@@ -769,10 +787,14 @@ end
 
 -- Why a restored envelope without a member is refused, as erc_codec says it.
 local function no_payload(s)
-    if #s == 0 then return "no_payload", "the datagram holds no payload (only zero bytes)" end
+    if #s == 0 then return "no_payload", "datagram holds no payload (only zero bytes)" end
     local lo, hi = varint(s, 0, #s, 10)
     local wt = lo % 8
     local number = (lo - wt) / 8 + hi * (TWO32 / 8)
+    if metadata_names[number] then -- on any wire type, as decode says it
+        return "no_payload", "datagram holds metadata (" .. metadata_names[number] ..
+            ") but no payload"
+    end
     if member_names[number] then
         return "corrupt", "payload number " .. number .. " (" .. member_names[number] ..
             ") arrived with wire type " .. wt .. ", not 2 (length-delimited)"
@@ -807,9 +829,10 @@ function erc.dissector(tvb, pinfo, tree)
                 "datagram of " .. n .. " bytes was cut short: " .. why)
         end
     end
-    local chosen
-    for _, entry in ipairs(envelope.entries) do
-        if entry.f then chosen = entry end
+    local chosen, last_of = nil, {}
+    for index, entry in ipairs(envelope.entries) do
+        if entry.f then last_of[entry.f] = index end
+        if entry.f and entry.f.message then chosen = entry end
     end
     if not chosen then return refuse(top, tvb, pinfo, no_payload(exact)) end
     local shown = tvb
@@ -830,9 +853,14 @@ function erc.dissector(tvb, pinfo, tree)
         top:add(hf.padding, tvb(#exact, zeros), zeros)
         top:add_proto_expert_info(ex.padded, zeros .. " zero byte(s) of padding")
     end
-    for _, entry in ipairs(envelope.entries) do
-        if entry.f then
-            show_entry(top, shown, exact, entry, entry ~= chosen)
+    for index, entry in ipairs(envelope.entries) do
+        if entry.f then -- a member given before the payload, or metadata given again later
+            local later = entry.f.message and entry ~= chosen or last_of[entry.f] ~= index
+            show_entry(top, shown, exact, entry, later)
+        elseif metadata_names[entry.number] then
+            add_unknown(top, shown, entry, "Field " .. entry.number .. " (" ..
+                metadata_names[entry.number] .. ") arrived on another wire type than its own: " ..
+                "protobuf keeps it as an unknown field")
         elseif entry.known_number or not member_names[entry.number] then
             local item = top:add(hf.unknown, shown(entry.start, entry.stop - entry.start))
             item:set_text("Unknown member " .. entry.number .. " (" .. WIRE_NAMES[entry.wt] .. ")")

@@ -121,16 +121,11 @@ def _value(field: FieldDescriptor, label: str) -> Any:
     return int(label)
 
 
-def document(item: ElementTree.Element, descriptor: Descriptor) -> dict[str, Any]:
-    """What the items under ``item`` say, merged as protobuf merges the wire (a scalar given twice
-    keeps the last, a message given twice merges, a oneof member clears the others), then with
-    every field decode prints that the wire lacked at its default: decode's JSON of it."""
-    return _with_defaults(_wire(item, descriptor), descriptor)
-
-
 def _wire(item: ElementTree.Element, descriptor: Descriptor) -> dict[str, Any]:
-    """What the items under ``item`` say, merged, without defaults: those come after merging, as
-    a later occurrence of a message lacks the fields it merges into the earlier one."""
+    """What the items under ``item`` say, merged as protobuf merges the wire (a scalar given twice
+    keeps the last, a message given twice merges, a oneof member clears the others), without
+    defaults: ``_with_defaults`` adds those after merging, as a later occurrence of a message
+    lacks the fields it merges into the earlier one."""
     found: dict[str, Any] = {}
     for child in item.findall("field"):
         _, _, name = child.attrib["name"].rpartition(".")
@@ -140,8 +135,11 @@ def _wire(item: ElementTree.Element, descriptor: Descriptor) -> dict[str, Any]:
         if field is None:
             assert child.attrib["name"] == "erc.unknown", child.attrib
             continue
-        if child.attrib["size"] == "0" and not field.has_presence:
-            continue  # generated: a default not on the wire (or an empty string, as good)
+        empty = child.attrib["size"] == "0" and not field.has_presence and not field.is_repeated
+        if empty and name not in found:
+            # generated: a default not on the wire (or an empty string, as good); after a value
+            # of the field, it is an empty string on the wire, the value protobuf keeps
+            continue
         if field.containing_oneof is not None:
             for other in field.containing_oneof.fields:
                 if other.name != name:
@@ -231,7 +229,7 @@ def _default(field: FieldDescriptor) -> Any:
 
 
 def outcome(tree: ElementTree.Element | None, codec: erc_codec.Codec) -> dict[str, Any]:
-    """A dissected datagram as decode reports it: kind and message, or the reason."""
+    """A dissected datagram as decode reports it: kind, message and metadata, or the reason."""
     assert tree is not None, "not dissected as ERC"
     items = {field.attrib["name"]: field for field in tree.findall("field")}
     if "erc.reason" in items:
@@ -239,15 +237,35 @@ def outcome(tree: ElementTree.Element | None, codec: erc_codec.Codec) -> dict[st
         assert not [name for name in items if name.startswith(f"erc.{codec.root}.")]  # no fields
         return {"reason": items["erc.reason"].attrib["show"]}
     kind = items["erc.kind"].attrib["show"]
-    # the last member on the wire is the payload (protobuf keeps the last of a oneof)
-    member = [f for f in tree.findall("field") if f.attrib["name"] == f"erc.{codec.root}.{kind}"]
+    # The envelope's fields, merged as protobuf merges them: the last member on the wire is the
+    # payload (protobuf keeps the last of a oneof), an earlier occurrence of it merged into it;
+    # beside it, the metadata, the last of each kept.
+    root = descriptor_of(codec.message_class(codec.root))
+    envelope = ElementTree.Element("envelope")
+    envelope.extend(
+        f for f in tree.findall("field") if f.attrib["name"].startswith(f"erc.{root.full_name}.")
+    )
+    found = _wire(envelope, root)
     payload = descriptor_of(codec.payload_class(kind))
-    return {"kind": kind, "message": document(member[-1], payload)}
+    result = {"kind": kind, "message": _with_defaults(found.pop(kind), payload)}
+    metadata = {k: v for k, v in found.items() if _carried(root.fields_by_name[k], v)}
+    return {**result, "metadata": metadata} if metadata else result
+
+
+def _carried(field: FieldDescriptor, value: Any) -> bool:
+    """Whether decode lists a metadata field the tree shows: protobuf lists a field without
+    presence only when it holds no default (-0.0 is not 0.0 to it)."""
+    if field.has_presence:
+        return True
+    if isinstance(value, float):
+        return value != 0 or math.copysign(1.0, value) < 0
+    return bool(value != _default(field))
 
 
 def expected(record: dict[str, Any]) -> dict[str, Any]:
     if "kind" in record:
-        return {"kind": record["kind"], "message": record["message"]}
+        result = {"kind": record["kind"], "message": record["message"]}
+        return {**result, "metadata": record["metadata"]} if "metadata" in record else result
     return {"reason": record["reason"]}
 
 
@@ -400,6 +418,7 @@ def test_every_kind_of_field_dissects_as_decode_reads_it(tshark: str, tmp_path: 
         sent.extend(codec.encode(envelope, mode) for mode in MODES)
 
     draw()
+    sent.append(bytes.fromhex("0a05 4a0141 4a00"))  # text "A", then "": protobuf keeps ""
     closed = codec.message_class("Closed")(id=-7, modes=[1, 0])
     # mode = 5, then modes packed [1, 2]: 5 and 2 are no Mode, kept aside as unknown fields
     undeclared = closed.SerializeToString() + bytes.fromhex("0805 1202 0102")
@@ -409,6 +428,7 @@ def test_every_kind_of_field_dissects_as_decode_reads_it(tshark: str, tmp_path: 
     capture = tmp_path / "every.pcap"
     write_pcap(capture, sent)
     records = assert_as_decode(tshark, lua, capture, codec, *schema)
+    assert records[-4]["message"]["text"] == ""
     assert records[-2]["reason"] == "corrupt"
     assert records[-1]["message"]["right"] == "A"
     assert "left" not in records[-1]["message"]
@@ -572,6 +592,7 @@ EDGES = [
     bytes.fromhex("6202 0b0c"),  # an unknown group in the payload: kept aside
     bytes.fromhex("6201 0c"),  # an end-group that closes nothing
     bytes.fromhex("620a 0d00000000 0d01000000"),  # a field given twice: the last wins
+    bytes.fromhex("62024003 6200"),  # a member given twice: protobuf merges the two
     bytes.fromhex("5a02 3280"),  # a submessage cut inside its length
 ]
 
@@ -585,6 +606,61 @@ def test_the_edges_of_the_wire_format_dissect_as_decode_reads_them(
     records = assert_as_decode(tshark, lua, capture, codec)
     reasons = [record.get("reason", "ok") for record in records[:6]]
     assert reasons == ["ok", "ok", "ok", "corrupt", "corrupt", "corrupt"]
+
+
+# The envelope's metadata (the rover's timeout, field 30) alone, beside the payload, before or
+# after it: (datagram, decode's reason, or "" where it decodes).
+METADATA = [
+    ("f0 01 05", "no_payload"),  # metadata and no payload
+    ("f0 01 05 00 00", "no_payload"),  # the same, zero-padded
+    ("f0 01 05 f0 01 06", "no_payload"),  # given twice
+    ("f2 01 00", "no_payload"),  # its number on another wire type
+    ("f0 01 05 b2 01 00", "no_payload"),  # then an unknown member: decode names the first field
+    ("b2 01 00 f0 01 05", "unknown_member"),
+    ("00 00 00", "no_payload"),
+    ("f0 01", "truncated"),  # stripped to its tag: a timeout of 0, which no encoder sends
+    ("62 00 f0 01", "truncated"),
+    ("62 02 40 03 f0 01 ac 02", ""),  # after the payload, where encode writes it
+    ("f0 01 05 62 00", ""),  # before it
+    ("f0 01 05 62 00 f0 01 06", ""),  # given twice: the last kept
+    ("62 00 f0 01 00", ""),  # an explicit 0, which decode does not list
+    ("62 00 f2 01 00", ""),  # on another wire type: an unknown field
+]
+
+
+def test_envelope_metadata_dissects_as_decode_reads_it(
+    tshark: str, codec: erc_codec.Codec, tmp_path: Path
+) -> None:
+    """Metadata is never the payload: alone it is refused with decode's reason and words; beside
+    a payload it shows as the envelope's field, with the value decode lists."""
+    lua = dissector(tmp_path)
+    capture = tmp_path / "metadata.pcap"
+    write_pcap(capture, [h(data) for data, _ in METADATA])
+    records = assert_as_decode(tshark, lua, capture, codec)  # the metadata values too
+    seen = trees(tshark, lua, capture)
+    for (data, reason), record, tree in zip(METADATA, records, seen, strict=True):
+        assert tree is not None
+        assert record.get("reason", "") == reason, (data, record)
+        if reason:
+            error = tree.find("field[@name='erc.error']")
+            assert error is not None
+            assert error.attrib["show"] == record["error"], data  # decode's words
+            assert tree.find(".//field[@name='erc.refused']") is not None  # the expert info
+        else:
+            kind = tree.find("field[@name='erc.kind']")
+            assert kind is not None
+            assert kind.attrib["show"] == "gps_info"
+    shown = {data: tree for (data, _), tree in zip(METADATA, seen, strict=True) if tree is not None}
+    assert records[9]["metadata"] == {"timeout": 300}
+    timeout = "field[@name='erc.PBEnvelope.timeout']"
+    (only,) = shown["62 02 40 03 f0 01 ac 02"].findall(timeout)
+    assert only.attrib["showname"] == "timeout: 300"
+    first, last = shown["f0 01 05 62 00 f0 01 06"].findall(timeout)
+    assert first.find(".//field[@name='erc.overridden']") is not None
+    assert last.find(".//field[@name='erc.overridden']") is None
+    (unknown,) = shown["62 00 f2 01 00"].findall("field[@name='erc.unknown']")
+    assert unknown.attrib["showname"] == "Unknown field 30 (LEN)"
+    assert unknown.find(".//field[@name='erc.unknown_field']") is not None
 
 
 # -- cut, not stripped -------------------------------------------------------------------------
@@ -663,3 +739,39 @@ def test_a_cut_datagram_dissects_as_decode_refuses_it(
         assert error is not None
         assert error.attrib["show"] == record["error"]  # decode's words, path and all
         assert tree.find(".//field[@name='erc.refused']") is not None  # the expert info
+
+
+def test_a_map_entry_holding_an_unknown_field_is_kept_aside_whole(
+    tshark: str, tmp_path: Path
+) -> None:
+    """upb keeps a map entry holding a field the entry does not know out of the map, as one
+    unknown field of the message; a field the map's value does not know stays in the value."""
+    args = SCHEMAS["limits"]
+    codec = erc_codec.Codec.from_path(Path(args[1]), args[3])
+    sent = [
+        h("0a 06 32 04 08 01 30 0c"),  # palette: key 1, then field 6
+        h("0a 0a 52 08 08 07 12 02 10 05 30 01"),  # places: key 7, x = -3, then field 6
+        h("0a 08 52 06 08 07 12 02 18 01"),  # places: key 7, its value holding field 3
+    ]
+    lua = dissector(tmp_path, *args)
+    capture = tmp_path / "maps.pcap"
+    write_pcap(capture, sent)
+    records = assert_as_decode(tshark, lua, capture, codec, *args)
+    assert [(r["message"]["palette"], list(r["message"]["places"])) for r in records] == [
+        ({}, []),
+        ({}, []),
+        ({}, ["7"]),
+    ]
+    first, second, third = trees(tshark, lua, capture)
+    for tree, shown in [(first, "Unknown field 6 (LEN)"), (second, "Unknown field 10 (LEN)")]:
+        assert tree is not None
+        (entry,) = tree.findall(".//field[@name='erc.unknown']")
+        assert entry.attrib["showname"] == shown
+        why = entry.find(".//field[@name='_ws.expert.message']")
+        assert why is not None
+        assert "a map entry holding a field it does not know" in why.attrib["show"]
+    assert third is not None
+    (inside,) = third.findall(
+        ".//field[@name='erc.LimitsRecord.places']//field[@name='erc.unknown']"
+    )
+    assert inside.attrib["showname"] == "Unknown field 3 (VARINT)"
