@@ -26,7 +26,9 @@ class DecodeError(CodecError):
     ``"unknown_member"`` (a payload number this schema lacks: a newer sender), ``"truncated"``
     (cut short, not stripped: restoring its zeros would make what no encoder sends, a field
     without presence at its default or a varint ending in ``80 00``), ``"unsupported"`` (a member
-    the schema has but nobody can read as nanopb does: ``UnreadableKind``) or ``"corrupt"``.
+    the schema has but nobody can read as nanopb does: ``UnreadableKind``), ``"not_json"`` (it
+    decoded, but holds what protobuf's JSON mapping cannot write: ``Codec.to_dict``) or
+    ``"corrupt"``.
     """
 
     def __init__(self, message: str, reason: str = "corrupt") -> None:

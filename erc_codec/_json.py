@@ -22,6 +22,10 @@ fits its width. nanopb's narrower limits (``int_size``, ``max_size``, ``max_coun
 contract's, which ``encode`` checks. Each failure is an ``EncodeError`` naming the full path from
 the message type (``LimitsRecord.points[1].colour``, ``LimitsRecord.palette[key=1]``) and what the
 field takes. Well-known types (``Timestamp``, wrappers, ...) read and write as json_format does.
+
+What has no JSON form, a well-known type's value out of its range (a ``Timestamp`` with negative
+nanos) or a string that is not UTF-8 (protobuf does not check a proto2 string on the wire), is a
+``DecodeError`` of reason ``"not_json"``, naming it: the message decoded, but cannot be shown.
 """
 
 import base64
@@ -37,7 +41,7 @@ from google.protobuf import json_format
 from google.protobuf.descriptor import Descriptor, EnumDescriptor, FieldDescriptor
 from google.protobuf.message import Message
 
-from ._errors import EncodeError
+from ._errors import DecodeError, EncodeError
 from ._paths import entry_path, key_text
 from .schema import descriptor_of, enum_of, message_of
 
@@ -80,12 +84,25 @@ _writers: dict[Descriptor, Callable[[Message], Any]] = {}
 _by_class: dict[type[Message], Callable[[Message], Any]] = {}
 
 
+class _NoJson(Exception):
+    """A value with no JSON form, found ``path`` (field names, innermost first) down."""
+
+    def __init__(self, why: str) -> None:
+        super().__init__(why)
+        self.why = why
+        self.path: list[str] = []
+
+
 def to_dict(message: Message) -> dict[str, Any]:
     """``message`` in protobuf's JSON mapping, as a dict (see the module's docstring)."""
     write = _by_class.get(type(message))
     if write is None:
         write = _by_class[type(message)] = _writer(descriptor_of(type(message)))
-    return write(message)  # type: ignore[no-any-return]
+    try:
+        return write(message)  # type: ignore[no-any-return]
+    except _NoJson as error:
+        where = ".".join([message.DESCRIPTOR.full_name, *reversed(error.path)])
+        raise DecodeError(f"{where}: {error.why}", "not_json") from None
 
 
 def to_json(message: Message) -> str:
@@ -105,11 +122,16 @@ def _writer(descriptor: Descriptor) -> Callable[[Message], Any]:
 
     def write(message: Message) -> dict[str, Any]:
         out: dict[str, Any] = {}
-        for name, has_presence, convert in plan:
-            if has_presence and not message.HasField(name):
-                continue
-            value = getattr(message, name)
-            out[name] = value if convert is None else convert(value)
+        name = ""
+        try:
+            for name, has_presence, convert in plan:
+                if has_presence and not message.HasField(name):
+                    continue
+                value = getattr(message, name)
+                out[name] = value if convert is None else convert(value)
+        except _NoJson as error:
+            error.path.append(name)
+            raise
         if extensions:
             for field, value in message.ListFields():
                 if field.is_extension:
@@ -125,8 +147,22 @@ def _writer(descriptor: Descriptor) -> Callable[[Message], Any]:
 
 
 def _well_known_writer(message: Message) -> Any:
-    return json_format.MessageToDict(
-        message, always_print_fields_with_no_presence=True, preserving_proto_field_name=True
+    try:
+        return json_format.MessageToDict(
+            message, always_print_fields_with_no_presence=True, preserving_proto_field_name=True
+        )
+    except (ValueError, json_format.Error) as error:  # a Timestamp's nanos out of range, ...
+        raise _NoJson(f"{message.DESCRIPTOR.full_name} has no JSON form: {error}") from None
+
+
+def _string_value(value: str | bytes) -> str:
+    """A string field's value, which protobuf hands out as bytes where they are not UTF-8 (a
+    proto2 string is not checked on the wire): JSON has no way to show those."""
+    if type(value) is str:
+        return value
+    raise _NoJson(
+        f"{len(value)} bytes that are not UTF-8 ({value[:16]!r}), for which protobuf's JSON "
+        "mapping has no form"
     )
 
 
@@ -165,6 +201,8 @@ def _scalar_value(field: FieldDescriptor) -> Value | None:
         return str
     if kind == _T.TYPE_BYTES:
         return _bytes_value
+    if kind == _T.TYPE_STRING:
+        return _string_value
     return None
 
 

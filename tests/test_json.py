@@ -13,6 +13,8 @@ for another.
 import json
 import math
 import struct
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any, cast
 
@@ -24,7 +26,7 @@ from google.protobuf.message import Message
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from erc_codec import Codec, EncodeError, SchemaError, strategies
+from erc_codec import Codec, DecodeError, EncodeError, SchemaError, strategies
 from erc_codec.schema import descriptor_of, enum_of, message_of
 
 HERE = Path(__file__).resolve().parent
@@ -496,3 +498,65 @@ def test_what_is_no_message_is_a_type_error_naming_it(given: object) -> None:
     for write in (CODEC.to_dict, CODEC.to_json):
         with pytest.raises(TypeError, match=f"not {type(given).__name__}$"):
             write(given)  # type: ignore[arg-type]
+
+
+# -- what has no JSON form ------------------------------------------------------------------------
+
+WIRESHARK = Codec.from_path(HERE / "wireshark_tree", root="Env")
+# Found by fuzzing erc-codec decode against the dissector: each was a traceback.
+NOT_UTF8 = bytes.fromhex("1210120201011a07739caaaec28f3020ef04")  # a proto2 string, not UTF-8
+BAD_NANOS = bytes.fromhex(
+    "11ce367260799ecde710ce9ba7c25222290a1608ee8fbee6ffffffffff011098aefeffffffffffff0112030895"
+    "021a050d0000807f20d69ed503"
+)  # a Timestamp with nanos -26856
+
+
+def test_a_string_that_is_not_utf8_has_no_json_form_and_says_where() -> None:
+    _, message = WIRESHARK.decode(NOT_UTF8)  # protobuf reads it: proto2 does not check
+    with pytest.raises(DecodeError, match=r"^Closed\.label: 7 bytes that are not UTF-8") as caught:
+        WIRESHARK.to_dict(message)
+    assert caught.value.reason == "not_json"
+
+
+def test_a_well_known_value_out_of_its_range_has_no_json_form_and_says_where() -> None:
+    decoded = MAPPING.decode(BAD_NANOS)
+    with pytest.raises(
+        DecodeError, match=r"^JsonWellKnown\.at: google\.protobuf\.Timestamp has no"
+    ):
+        decoded.to_dict()
+    with pytest.raises(json_format.Error, match="Nanos -26856"):  # json_format's own verdict
+        json_format.MessageToDict(decoded.message)
+
+
+@pytest.mark.parametrize(
+    ("tree", "root", "data", "where"),
+    [
+        ("wireshark_tree", "Env", NOT_UTF8, "Closed.label"),
+        ("json_tree", "JsonEnvelope", BAD_NANOS + bytes(4), "JsonWellKnown.at"),
+    ],
+)
+def test_decode_prints_what_has_no_json_form_as_an_error_line(
+    tree: str, root: str, data: bytes, where: str
+) -> None:
+    command = [sys.executable, "-m", "erc_codec", "decode", "--proto", str(HERE / tree)]
+    done = subprocess.run(
+        [*command, "--root", root, "-"],
+        input=f"{data.hex()}\n{_any_datagram(Codec.from_path(HERE / tree, root=root)).hex()}\n",
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 1, done.stderr
+    first, second = (json.loads(line) for line in done.stdout.splitlines())
+    assert (first["reason"], first["length"]) == ("not_json", len(data))
+    assert first["error"].startswith(where + ": ")
+    assert "kind" in second  # the next datagram is decoded as usual
+
+
+def _any_datagram(codec: Codec) -> bytes:
+    """A datagram of the first kind whose all-default payload can be sent."""
+    for kind in codec.kinds().values():
+        try:
+            return codec.encode(codec.message_class(kind)())
+        except EncodeError:
+            continue
+    raise AssertionError("no kind sends an empty payload")

@@ -29,6 +29,10 @@ class _Decoder(Printer):
         self.datagrams += 1
         try:
             decoded = self._decode(data, self._strict)
+            if self._kinds and decoded.kind not in self._kinds:
+                self.other_kinds += 1
+                return
+            record = decoded.to_dict()  # kind, message and any unknown fields, or "not_json"
         except DecodeError as error:
             self.failed += 1
             emit(
@@ -40,10 +44,6 @@ class _Decoder(Printer):
                 }
             )
             return
-        if self._kinds and decoded.kind not in self._kinds:
-            self.other_kinds += 1
-            return
-        record = decoded.to_dict()  # kind, message and any unknown fields; the length after kind
         emit({**(where or {}), "kind": record.pop("kind"), "length": len(data), **record})
 
 
