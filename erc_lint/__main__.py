@@ -1,5 +1,5 @@
 """``python -m erc_lint``: the same as the ``erc-lint`` command."""
 
-from .cli import main
+from .cli import run
 
-main()
+run()

@@ -107,6 +107,50 @@ def test_the_command_delivers_all_its_output_before_leaving_the_process(tmp_path
     assert (tmp_path / "report.txt").read_text().count("FIELD_DELETED") == 1200
 
 
+PLAIN = [sys.executable, "-c", "from erc_lint.cli import main; main()"]  # Python's own exit
+QUICK = [sys.executable, "-m", "erc_lint"]  # erc_lint.cli.run, as the erc-lint console script
+
+
+def test_the_quick_exit_gives_what_the_plain_exit_gives(tmp_path: Path) -> None:
+    """erc-lint leaves its process with os._exit once its output is flushed (``cli.run``, for
+    bench_lint's ratio to buf): every command gives that way the output, status and files the
+    plain group (``cli.main``, ended by Python's shutdown) gives. Findings past a pipe's buffer,
+    to a pipe and to a file; none; a usage error; a failure to run; SARIF; a baseline written;
+    a ledger written."""
+    fields = "".join(f"  int32 f{k} = {k};\n" for k in range(1, 1201))
+    old = tree(tmp_path / "old", {"a.proto": f"message A {{\n{fields}}}\n"})
+    new = tree(tmp_path / "new", {"a.proto": "message A {}\n"})
+    cases = [
+        [str(old), str(new), "--format", "json"],
+        [str(old), str(old)],
+        [str(old), str(tmp_path / "nowhere")],
+        ["chek", str(old)],
+        ["--format", "sarif", str(old), str(new)],
+        ["baseline", str(old), str(new), "-o", "{out}/erc-lint.baseline"],
+        ["ledger", "update", str(new), "--ledger", "{out}/erc-lint.lock"],
+        ["rules"],
+    ]
+    for args in cases:
+        given = []
+        for way, command in (("plain", PLAIN), ("quick", QUICK)):
+            out = tmp_path / way / str(cases.index(args))
+            out.mkdir(parents=True)
+            with (out.parent / f"{out.name}.stdout").open("wb") as sink:
+                to_file = subprocess.run(
+                    [*command, *(arg.format(out=out) for arg in args)], stdout=sink, cwd=out
+                )
+            piped = subprocess.run(
+                [*command, *(arg.format(out=out) for arg in args)], capture_output=True, cwd=out
+            )
+            written = {path.name: path.read_bytes() for path in sorted(out.iterdir())}
+            report = (out.parent / f"{out.name}.stdout").read_bytes()
+            seen = (piped.returncode, to_file.returncode, piped.stdout, report, piped.stderr)
+            given.append(repr((seen, written)).replace(str(out), "OUT"))
+        assert given[0] == given[1], args
+    pyproject = (Path(__file__).parent.parent / "pyproject.toml").read_text()
+    assert '\nerc-lint = "erc_lint.cli:run"\n' in pyproject
+
+
 @pytest.mark.parametrize("module", ["erc_lint", "erc_codec"])
 def test_output_that_cannot_be_written_is_one_line_and_a_status(module: str) -> None:
     """Started with standard output closed, a command writes nothing and succeeds; with an
