@@ -33,8 +33,9 @@ full name).
 
 from collections.abc import Sequence
 
-from google.protobuf import descriptor_pb2
+from google.protobuf import descriptor_pb2, empty_pb2
 from google.protobuf.descriptor import Descriptor, FieldDescriptor, OneofDescriptor
+from google.protobuf.message import Message
 
 from .._errors import SchemaError
 from ._descriptors import declarations, extensions
@@ -79,6 +80,17 @@ _DELIMITED = (
     "protobuf writes it delimited (a group: wire types 3 and 4) and nanopb as a length-prefixed "
     "message (wire type 2), so each side refuses or drops the other's bytes; make it a "
     "length-prefixed message field (nanopb's generated code stays the same)"
+)
+# The public attributes of a protobuf message: a field of one of these names is what an
+# instance's attribute gives in upb (its value, not the method), so protobuf's own code breaks on
+# it (``json_format``'s ``ListFields``, ``SerializeToString``) as erc-codec's would. Message's own,
+# and what upb's message classes add (``Extensions``, ``FindInitializationErrors``); private
+# names and a class's nested types and enum values hide nothing an instance is asked for.
+_MESSAGE_ATTRIBUTES = frozenset(
+    name
+    for source in (Message, empty_pb2.Empty, empty_pb2.Empty())
+    for name in dir(source)
+    if not name.startswith("_")
 )
 # nanopb's int_size values (IS_8 .. IS_64; IS_DEFAULT is 0) as bits.
 _INT_BITS = {8: 8, 16: 16, 32: 32, 64: 64}
@@ -443,9 +455,11 @@ class Sizes:
     ) -> str | None:
         """Why erc-codec cannot encode or decode ``root`` as nanopb does, or ``None``: the first
         thing, depth first from ``root`` (through ``fields`` of it, default all), that is a
-        message protobuf's Python runtime refuses to build (``Schema.refused``), a field written
-        as a group where nanopb has a length-prefixed message (``_DELIMITED``), or a field whose
-        nanopb overrides protobuf does not write as nanopb reads them (``wire_mismatch``). nanopb's
+        message protobuf's Python runtime refuses to build (``Schema.refused``), a message with a
+        field named as a public attribute of protobuf's messages (``_MESSAGE_ATTRIBUTES``: ignored
+        by nanopb or not, it hides the method on every instance), a field written as a group
+        where nanopb has a length-prefixed message (``_DELIMITED``), or a field whose nanopb
+        overrides protobuf does not write as nanopb reads them (``wire_mismatch``). nanopb's
         sizes hold all the same: a codec loads such a schema and refuses only to encode or decode
         the messages this names a reason for."""
         refused = self._schema.refused
@@ -462,6 +476,15 @@ class Sizes:
                     f"{self._schema.where(message.full_name)}: {message.full_name}{reached}: "
                     f"{why}; protobuf's Python runtime cannot encode or decode it (nanopb's "
                     "sizes still hold)"
+                )
+            # A field hides a method of every instance, whichever fields a caller sends.
+            hiding = next((f for f in message.fields if f.name in _MESSAGE_ATTRIBUTES), None)
+            if hiding is not None:
+                return (
+                    f"{self._schema.where(hiding.full_name)}: {hiding.full_name}: the field "
+                    f"{hiding.name} hides protobuf's Message.{hiding.name} in the Python runtime "
+                    f"(reached from {root.full_name} as {path}.{hiding.name}); erc-codec cannot "
+                    "encode or decode it (nanopb's sizes still hold)"
                 )
             inner: list[tuple[Descriptor, str, Sequence[FieldDescriptor]]] = []
             for field in own:
