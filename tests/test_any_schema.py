@@ -820,6 +820,125 @@ def test_proto2_groups_size_as_nanopbs_generator_does(
                 attempt()
 
 
+# -- an enum or message type_override of a field of no such type: the generator fails ------------
+
+OVERRIDES = TREES / "typeoverrides"
+_FLAG = (
+    r"enum\.proto:8:\d+: Flag\.on is declared BOOL with type_override ENUM: it has no enum type, "
+    r"and nanopb's generator cannot generate it"
+)
+# root -> its file, and what nanopb's generator (0.4.9.1) says refusing it, and what we say
+TYPE_OVERRIDES = {
+    "Flag": ("enum.proto", "IndexError: string index out of range", _FLAG),
+    "Beside": ("enum.proto", "IndexError: string index out of range", _FLAG),
+    "AsEnum": (
+        "submessage.proto",
+        "Expected enum type as Sub, got Message(Sub)",
+        r"submessage\.proto:11:\d+: AsEnum\.s is declared MESSAGE with type_override ENUM: it "
+        r"has no enum type",
+    ),
+    "Number": (
+        "message.proto",
+        "IndexError: string index out of range",
+        r"message\.proto:7:\d+: Number\.n is declared INT32 with type_override MESSAGE: it has no "
+        r"message type",
+    ),
+    "Toned": (
+        "enum_message.proto",
+        "TypeError: Enum.encoded_size()",
+        r"enum_message\.proto:12:\d+: Toned\.t is declared ENUM with type_override MESSAGE",
+    ),
+    "Uses": (
+        "importer.proto",
+        "IndexError: string index out of range",
+        rf"it imports enum\.proto, and .*{_FLAG}",
+    ),
+}
+
+
+@pytest.mark.parametrize("root", sorted(TYPE_OVERRIDES))
+def test_a_type_override_the_generator_fails_on_is_a_schema_error_naming_the_field(
+    generator: None, tmp_path: Path, root: str
+) -> None:
+    file, theirs, ours = TYPE_OVERRIDES[root]
+    run = subprocess.run(
+        [*_PYPI_GENERATOR, "-q", "-I", ".", "-D", str(tmp_path), file],
+        cwd=OVERRIDES,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert run.returncode != 0
+    assert theirs in run.stderr, run.stderr
+    assert not (tmp_path / file).with_suffix(".pb.h").exists()
+    sizes = Sizes(load_schema(OVERRIDES, root))
+    assert sizes.all() == {}  # the generator writes no header
+    refuses = rf"nanopb's generator refuses {re.escape(file)} \(.*{ours}.*\)"
+    why = rf"{refuses}: it writes no code for {root}"
+    with pytest.raises(SchemaError, match=why):
+        sizes.max_size(root)
+    with pytest.raises(SchemaError, match=why):
+        Codec.from_path(OVERRIDES, root)
+    done = erc_codec_cli("sizes", "--proto", str(OVERRIDES), "--root", root)
+    assert done.returncode == 2
+    assert re.fullmatch(rf"Error: {why}[^\n]*\n", done.stderr), done.stderr
+
+
+def test_the_same_overrides_on_what_the_generator_leaves_out_are_sized(
+    generator: None, tmp_path: Path
+) -> None:
+    """FT_IGNORE, a deprecated field under discard_deprecated and skip_message spare the file."""
+    theirs = generator_sizes(tmp_path, OVERRIDES, ["spared.proto"])
+    assert theirs == {"Spared": 11}
+    codec = Codec.from_path(OVERRIDES, "Spared")
+    assert (codec.max_size("Spared"), codec.sizes()) == (11, theirs)
+    message: Any = codec.message_class("Spared")(k=-1)
+    assert codec.decode(codec.encode(message), strict=True).message == message
+
+
+# -- a root nanopb's generator writes no code for: no size, no codec ------------------------------
+
+UNGENERATED = TREES / "ungenerated"
+_NO_CODE = {
+    "D": r"deprecated\.proto:9:1: nanopb generates no code for D \(it is deprecated, under "
+    r"discard_deprecated\), so no size",
+    "D.DmEntry": r"deprecated\.proto:9:1: nanopb generates no code for D\.DmEntry \(the entry "
+    r"type of a map in D, which it generates no code for\), so no size",
+    "S": r"deprecated\.proto:15:1: nanopb generates no code for S \(it has skip_message\), so no "
+    r"size",
+    "Skipped": r"spared\.proto:14:1: nanopb generates no code for Skipped \(it has skip_message\)",
+}
+
+
+@pytest.mark.parametrize("root", sorted(_NO_CODE))
+def test_a_root_nanopb_generates_no_code_for_is_a_schema_error(
+    generator: None, tmp_path: Path, root: str
+) -> None:
+    tree = OVERRIDES if root == "Skipped" else UNGENERATED
+    file = "spared.proto" if root == "Skipped" else "deprecated.proto"
+    theirs = generator_sizes(tmp_path, tree, [file])
+    assert root not in theirs
+    assert theirs == ({"Spared": 11} if root == "Skipped" else {"Kept": 11})
+    sizes = Sizes(load_schema(tree, root))
+    assert sizes.all() == theirs
+    with pytest.raises(SchemaError, match=_NO_CODE[root]):
+        sizes.max_size(root)
+    with pytest.raises(SchemaError, match=_NO_CODE[root]):
+        Codec.from_path(tree, root)
+    done = erc_codec_cli("sizes", "--proto", str(tree), "--root", root)
+    assert done.returncode == 2
+    assert re.fullmatch(rf"Error: \S*{_NO_CODE[root]}[^\n]*\n", done.stderr), done.stderr
+    encoded = erc_codec_cli("encode", "--proto", str(tree), "--root", root, root, "{}")
+    assert encoded.returncode == 2
+    assert re.fullmatch(rf"Error: \S*{_NO_CODE[root]}[^\n]*\n", encoded.stderr), encoded.stderr
+
+
+def test_the_generated_message_beside_them_is_a_codec(generator: None, tmp_path: Path) -> None:
+    theirs = generator_sizes(tmp_path, UNGENERATED, ["deprecated.proto"])
+    codec = Codec.from_path(UNGENERATED, "Kept")
+    assert (codec.max_size("Kept"), codec.sizes()) == (11, theirs)
+
+
 def _chain(tree: Path, fields: int) -> None:
     """M0 holding M1 ... holding M{fields}, the last an int32: ``fields`` message fields deep."""
     lines = [f"message M{i} {{ M{i + 1} next = 1; }}" for i in range(fields)]
