@@ -603,7 +603,7 @@ def shadowing_sizes(tmp_path_factory: pytest.TempPathFactory) -> dict[str, int |
 def test_every_public_name_of_a_protobuf_message_hides_a_method(tmp_path: Path) -> None:
     """A field named as any public attribute of protobuf's Message, or of upb's message class
     (Extensions, FindInitializationErrors), is refused with nanopb's size; a field whose name is
-    close to one is not."""
+    close to one, or private (``_fields``, ``__init__``), is not."""
     from google.protobuf import message as protobuf_message
 
     upb = Codec.from_path(SHADOWING, "Fine").message_class("Fine")()
@@ -617,7 +617,8 @@ def test_every_public_name_of_a_protobuf_message_hides_a_method(tmp_path: Path) 
     (tmp_path / "all.proto").write_text(
         'syntax = "proto3";\n'
         + "".join(f"message M{i} {{ int32 {name} = 1; }}\n" for i, name in enumerate(names))
-        + "message Near { int32 listFields = 1; int32 DESCRIPTOR_ = 2; int32 Clear2 = 3; }\n"
+        + "message Near { int32 listFields = 1; int32 DESCRIPTOR_ = 2; int32 Clear2 = 3;"
+        + " int32 _fields = 4; int32 __init__ = 5; }\n"  # private names: upb looks them up first
     )
     for i, name in enumerate(names):
         codec = Codec.from_path(tmp_path, f"M{i}")
@@ -627,8 +628,9 @@ def test_every_public_name_of_a_protobuf_message_hides_a_method(tmp_path: Path) 
         with pytest.raises(SchemaError, match=rf"M{i}\.{name}: the field {name} hides"):
             codec.encode(message)
     near = Codec.from_path(tmp_path, "Near")
-    message = near.message_class("Near")(listFields=1, DESCRIPTOR_=2, Clear2=3)
+    message = near.message_class("Near")(listFields=1, DESCRIPTOR_=2, Clear2=3, **{"_fields": 4})
     assert near.decode(near.encode(message), strict=True).message == message
+    assert near.decode(near.encode(message)).to_dict()["message"]["_fields"] == 4
 
 
 @pytest.mark.parametrize("root", ["Lister", "Described", "Serial", "Ext", "Fine", "Holder"])
