@@ -54,8 +54,9 @@ class Codec(Envelope):
     ``SchemaError`` naming the file and line. A message erc-codec cannot encode or decode as
     nanopb does (one protobuf's Python runtime cannot build: more than 63 required fields,
     clashing JSON names; an editions DELIMITED field; an override protobuf does not write as
-    nanopb reads it) keeps nanopb's size in ``sizes()`` and ``max_size``: only encoding or
-    decoding it (a member carrying it, or the whole root) is a ``SchemaError`` saying why.
+    nanopb reads it; a field named as a public attribute of protobuf's Message) keeps nanopb's
+    size in ``sizes()`` and ``max_size``: only encoding or decoding it (a member carrying it, or
+    the whole root) is a ``SchemaError`` saying why.
     ``options_file`` and ``settings`` are nanopb's generator's ``-f`` and ``-s``,
     ``nanopb_version`` whose sizing rules apply (``"0.4.9"``, or ``"1.0.0-dev"``, master after
     0.4.9.1: see ``erc_codec.schema.Sizes``).

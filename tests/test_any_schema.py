@@ -576,6 +576,148 @@ def test_trouble_in_a_metadata_field_stops_the_whole_envelope() -> None:
             attempt()
 
 
+# -- fields named as protobuf's Message methods: nanopb's sizes, no encoding or decoding --------
+
+SHADOWING = TREES / "shadowing"
+# root -> the field hiding a method, where it is and how it is reached (None: nothing hides)
+_HIDDEN = {
+    "Lister": r"shadow\.proto:6:\d+: Lister\.ListFields: the field ListFields hides protobuf's "
+    r"Message\.ListFields in the Python runtime \(reached from Lister as Lister\.ListFields\)",
+    "Described": r"shadow\.proto:10:\d+: Described\.DESCRIPTOR: the field DESCRIPTOR hides "
+    r"protobuf's Message\.DESCRIPTOR",
+    "Serial": r"shadow\.proto:14:\d+: Serial\.SerializePartialToString: the field "
+    r"SerializePartialToString hides protobuf's Message\.SerializePartialToString",
+    "Ext": r"shadow\.proto:19:\d+: Ext\.Extensions: the field Extensions hides protobuf's "
+    r"Message\.Extensions",
+    "Holder": r"Lister\.ListFields: the field ListFields hides .* \(reached from Holder as "
+    r"Holder\.inner\.ListFields\)",
+}
+
+
+@pytest.fixture(scope="module")
+def shadowing_sizes(tmp_path_factory: pytest.TempPathFactory) -> dict[str, int | None]:
+    pytest.importorskip("nanopb")
+    return generator_sizes(tmp_path_factory.mktemp("shadowing"), SHADOWING, ["shadow.proto"])
+
+
+def test_every_public_name_of_a_protobuf_message_hides_a_method(tmp_path: Path) -> None:
+    """A field named as any public attribute of protobuf's Message, or of upb's message class
+    (Extensions, FindInitializationErrors), is refused with nanopb's size; a field whose name is
+    close to one, or private (``_fields``, ``__init__``), is not."""
+    from google.protobuf import message as protobuf_message
+
+    upb = Codec.from_path(SHADOWING, "Fine").message_class("Fine")()
+    public = {n for n in dir(protobuf_message.Message) if not n.startswith("_")}
+    for upb_names in (dir(upb), dir(type(upb))):
+        public |= {n for n in upb_names if not n.startswith("_") and not n.endswith("_NUMBER")}
+    public -= {"list_fields", "Listfields", "Descriptor"}  # Fine's own fields
+    assert {"ListFields", "DESCRIPTOR", "Extensions", "FindInitializationErrors"} <= public
+    assert "FindInitializationErrors" not in dir(protobuf_message.Message)  # upb's only
+    names = sorted(public)
+    (tmp_path / "all.proto").write_text(
+        'syntax = "proto3";\n'
+        + "".join(f"message M{i} {{ int32 {name} = 1; }}\n" for i, name in enumerate(names))
+        + "message Near { int32 listFields = 1; int32 DESCRIPTOR_ = 2; int32 Clear2 = 3;"
+        + " int32 _fields = 4; int32 __init__ = 5; }\n"  # private names: upb looks them up first
+    )
+    for i, name in enumerate(names):
+        codec = Codec.from_path(tmp_path, f"M{i}")
+        assert codec.max_size(f"M{i}") == 11
+        message = codec.schema.message_class(f"M{i}")()
+        assert getattr(message, name) == 0  # the field, where protobuf's own code wants Message's
+        with pytest.raises(SchemaError, match=rf"M{i}\.{name}: the field {name} hides"):
+            codec.encode(message)
+    near = Codec.from_path(tmp_path, "Near")
+    message = near.message_class("Near")(listFields=1, DESCRIPTOR_=2, Clear2=3, **{"_fields": 4})
+    assert near.decode(near.encode(message), strict=True).message == message
+    assert near.decode(near.encode(message)).to_dict()["message"]["_fields"] == 4
+
+
+@pytest.mark.parametrize("root", ["Lister", "Described", "Serial", "Ext", "Fine", "Holder"])
+def test_a_field_hiding_a_method_keeps_nanopbs_size_and_is_refused_in_both_directions(
+    shadowing_sizes: dict[str, int | None], root: str
+) -> None:
+    codec = Codec.from_path(SHADOWING, root)
+    assert codec.max_size(root) == shadowing_sizes[root]
+    assert codec.sizes() == shadowing_sizes
+    message: Any = codec.schema.message_class(root)()
+    data = b"\x08\x01" if root != "Holder" else b"\x0a\x02\x08\x01"
+    if root == "Fine":  # list_fields, Listfields and Descriptor hide nothing
+        message.list_fields, message.Listfields, message.Descriptor = 1, 2, 3
+        assert codec.decode(codec.encode(message), strict=True) == ("Fine", message)
+        read: Any = codec.decode(b"\x08\x01", strict=True).message
+        assert read.list_fields == 1
+        decoded = codec.decode(codec.encode(message)).to_dict()["message"]
+        assert decoded == {"list_fields": 1, "Listfields": 2, "Descriptor": 3}
+        return
+    why = _HIDDEN[root]
+    for attempt in (
+        lambda: codec.encode(message),
+        lambda: codec.encode(message, "pad"),
+        lambda: codec.payload_class(root),
+    ):
+        with pytest.raises(SchemaError, match=why):
+            attempt()
+    for strict in (False, True):
+        with pytest.raises(DecodeError, match=why) as raised:
+            codec.decode(data, strict=strict)
+        assert isinstance(raised.value, SchemaError)
+        assert raised.value.reason == "unsupported"
+    assert codec.peek(data) is None
+
+
+def test_an_envelope_sends_the_members_that_reach_no_hiding_field(
+    shadowing_sizes: dict[str, int | None],
+) -> None:
+    codec = Codec.from_path(SHADOWING, "Env")
+    assert (codec.max_size("Env"), codec.sizes()) == (shadowing_sizes["Env"], shadowing_sizes)
+    fine: Any = codec.message_class("fine")(list_fields=7)
+    assert codec.decode(codec.encode(fine, seq=3), strict=True) == ("fine", fine)
+    holder: Any = codec.schema.message_class("Holder")()
+    why = r"Lister\.ListFields: the field ListFields hides .* \(reached from Env as Env\.holder"
+    with pytest.raises(SchemaError, match=why):
+        codec.encode(holder)
+    with pytest.raises(DecodeError, match=why):
+        codec.decode(b"\x12\x04\x0a\x02\x08\x01", strict=True)
+    # the envelope's own field hides WhichOneof: no member of it can be sent
+    hides = Codec.from_path(SHADOWING, "EnvHides")
+    assert hides.max_size("EnvHides") == shadowing_sizes["EnvHides"]
+    fine = hides.schema.message_class("Fine")(list_fields=1)
+    why = r"shadow\.proto:46:\d+: EnvHides\.WhichOneof: the field WhichOneof hides"
+    with pytest.raises(SchemaError, match=why):
+        hides.encode(fine)
+    with pytest.raises(DecodeError, match=why):
+        hides.decode(b"\x0a\x02\x08\x01", strict=True)
+
+
+def test_debians_generator_sizes_the_hiding_fields_alike(
+    shadowing_sizes: dict[str, int | None], tmp_path: Path
+) -> None:
+    program = shutil.which("nanopb_generator")
+    if program is None:
+        pytest.skip("Debian's nanopb generator is not installed")
+    theirs = generator_sizes(tmp_path, SHADOWING, ["shadow.proto"], generator=[program])
+    assert theirs == shadowing_sizes
+    assert len(theirs) == 8
+
+
+def test_the_cli_says_why_in_one_line_for_a_hiding_field() -> None:
+    tree = ("--proto", str(SHADOWING), "--root", "Lister")
+    refused = erc_codec_cli("encode", *tree, "Lister", '{"ListFields": 1}')
+    assert refused.returncode == 2
+    assert re.fullmatch(rf"Error: \S*{_HIDDEN['Lister']}[^\n]*\n", refused.stderr), refused.stderr
+    for strict in ((), ("--strict",)):
+        unread = erc_codec_cli("decode", *tree, *strict, "0801")
+        assert unread.returncode == 1, unread.stderr
+        assert "Traceback" not in unread.stderr
+        record = json.loads(unread.stdout)
+        assert (record["reason"], record["length"]) == ("unsupported", 2)
+        assert re.search(_HIDDEN["Lister"], record["error"]), record
+    sizes = erc_codec_cli("sizes", *tree, "--format", "json")
+    assert sizes.returncode == 0, sizes.stderr
+    assert json.loads(sizes.stdout)["max_size"] == 11
+
+
 # -- a tree that ships nanopb.proto (and descriptor.proto) itself ---------------------------------
 
 
@@ -678,6 +820,125 @@ def test_proto2_groups_size_as_nanopbs_generator_does(
                 SchemaError, match=r"Overriding\.item: protobuf writes it delimited"
             ):
                 attempt()
+
+
+# -- an enum or message type_override of a field of no such type: the generator fails ------------
+
+OVERRIDES = TREES / "typeoverrides"
+_FLAG = (
+    r"enum\.proto:8:\d+: Flag\.on is declared BOOL with type_override ENUM: it has no enum type, "
+    r"and nanopb's generator cannot generate it"
+)
+# root -> its file, and what nanopb's generator (0.4.9.1) says refusing it, and what we say
+TYPE_OVERRIDES = {
+    "Flag": ("enum.proto", "IndexError: string index out of range", _FLAG),
+    "Beside": ("enum.proto", "IndexError: string index out of range", _FLAG),
+    "AsEnum": (
+        "submessage.proto",
+        "Expected enum type as Sub, got Message(Sub)",
+        r"submessage\.proto:11:\d+: AsEnum\.s is declared MESSAGE with type_override ENUM: it "
+        r"has no enum type",
+    ),
+    "Number": (
+        "message.proto",
+        "IndexError: string index out of range",
+        r"message\.proto:7:\d+: Number\.n is declared INT32 with type_override MESSAGE: it has no "
+        r"message type",
+    ),
+    "Toned": (
+        "enum_message.proto",
+        "TypeError: Enum.encoded_size()",
+        r"enum_message\.proto:12:\d+: Toned\.t is declared ENUM with type_override MESSAGE",
+    ),
+    "Uses": (
+        "importer.proto",
+        "IndexError: string index out of range",
+        rf"it imports enum\.proto, and .*{_FLAG}",
+    ),
+}
+
+
+@pytest.mark.parametrize("root", sorted(TYPE_OVERRIDES))
+def test_a_type_override_the_generator_fails_on_is_a_schema_error_naming_the_field(
+    generator: None, tmp_path: Path, root: str
+) -> None:
+    file, theirs, ours = TYPE_OVERRIDES[root]
+    run = subprocess.run(
+        [*_PYPI_GENERATOR, "-q", "-I", ".", "-D", str(tmp_path), file],
+        cwd=OVERRIDES,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert run.returncode != 0
+    assert theirs in run.stderr, run.stderr
+    assert not (tmp_path / file).with_suffix(".pb.h").exists()
+    sizes = Sizes(load_schema(OVERRIDES, root))
+    assert sizes.all() == {}  # the generator writes no header
+    refuses = rf"nanopb's generator refuses {re.escape(file)} \(.*{ours}.*\)"
+    why = rf"{refuses}: it writes no code for {root}"
+    with pytest.raises(SchemaError, match=why):
+        sizes.max_size(root)
+    with pytest.raises(SchemaError, match=why):
+        Codec.from_path(OVERRIDES, root)
+    done = erc_codec_cli("sizes", "--proto", str(OVERRIDES), "--root", root)
+    assert done.returncode == 2
+    assert re.fullmatch(rf"Error: {why}[^\n]*\n", done.stderr), done.stderr
+
+
+def test_the_same_overrides_on_what_the_generator_leaves_out_are_sized(
+    generator: None, tmp_path: Path
+) -> None:
+    """FT_IGNORE, a deprecated field under discard_deprecated and skip_message spare the file."""
+    theirs = generator_sizes(tmp_path, OVERRIDES, ["spared.proto"])
+    assert theirs == {"Spared": 11}
+    codec = Codec.from_path(OVERRIDES, "Spared")
+    assert (codec.max_size("Spared"), codec.sizes()) == (11, theirs)
+    message: Any = codec.message_class("Spared")(k=-1)
+    assert codec.decode(codec.encode(message), strict=True).message == message
+
+
+# -- a root nanopb's generator writes no code for: no size, no codec ------------------------------
+
+UNGENERATED = TREES / "ungenerated"
+_NO_CODE = {
+    "D": r"deprecated\.proto:9:1: nanopb generates no code for D \(it is deprecated, under "
+    r"discard_deprecated\), so no size",
+    "D.DmEntry": r"deprecated\.proto:9:1: nanopb generates no code for D\.DmEntry \(the entry "
+    r"type of a map in D, which it generates no code for\), so no size",
+    "S": r"deprecated\.proto:15:1: nanopb generates no code for S \(it has skip_message\), so no "
+    r"size",
+    "Skipped": r"spared\.proto:14:1: nanopb generates no code for Skipped \(it has skip_message\)",
+}
+
+
+@pytest.mark.parametrize("root", sorted(_NO_CODE))
+def test_a_root_nanopb_generates_no_code_for_is_a_schema_error(
+    generator: None, tmp_path: Path, root: str
+) -> None:
+    tree = OVERRIDES if root == "Skipped" else UNGENERATED
+    file = "spared.proto" if root == "Skipped" else "deprecated.proto"
+    theirs = generator_sizes(tmp_path, tree, [file])
+    assert root not in theirs
+    assert theirs == ({"Spared": 11} if root == "Skipped" else {"Kept": 11})
+    sizes = Sizes(load_schema(tree, root))
+    assert sizes.all() == theirs
+    with pytest.raises(SchemaError, match=_NO_CODE[root]):
+        sizes.max_size(root)
+    with pytest.raises(SchemaError, match=_NO_CODE[root]):
+        Codec.from_path(tree, root)
+    done = erc_codec_cli("sizes", "--proto", str(tree), "--root", root)
+    assert done.returncode == 2
+    assert re.fullmatch(rf"Error: \S*{_NO_CODE[root]}[^\n]*\n", done.stderr), done.stderr
+    encoded = erc_codec_cli("encode", "--proto", str(tree), "--root", root, root, "{}")
+    assert encoded.returncode == 2
+    assert re.fullmatch(rf"Error: \S*{_NO_CODE[root]}[^\n]*\n", encoded.stderr), encoded.stderr
+
+
+def test_the_generated_message_beside_them_is_a_codec(generator: None, tmp_path: Path) -> None:
+    theirs = generator_sizes(tmp_path, UNGENERATED, ["deprecated.proto"])
+    codec = Codec.from_path(UNGENERATED, "Kept")
+    assert (codec.max_size("Kept"), codec.sizes()) == (11, theirs)
 
 
 def _chain(tree: Path, fields: int) -> None:

@@ -11,8 +11,10 @@ descriptors as written: an editions field with ``message_encoding = DELIMITED`` 
 message field it is written as (which erc-codec cannot send as nanopb reads it: ``unsendable``,
 ``_DELIMITED``). nanopb's
 generator refuses a file holding a proto2 ``group`` it must generate (``NotImplementedError``: it
-has no groups), and with it every file importing that file: their messages have no size and are
-not listed.
+has no groups) or an enum or message ``type_override`` of a field of no such type (it fails on the
+missing type), and with it every file importing that file: their messages have no size and are
+not listed. A message it writes no code for (``skip_message``, deprecated under
+``discard_deprecated``) has no size either.
 
 Generator versions differ in two rules (``NANOPB_VERSIONS``). Up to 0.4.9.1 (``"0.4.9"``, the rules
 of every 0.4.x release) a ``FT_CALLBACK`` or ``FT_POINTER`` field has no size; nanopb's master
@@ -33,8 +35,9 @@ full name).
 
 from collections.abc import Sequence
 
-from google.protobuf import descriptor_pb2
+from google.protobuf import descriptor_pb2, empty_pb2
 from google.protobuf.descriptor import Descriptor, FieldDescriptor, OneofDescriptor
+from google.protobuf.message import Message
 
 from .._errors import SchemaError
 from ._descriptors import declarations, extensions
@@ -80,6 +83,17 @@ _DELIMITED = (
     "message (wire type 2), so each side refuses or drops the other's bytes; make it a "
     "length-prefixed message field (nanopb's generated code stays the same)"
 )
+# The public attributes of a protobuf message: a field of one of these names is what an
+# instance's attribute gives in upb (its value, not the method), so protobuf's own code breaks on
+# it (``json_format``'s ``ListFields``, ``SerializeToString``) as erc-codec's would. Message's own,
+# and what upb's message classes add (``Extensions``, ``FindInitializationErrors``); private
+# names and a class's nested types and enum values hide nothing an instance is asked for.
+_MESSAGE_ATTRIBUTES = frozenset(
+    name
+    for source in (Message, empty_pb2.Empty, empty_pb2.Empty())
+    for name in dir(source)
+    if not name.startswith("_")
+)
 # nanopb's int_size values (IS_8 .. IS_64; IS_DEFAULT is 0) as bits.
 _INT_BITS = {8: 8, 16: 16, 32: 32, 64: 64}
 _NO_GROUPS = "which nanopb's generator does not implement"
@@ -120,6 +134,26 @@ _TYPE_NAMES = {
     for name, number in vars(_T).items()
     if name.startswith("TYPE_") and isinstance(number, int)
 }
+
+
+def _generator_stops(declared: int, kind: int) -> str | None:
+    """Why nanopb's generator stops on a field it generates, declared ``declared`` and typed
+    ``kind`` by nanopb (its ``type_override``), if it does: a proto2 group
+    (``NotImplementedError``), or an override to an enum or a message of a field that is neither
+    (0.4.9.1 and master fail on the missing or wrong type: ``IndexError``, "Expected enum type",
+    ``TypeError``)."""
+    if kind == _T.TYPE_GROUP:
+        return f"is a proto2 group, {_NO_GROUPS}"
+    if kind == _T.TYPE_ENUM and declared != _T.TYPE_ENUM:
+        missing = "enum"
+    elif kind == _T.TYPE_MESSAGE and declared not in (_T.TYPE_MESSAGE, _T.TYPE_GROUP):
+        missing = "message"
+    else:
+        return None
+    return (
+        f"is declared {_TYPE_NAMES[declared]} with type_override {_TYPE_NAMES[kind]}: it has no "
+        f"{missing} type, and nanopb's generator cannot generate it"
+    )
 
 
 def _packed_enum_bits(values: list[int], signed: bool) -> int:
@@ -170,9 +204,10 @@ class Sizes:
 
     def _refused_files(self) -> dict[str, tuple[str, str]]:
         """File name -> why nanopb's generator writes no code for it, located (for an error) and
-        as plain words: a message it generates holds a proto2 group it does not leave out (by
-        ``FT_IGNORE``, ``discard_deprecated`` or a ``type_override``), or the file imports such a
-        file (the generator parses every import)."""
+        as plain words: a message it generates holds a field it does not leave out (by
+        ``FT_IGNORE`` or ``discard_deprecated``) that stops it (``_generator_stops``: a proto2
+        group, an enum or message ``type_override`` of a field of no such type), or the file
+        imports such a file (the generator parses every import)."""
         refused: dict[str, tuple[str, str]] = {}
         for proto in self._schema.files:  # protoc lists a file's imports before the file
             for declaration in declarations(proto):
@@ -192,8 +227,9 @@ class Sizes:
                     left_out = options.type == _FT_IGNORE or (
                         options.discard_deprecated and field.options.deprecated
                     )
-                    if kind == _T.TYPE_GROUP and not left_out:
-                        why = f"{dotted} is a proto2 group, {_NO_GROUPS}"
+                    why = None if left_out else _generator_stops(field.type, kind)
+                    if why is not None:
+                        why = f"{dotted} {why}"
                         refused[proto.name] = (f"{self._schema.where(dotted)}: {why}", why)
                         break
             # An extension that is a group fails the generator too, unless its FT_IGNORE spares
@@ -409,6 +445,30 @@ class Sizes:
                 f"nanopb's generator refuses {message.file.name} ({why}): it writes no code "
                 f"for {message.full_name}, so no size"
             )
+        left_out = self._left_out(message)
+        if left_out is not None:
+            written = message  # a map's entry type is written nowhere: its message is
+            while self._schema.location(written.full_name) is None and written.containing_type:
+                written = written.containing_type
+            raise SchemaError(
+                f"{self._schema.where(written.full_name)}: nanopb generates no code for "
+                f"{message.full_name} ({left_out}), so no size"
+            )
+
+    def _left_out(self, message: Descriptor) -> str | None:
+        """Why the generator writes no code for ``message`` in a file it takes, if it does not
+        (``_wanted``): a map's entry type says so of the message holding the map."""
+        options = self._options.messages[message.full_name]
+        if options.skip_message:
+            return "it has skip_message"
+        if options.discard_deprecated and message.GetOptions().deprecated:
+            return "it is deprecated, under discard_deprecated"
+        parent = message.containing_type
+        if self._wanted(message) or parent is None:
+            return None
+        if not self._wanted(parent):
+            return f"the entry type of a map in {parent.full_name}, which it generates no code for"
+        return "the entry type of a map field it leaves out, under discard_unused_automatic_types"
 
     def require_fixed(self, root: Descriptor) -> None:
         """``SchemaError`` naming the first field, and its path from ``root``, nanopb can't size."""
@@ -443,9 +503,11 @@ class Sizes:
     ) -> str | None:
         """Why erc-codec cannot encode or decode ``root`` as nanopb does, or ``None``: the first
         thing, depth first from ``root`` (through ``fields`` of it, default all), that is a
-        message protobuf's Python runtime refuses to build (``Schema.refused``), a field written
-        as a group where nanopb has a length-prefixed message (``_DELIMITED``), or a field whose
-        nanopb overrides protobuf does not write as nanopb reads them (``wire_mismatch``). nanopb's
+        message protobuf's Python runtime refuses to build (``Schema.refused``), a message with a
+        field named as a public attribute of protobuf's messages (``_MESSAGE_ATTRIBUTES``: ignored
+        by nanopb or not, it hides the method on every instance), a field written as a group
+        where nanopb has a length-prefixed message (``_DELIMITED``), or a field whose nanopb
+        overrides protobuf does not write as nanopb reads them (``wire_mismatch``). nanopb's
         sizes hold all the same: a codec loads such a schema and refuses only to encode or decode
         the messages this names a reason for."""
         refused = self._schema.refused
@@ -462,6 +524,15 @@ class Sizes:
                     f"{self._schema.where(message.full_name)}: {message.full_name}{reached}: "
                     f"{why}; protobuf's Python runtime cannot encode or decode it (nanopb's "
                     "sizes still hold)"
+                )
+            # A field hides a method of every instance, whichever fields a caller sends.
+            hiding = next((f for f in message.fields if f.name in _MESSAGE_ATTRIBUTES), None)
+            if hiding is not None:
+                return (
+                    f"{self._schema.where(hiding.full_name)}: {hiding.full_name}: the field "
+                    f"{hiding.name} hides protobuf's Message.{hiding.name} in the Python runtime "
+                    f"(reached from {root.full_name} as {path}.{hiding.name}); erc-codec cannot "
+                    "encode or decode it (nanopb's sizes still hold)"
                 )
             inner: list[tuple[Descriptor, str, Sequence[FieldDescriptor]]] = []
             for field in own:
