@@ -810,7 +810,8 @@ def test_a_dispatcher_counts_a_member_nobody_can_read_and_handles_the_others() -
     """Its datagrams end in the "unsupported" counter (not an exception out of feed), and a
     handler for it is refused, saying why."""
     codec = Codec.from_path(UNSENDABLE, "Env")
-    dispatcher = erc_codec.Dispatcher(codec)
+    drops: list[erc_codec.Drop] = []
+    dispatcher = erc_codec.Dispatcher(codec, on_drop=drops.append)
     handled: list[Any] = []
     dispatcher.register("fine", handled.append)
     with pytest.raises(SchemaError, match=_COUNTS):
@@ -820,6 +821,11 @@ def test_a_dispatcher_counts_a_member_nobody_can_read_and_handles_the_others() -
     stats = dispatcher.stats()
     assert (stats.undecodable, stats.handled) == ({"unsupported": 1}, {"fine": 1})
     assert handled[0].x == 1
+    # the drop names the member its error knows, as a decoded datagram's drop would
+    ((drop,),) = [drops]
+    assert (drop.reason, drop.kind, drop.data.hex()) == ("unsupported", "counts", "12020801")
+    assert isinstance(drop.error, SchemaError)
+    assert isinstance(drop.error, erc_codec.DecodeError)
 
 
 _EXTENSION_TYPE = re.compile(r"pb_extension_type_t (\w+); /\* field type: char \w+\[(\d+)\]; \*/")
