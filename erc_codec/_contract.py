@@ -7,7 +7,11 @@ string holding a NUL (nanopb stores strings NUL-terminated: it would arrive cut 
 keys as much as its values),
 ``fixed_length`` bytes not exactly ``max_size`` long or a ``fixed_count`` field without exactly
 ``max_count`` items (nanopb: "incorrect fixed length bytes size", "wrong size for fixed count
-field"), an unset proto2 ``required`` field (nanopb: "missing required field").
+field"), an unset proto2 ``required`` field (nanopb: "missing required field"), a set group
+field nanopb leaves out (``FT_IGNORE``, ``discard_deprecated``): its decoder skips what it
+ignores, but ``pb_skip_field`` cannot skip a group ("invalid wire_type"). Any other field nanopb
+leaves out is sent as protobuf writes it, and nanopb's decoder skips it: the board drops its
+value, and takes the rest.
 ``contract(sizes, descriptor)`` returns how to check a payload type: an exact check that raises
 ``EncodeError`` naming the field path, and a cheap screen deciding whether to run it.
 
@@ -120,6 +124,8 @@ def _enum_tags(sizes: Sizes, descriptor: Descriptor, tags: dict[bytes, set[bytes
     noise = 0
     for field in descriptor.fields:
         if sizes.ignored(field):
+            if field.type == _T.TYPE_GROUP:
+                return None  # a set one is refused: nothing of it the screen could see
             continue
         if (
             field.is_repeated
@@ -290,6 +296,7 @@ class _Source:
         tests: list[str] = []
         for field in descriptor.fields:
             if self._sizes.ignored(field):
+                lines += self._unskippable(field, var, prefix)
                 continue
             mismatch = self._sizes.wire_mismatch(field)
             if mismatch is not None:
@@ -329,6 +336,26 @@ class _Source:
         if tests:
             lines.insert(0, f" if {' or '.join(tests)}: fail(m, p)")
         return lines
+
+    def _unskippable(self, field: FieldDescriptor, var: str, prefix: str) -> list[str]:
+        """For a field nanopb leaves out, the line refusing it set if it is a group (nanopb's
+        decoder skips what it ignores with ``pb_skip_field``, which answers a group "invalid
+        wire_type"); none for any other, which the board drops."""
+        if field.type != _T.TYPE_GROUP:
+            return []
+        deprecated = self._sizes.options(field).discard_deprecated and field.GetOptions().deprecated
+        why = "discard_deprecated" if deprecated else "FT_IGNORE"  # on it, or on its oneof
+        path = prefix + field.name
+
+        def refuse(top: str) -> None:
+            raise EncodeError(
+                f"{top}.{path} is set, but it is a group nanopb leaves out ({why}), which its "
+                "decoder cannot skip: it refuses the whole message (invalid wire_type)"
+            )
+
+        self.cost += 1
+        present = f"{var}.{field.name}" if field.is_repeated else f"{var}.HasField({field.name!r})"
+        return [f" if {present}: {self._name(refuse)}(p)"]
 
     def _name(self, value: object) -> str:
         name = f"c{len(self.names)}"

@@ -25,7 +25,9 @@ for what the parse no longer shows. protobuf keeps the low 32 bits of a varint i
 The bytes walk also counts what the parse merges: a field nanopb holds as an array that
 protobuf holds once (``label_override``) arrives as often as the sender wrote it ("array
 overflow"); it sees which required fields arrived at all (a proto3 zero a sender did write
-counts); and a packed array for a field nanopb holds single is "wrong wire type".
+counts); a packed array for a field nanopb holds single is "wrong wire type"; and a group
+nanopb does not read (a field it leaves out, ``FT_IGNORE``, ``discard_deprecated``, or does not
+know) is "invalid wire_type": ``pb_skip_field`` cannot skip groups.
 """
 
 from collections.abc import Iterator
@@ -34,7 +36,18 @@ from typing import Any
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from google.protobuf.message import Message
 
-from .schema import I32, I64, LEN, VARINT, Sizes, WireError, descriptor_of, message_of, next_field
+from .schema import (
+    I32,
+    I64,
+    LEN,
+    SGROUP,
+    VARINT,
+    Sizes,
+    WireError,
+    descriptor_of,
+    message_of,
+    next_field,
+)
 
 __all__ = ["refusal"]
 
@@ -162,6 +175,12 @@ def _walk(
         pos = span.end
         field = descriptor.fields_by_number.get(span.number)
         if field is None or sizes.ignored(field):
+            if span.wire_type == SGROUP:  # pb_skip_field skips anything but a group
+                at = f"{path} field {span.number}" if field is None else _path(field, path, False)
+                return (
+                    f"{at} arrived as a group (wire type 3), which nanopb leaves out but cannot "
+                    "skip (invalid wire_type)"
+                )
             continue  # nanopb skips what it does not know
         here = _path(field, path, envelope)
         kind = sizes.field_type(field)
