@@ -316,10 +316,8 @@ class _Source:
             ):
                 check = _field_check(self._sizes, field, path)
                 call = f"{self._name(check)}({read}, p)"
-                if _checked_when_set(self._sizes, field):
-                    lines.append(f" if {var}.HasField({field.name!r}): {call}")
-                else:
-                    lines.append(f" {call}")
+                sent = _sent_when(self._sizes, field, var, read)
+                lines.append(f" if {sent}: {call}" if sent else f" {call}")
                 self.cost += 1
             elif field.type == _T.TYPE_ENUM:
                 allowed = frozenset(value.number for value in enum_of(field).values)
@@ -363,15 +361,18 @@ class _Source:
         return name
 
 
-def _checked_when_set(sizes: Sizes, field: FieldDescriptor) -> bool:
-    """Whether a field's value is checked only when set: ``fixed_length`` bytes with presence,
-    whose unset value (``b""``) is sent as nothing."""
-    return (
-        sizes.field_type(field) == _T.TYPE_BYTES
-        and not field.is_repeated
-        and field.has_presence
-        and bool(sizes.options(field).fixed_length)
-    )
+def _sent_when(sizes: Sizes, field: FieldDescriptor, var: str, read: str) -> str | None:
+    """The condition a single field's value is checked under, where it is checked only when
+    sent (``None``: always): ``fixed_length`` bytes with presence, whose unset value (``b""``)
+    is sent as nothing; a string or bytes field with no room for any value (``_no_room``),
+    when set or, without presence, when not empty (protobuf sends no empty value)."""
+    if field.is_repeated or field.type not in (_T.TYPE_STRING, _T.TYPE_BYTES):
+        return None
+    limit = sizes.max_bytes(field)
+    fixed = sizes.field_type(field) == _T.TYPE_BYTES and bool(sizes.options(field).fixed_length)
+    if field.has_presence and (fixed or (limit is not None and limit < 0)):
+        return f"{var}.HasField({field.name!r})"
+    return read if limit is not None and limit < 0 else None
 
 
 def _field_check(sizes: Sizes, field: FieldDescriptor, path: str) -> Callable[[Any, str], None]:
@@ -462,7 +463,10 @@ def _enum_item(field: FieldDescriptor) -> Callable[[Any, str], None]:
 
 def _sized_item(limit: int | None, text: bool, exact: bool = False) -> Callable[[Any, str], None]:
     """Check a string or bytes value (a ``str`` or ``bytes`` in Python, as declared) that nanopb
-    holds as a string (``text``: NUL-terminated) or as bytes."""
+    holds as a string (``text``: NUL-terminated) or as bytes. A ``limit`` below zero leaves no
+    room for any value sent (``_no_room``)."""
+    if limit is not None and limit < 0:
+        return _no_room(limit, text)
 
     def sized_item(value: Any, path: str) -> None:
         length = len(value.encode("utf-8")) if isinstance(value, str) else len(value)
@@ -479,6 +483,29 @@ def _sized_item(limit: int | None, text: bool, exact: bool = False) -> Callable[
             )
 
     return sized_item
+
+
+def _no_room(limit: int, text: bool) -> Callable[[Any, str], None]:
+    """The check of a value sent where nanopb has no room for any: a string whose ``max_size``
+    is 0 or less (``max_length`` -1 or less), bytes whose ``max_size`` is below 0. nanopb's
+    generator takes the option and sizes the field from it; its C array then holds not even a
+    string's NUL (``char a[0]``: nanopb's encoder answers "zero-length string", its decoder
+    "string overflow" to any value, an empty one too) or has a negative size, which no C
+    compiler takes."""
+    size = limit + 1 if text else limit  # the max_size nanopb's generator uses
+    why = (
+        "nanopb: zero-length string"
+        if text and size == 0
+        else f"its C array, of {size} bytes, compiles nowhere"
+    )
+
+    def no_room(value: Any, path: str) -> None:
+        raise EncodeError(
+            f"{path} cannot be sent: nanopb's max_size {size} leaves no room for any value, "
+            f"not even an empty one ({why})"
+        )
+
+    return no_room
 
 
 def _ranged_item(low: int, high: int, reason: str) -> Callable[[Any, str], None]:

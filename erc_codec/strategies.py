@@ -11,7 +11,9 @@ nanopb's generator types them (``Sizes.field_type``, ``repeated``, ``required``)
 whose ``label_override`` makes it single holds at most one item (a required one exactly one, a
 required proto3 scalar never its default, which protobuf would not send), a string whose
 ``type_override`` is bytes may hold NULs and ``max_length + 1`` bytes, bytes overridden to a
-string hold no NUL. Test your own handlers with it.
+string hold no NUL. A string or bytes field whose ``max_size`` leaves no room for any value
+(a string's 0: nanopb's array holds not even the NUL) is never set. Test your own handlers with
+it.
 """
 
 from typing import Any
@@ -22,7 +24,7 @@ from hypothesis import strategies as st
 
 from ._codec import Codec
 from ._errors import SchemaError
-from .schema import PYTHON_INT_RANGE, descriptor_of, enum_of, message_of
+from .schema import PYTHON_INT_RANGE, Sizes, descriptor_of, enum_of, message_of
 
 __all__ = ["messages"]
 
@@ -61,6 +63,13 @@ class _Builder:
         oneofs: dict[str, list[st.SearchStrategy[dict[str, Any]]]] = {}
         for field in descriptor.fields:
             if sizes.ignored(field):
+                continue
+            if _no_room(sizes, field):  # never set: nanopb takes no value of it, sent at all
+                if sizes.required(field):
+                    raise SchemaError(
+                        f"{field.full_name}: nanopb requires it, but its max_size leaves no "
+                        f"room for any value: no {descriptor.full_name} can be sent"
+                    )
                 continue
             oneof = sizes.real_oneof(field)
             if oneof is not None:
@@ -135,6 +144,19 @@ class _Builder:
             characters = st.characters(codec="utf-8", exclude_characters="\0" if string else "")
             return st.text(characters, max_size=room).map(lambda value: _fit_utf8(value, room))
         raise SchemaError(f"{field.full_name}: a group, which nanopb does not support")
+
+
+def _no_room(sizes: Sizes, field: FieldDescriptor) -> bool:
+    """Whether ``field`` holds strings or bytes (map keys or values too) whose nanopb
+    ``max_size`` leaves no room for any value, an empty one included (a string's 0 or less,
+    bytes' below 0: the contract refuses any sent)."""
+    entry = field.message_type
+    if entry is not None and entry.GetOptions().map_entry:
+        return any(_no_room(sizes, inner) for inner in entry.fields)
+    if field.type not in (_T.TYPE_STRING, _T.TYPE_BYTES):
+        return False
+    limit = sizes.max_bytes(field)
+    return limit is not None and limit < 0
 
 
 def _merge(left: dict[str, Any], right: dict[str, Any]) -> dict[str, Any]:

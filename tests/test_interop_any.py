@@ -513,3 +513,34 @@ def test_drawn_messages_never_set_a_group_nanopb_leaves_out(
     exact = IGNORED.encode(message, "exact")
     assert ignored.recode("Holder", exact) == exact
     assert IGNORED.decode(exact, strict=True) == ("Holder", message)
+
+
+def test_a_string_with_no_room_is_what_nanopbs_decoder_refuses_and_never_sent(
+    tmp_path: Path,
+) -> None:
+    """``max_size = 0``: the generator writes ``char a[0]``, which takes no value, an empty one
+    included ("string overflow"); a message without it goes through nanopb unchanged."""
+    tree = tmp_path / "tree"
+    tree.mkdir()
+    (tree / "s.proto").write_text(
+        'syntax = "proto2";\nimport "nanopb.proto";\n'
+        "message S { optional int32 b = 1; optional string a = 2 [(nanopb).max_size = 0]; }\n"
+    )
+    build = tmp_path / "build"
+    build.mkdir()
+    peer = build_0491(tree, ["s.proto"], ["S"], build)
+    try:
+        codec = erc_codec.Codec.from_path(tree, root="S")
+        assert peer.ask("S") == [(True, f"S={codec.max_size('S')}")]
+        s: Any = codec.message_class("S")
+        exact = codec.encode(s(b=1), "exact")
+        assert peer.recode("S", exact) == exact
+        for value in ("", "x"):
+            data = s(b=1, a=value).SerializeToString()
+            assert peer.recode("S", data) == "string overflow"
+            with pytest.raises(erc_codec.EncodeError, match=r"\(nanopb: zero-length string\)$"):
+                codec.encode(s(b=1, a=value))
+            with pytest.raises(erc_codec.DecodeError, match=r"\(string overflow\)$"):
+                codec.decode(data, strict=True)
+    finally:
+        peer.close()
