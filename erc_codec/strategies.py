@@ -11,9 +11,10 @@ nanopb's generator types them (``Sizes.field_type``, ``repeated``, ``required``)
 whose ``label_override`` makes it single holds at most one item (a required one exactly one, a
 required proto3 scalar never its default, which protobuf would not send), a string whose
 ``type_override`` is bytes may hold NULs and ``max_length + 1`` bytes, bytes overridden to a
-string hold no NUL. A string or bytes field whose ``max_size`` leaves no room for any value
-(a string's 0: nanopb's array holds not even the NUL) is never set. Test your own handlers with
-it.
+string hold no NUL. An envelope root has exactly one payload member set (one the codec can
+send), its metadata drawn as any field. A string or bytes field whose ``max_size`` leaves no
+room for any value (a string's 0: nanopb's array holds not even the NUL) is never set. Test your
+own handlers with it.
 """
 
 from typing import Any
@@ -37,7 +38,11 @@ _UNBOUNDED_COUNT = 8
 def messages(codec: Codec, name: str, *, allow_nan: bool = False) -> st.SearchStrategy[Message]:
     """A strategy drawing instances of message ``name`` (a full name) of ``codec``'s schema."""
     codec.message_class(name)  # SchemaError for an unknown name, before anything is drawn
-    return _Builder(codec, allow_nan).message(descriptor_of(codec.message_class(name)))
+    builder = _Builder(codec, allow_nan)
+    descriptor = descriptor_of(codec.message_class(name))
+    if name == codec.root and codec.kinds():  # an envelope root: its payload is always set
+        return builder.envelope(descriptor)
+    return builder.message(descriptor)
 
 
 class _Builder:
@@ -55,7 +60,26 @@ class _Builder:
             self._memo[name] = built
         return self._memo[name]
 
-    def _build(self, descriptor: Descriptor) -> st.SearchStrategy[Message]:
+    def envelope(self, descriptor: Descriptor) -> st.SearchStrategy[Message]:
+        """The envelope root: exactly one payload member set (one of those the codec can send),
+        with metadata drawn as any field (the codec refuses an envelope without a payload)."""
+        sendable = []
+        for kind in self._codec.kinds().values():
+            try:
+                self._codec.payload_class(kind)
+            except SchemaError:
+                continue  # a member nobody can send or read as nanopb does
+            sendable.append(kind)
+        if not sendable:
+            raise SchemaError(f"{descriptor.full_name} has no member the codec can send")
+        field = descriptor.fields_by_name[sendable[0]]
+        assert field.containing_oneof is not None, field.full_name
+        return self._build(descriptor, (field.containing_oneof.name, frozenset(sendable)))
+
+    def _build(
+        self, descriptor: Descriptor, payload: tuple[str, frozenset[str]] | None = None
+    ) -> st.SearchStrategy[Message]:
+        """``payload``: an envelope's oneof and the members to draw from, one always set."""
         cls = self._codec.message_class(descriptor.full_name)
         sizes = self._codec.nanopb
         required: dict[str, st.SearchStrategy[Any]] = {}
@@ -72,7 +96,11 @@ class _Builder:
                     )
                 continue
             oneof = sizes.real_oneof(field)
-            if oneof is not None:
+            if payload is not None and oneof is not None and oneof.name == payload[0]:
+                if field.name in payload[1]:
+                    member = st.fixed_dictionaries({field.name: self._field(field)})
+                    oneofs.setdefault(oneof.name, []).append(member)
+            elif oneof is not None:
                 member = st.fixed_dictionaries({field.name: self._field(field)})
                 oneofs.setdefault(oneof.name, [st.just({})]).append(member)
             elif field.has_presence and not sizes.required(field):  # submessages, `optional`s
