@@ -41,7 +41,7 @@ class UnreadableKind(SchemaError, DecodeError):
     it (an editions ``DELIMITED`` field, a message the protobuf runtime cannot build): the
     schema's fault, so a ``SchemaError``, and a ``DecodeError`` of reason ``"unsupported"``, so
     that whatever counts datagrams by reason (``Dispatcher``, ``Router``) counts it. ``kind`` is
-    the member the datagram carries (a plain root's full name), ``None`` where it is not known."""
+    the envelope member the datagram carries, ``None`` where it is not known."""
 
     def __init__(self, message: str, kind: str | None = None) -> None:
         DecodeError.__init__(self, message, "unsupported")

@@ -116,7 +116,7 @@ class Plain:
         bytes-like object); with ``strict``, a ``DecodeError`` too for fields the schema does not
         know and for what nanopb's decoder refuses (as ``Envelope.decode``)."""
         if self._root_blocked is not None:
-            raise UnreadableKind(self._root_blocked, self._name)
+            raise UnreadableKind(self._root_blocked)
         received = as_bytes(data)
         message = self._forms.parse(received)
         if strict:
