@@ -7,7 +7,11 @@ string holding a NUL (nanopb stores strings NUL-terminated: it would arrive cut 
 keys as much as its values),
 ``fixed_length`` bytes not exactly ``max_size`` long or a ``fixed_count`` field without exactly
 ``max_count`` items (nanopb: "incorrect fixed length bytes size", "wrong size for fixed count
-field"), an unset proto2 ``required`` field (nanopb: "missing required field").
+field"), an unset proto2 ``required`` field (nanopb: "missing required field"), a set group
+field nanopb leaves out (``FT_IGNORE``, ``discard_deprecated``): its decoder skips what it
+ignores, but ``pb_skip_field`` cannot skip a group ("invalid wire_type"). Any other field nanopb
+leaves out is sent as protobuf writes it, and nanopb's decoder skips it: the board drops its
+value, and takes the rest.
 ``contract(sizes, descriptor)`` returns how to check a payload type: an exact check that raises
 ``EncodeError`` naming the field path, and a cheap screen deciding whether to run it.
 
@@ -120,6 +124,8 @@ def _enum_tags(sizes: Sizes, descriptor: Descriptor, tags: dict[bytes, set[bytes
     noise = 0
     for field in descriptor.fields:
         if sizes.ignored(field):
+            if field.type == _T.TYPE_GROUP:
+                return None  # a set one is refused: nothing of it the screen could see
             continue
         if (
             field.is_repeated
@@ -290,6 +296,7 @@ class _Source:
         tests: list[str] = []
         for field in descriptor.fields:
             if self._sizes.ignored(field):
+                lines += self._unskippable(field, var, prefix)
                 continue
             mismatch = self._sizes.wire_mismatch(field)
             if mismatch is not None:
@@ -309,10 +316,8 @@ class _Source:
             ):
                 check = _field_check(self._sizes, field, path)
                 call = f"{self._name(check)}({read}, p)"
-                if _checked_when_set(self._sizes, field):
-                    lines.append(f" if {var}.HasField({field.name!r}): {call}")
-                else:
-                    lines.append(f" {call}")
+                sent = _sent_when(self._sizes, field, var, read)
+                lines.append(f" if {sent}: {call}" if sent else f" {call}")
                 self.cost += 1
             elif field.type == _T.TYPE_ENUM:
                 allowed = frozenset(value.number for value in enum_of(field).values)
@@ -330,21 +335,44 @@ class _Source:
             lines.insert(0, f" if {' or '.join(tests)}: fail(m, p)")
         return lines
 
+    def _unskippable(self, field: FieldDescriptor, var: str, prefix: str) -> list[str]:
+        """For a field nanopb leaves out, the line refusing it set if it is a group (nanopb's
+        decoder skips what it ignores with ``pb_skip_field``, which answers a group "invalid
+        wire_type"); none for any other, which the board drops."""
+        if field.type != _T.TYPE_GROUP:
+            return []
+        deprecated = self._sizes.options(field).discard_deprecated and field.GetOptions().deprecated
+        why = "discard_deprecated" if deprecated else "FT_IGNORE"  # on it, or on its oneof
+        path = prefix + field.name
+
+        def refuse(top: str) -> None:
+            raise EncodeError(
+                f"{top}.{path} is set, but it is a group nanopb leaves out ({why}), which its "
+                "decoder cannot skip: it refuses the whole message (invalid wire_type)"
+            )
+
+        self.cost += 1
+        present = f"{var}.{field.name}" if field.is_repeated else f"{var}.HasField({field.name!r})"
+        return [f" if {present}: {self._name(refuse)}(p)"]
+
     def _name(self, value: object) -> str:
         name = f"c{len(self.names)}"
         self.names[name] = value
         return name
 
 
-def _checked_when_set(sizes: Sizes, field: FieldDescriptor) -> bool:
-    """Whether a field's value is checked only when set: ``fixed_length`` bytes with presence,
-    whose unset value (``b""``) is sent as nothing."""
-    return (
-        sizes.field_type(field) == _T.TYPE_BYTES
-        and not field.is_repeated
-        and field.has_presence
-        and bool(sizes.options(field).fixed_length)
-    )
+def _sent_when(sizes: Sizes, field: FieldDescriptor, var: str, read: str) -> str | None:
+    """The condition a single field's value is checked under, where it is checked only when
+    sent (``None``: always): ``fixed_length`` bytes with presence, whose unset value (``b""``)
+    is sent as nothing; a string or bytes field with no room for any value (``_no_room``),
+    when set or, without presence, when not empty (protobuf sends no empty value)."""
+    if field.is_repeated or field.type not in (_T.TYPE_STRING, _T.TYPE_BYTES):
+        return None
+    limit = sizes.max_bytes(field)
+    fixed = sizes.field_type(field) == _T.TYPE_BYTES and bool(sizes.options(field).fixed_length)
+    if field.has_presence and (fixed or (limit is not None and limit < 0)):
+        return f"{var}.HasField({field.name!r})"
+    return read if limit is not None and limit < 0 else None
 
 
 def _field_check(sizes: Sizes, field: FieldDescriptor, path: str) -> Callable[[Any, str], None]:
@@ -435,7 +463,10 @@ def _enum_item(field: FieldDescriptor) -> Callable[[Any, str], None]:
 
 def _sized_item(limit: int | None, text: bool, exact: bool = False) -> Callable[[Any, str], None]:
     """Check a string or bytes value (a ``str`` or ``bytes`` in Python, as declared) that nanopb
-    holds as a string (``text``: NUL-terminated) or as bytes."""
+    holds as a string (``text``: NUL-terminated) or as bytes. A ``limit`` below zero leaves no
+    room for any value sent (``_no_room``)."""
+    if limit is not None and limit < 0:
+        return _no_room(limit, text)
 
     def sized_item(value: Any, path: str) -> None:
         length = len(value.encode("utf-8")) if isinstance(value, str) else len(value)
@@ -452,6 +483,29 @@ def _sized_item(limit: int | None, text: bool, exact: bool = False) -> Callable[
             )
 
     return sized_item
+
+
+def _no_room(limit: int, text: bool) -> Callable[[Any, str], None]:
+    """The check of a value sent where nanopb has no room for any: a string whose ``max_size``
+    is 0 or less (``max_length`` -1 or less), bytes whose ``max_size`` is below 0. nanopb's
+    generator takes the option and sizes the field from it; its C array then holds not even a
+    string's NUL (``char a[0]``: nanopb's encoder answers "zero-length string", its decoder
+    "string overflow" to any value, an empty one too) or has a negative size, which no C
+    compiler takes."""
+    size = limit + 1 if text else limit  # the max_size nanopb's generator uses
+    why = (
+        "nanopb: zero-length string"
+        if text and size == 0
+        else f"its C array, of {size} bytes, compiles nowhere"
+    )
+
+    def no_room(value: Any, path: str) -> None:
+        raise EncodeError(
+            f"{path} cannot be sent: nanopb's max_size {size} leaves no room for any value, "
+            f"not even an empty one ({why})"
+        )
+
+    return no_room
 
 
 def _ranged_item(low: int, high: int, reason: str) -> Callable[[Any, str], None]:

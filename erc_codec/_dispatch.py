@@ -16,7 +16,7 @@ from google.protobuf.message import DecodeError as ProtobufDecodeError
 from google.protobuf.message import Message
 
 from ._codec import Codec
-from ._errors import DecodeError, SchemaError
+from ._errors import DecodeError, SchemaError, UnreadableKind
 
 __all__ = ["DispatchStats", "Dispatcher", "Drop"]
 
@@ -28,7 +28,7 @@ class Drop(NamedTuple):
     """A datagram that reached no handler, or whose handler failed."""
 
     reason: str  # "unhandled", "handler_error", or a DecodeError reason ("corrupt", ...)
-    kind: str | None  # the payload kind, when the datagram decoded
+    kind: str | None  # the payload kind, when the datagram decoded (or is UnreadableKind's)
     data: bytes
     error: Exception | None
 
@@ -135,8 +135,9 @@ class Dispatcher:
             try:
                 decoded = self._decode(data)
             except DecodeError as error:
+                known = error.kind if isinstance(error, UnreadableKind) else None
                 return self._drop(
-                    self._undecodable, error.reason, Drop(error.reason, None, data, error)
+                    self._undecodable, error.reason, Drop(error.reason, known, data, error)
                 )
             kind, message = decoded
             advertised = decoded.timeout

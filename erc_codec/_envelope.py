@@ -585,15 +585,15 @@ class Envelope:
         try:
             envelope = self._parse_restored(data)
         except DecodeError:
-            why = self._blocked_first(data)  # protobuf's group for a DELIMITED member, say
-            if why is not None:
-                raise UnreadableKind(why) from None
+            blocked = self._blocked_first(data)  # protobuf's group for a DELIMITED member, say
+            if blocked is not None:
+                raise UnreadableKind(self._blocked[blocked], blocked) from None
             raise
         kind = envelope.WhichOneof(self._oneof)
         if kind is None:
             raise self._no_payload(data)
         if kind in self._blocked:
-            raise UnreadableKind(self._blocked[kind])
+            raise UnreadableKind(self._blocked[kind], kind)
         decoded = _decoded(Decoded, (kind, getattr(envelope, kind)))
         decoded.envelope = envelope
         outside = own_unknown_fields(envelope, self._name)
@@ -610,14 +610,15 @@ class Envelope:
         return decoded
 
     def _blocked_first(self, data: bytes) -> str | None:
-        """Why the member the datagram's first field is cannot be received, if it is blocked."""
+        """The member the datagram's first field is, if it is blocked (cannot be received)."""
         if not self._blocked or not data or not data[0]:
             return None
         try:
             number = next_field(data, 0, zeros_past_end=True).number
         except WireError:
             return None
-        return self._blocked.get(self._kinds.get(number, ""))
+        kind = self._kinds.get(number, "")
+        return kind if kind in self._blocked else None
 
     def _parse_restored(self, data: bytes) -> Message:
         if not data:
@@ -635,7 +636,7 @@ class Envelope:
                 "no_payload",
             )
         if self._kinds.get(number) in self._blocked:  # nanopb's bytes for a DELIMITED member
-            return UnreadableKind(self._blocked[self._kinds[number]])
+            return UnreadableKind(self._blocked[self._kinds[number]], self._kinds[number])
         if number in self._kinds:
             return DecodeError(
                 f"payload number {number} ({self._kinds[number]}) arrived with wire type "

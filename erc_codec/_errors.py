@@ -40,7 +40,9 @@ class UnreadableKind(SchemaError, DecodeError):
     """A datagram of a member the schema declares but which cannot be decoded as nanopb decodes
     it (an editions ``DELIMITED`` field, a message the protobuf runtime cannot build): the
     schema's fault, so a ``SchemaError``, and a ``DecodeError`` of reason ``"unsupported"``, so
-    that whatever counts datagrams by reason (``Dispatcher``, ``Router``) counts it."""
+    that whatever counts datagrams by reason (``Dispatcher``, ``Router``) counts it. ``kind`` is
+    the envelope member the datagram carries, ``None`` where it is not known."""
 
-    def __init__(self, message: str) -> None:
+    def __init__(self, message: str, kind: str | None = None) -> None:
         DecodeError.__init__(self, message, "unsupported")
+        self.kind = kind

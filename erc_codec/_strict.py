@@ -25,7 +25,11 @@ for what the parse no longer shows. protobuf keeps the low 32 bits of a varint i
 The bytes walk also counts what the parse merges: a field nanopb holds as an array that
 protobuf holds once (``label_override``) arrives as often as the sender wrote it ("array
 overflow"); it sees which required fields arrived at all (a proto3 zero a sender did write
-counts); and a packed array for a field nanopb holds single is "wrong wire type".
+counts); a string or bytes value whose ``max_size`` leaves no room for any (a string's 0)
+arrived at all ("string overflow", an empty one too); a packed array for a field nanopb holds
+single is "wrong wire type"; and a group nanopb does not read (a field it leaves out,
+``FT_IGNORE``, ``discard_deprecated``, or does not know) is "invalid wire_type":
+``pb_skip_field`` cannot skip groups.
 """
 
 from collections.abc import Iterator
@@ -34,7 +38,18 @@ from typing import Any
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from google.protobuf.message import Message
 
-from .schema import I32, I64, LEN, VARINT, Sizes, WireError, descriptor_of, message_of, next_field
+from .schema import (
+    I32,
+    I64,
+    LEN,
+    SGROUP,
+    VARINT,
+    Sizes,
+    WireError,
+    descriptor_of,
+    message_of,
+    next_field,
+)
 
 __all__ = ["refusal"]
 
@@ -115,6 +130,8 @@ def _value(sizes: Sizes, field: FieldDescriptor, path: str, value: Any) -> str |
     if field.type in (_T.TYPE_STRING, _T.TYPE_BYTES):
         length = len(value.encode("utf-8")) if isinstance(value, str) else len(value)
         limit = sizes.max_bytes(field)
+        if limit is not None and limit < 0:
+            return None  # no room for any value: the bytes walk refuses one that arrived
         if limit is not None and length > limit:
             return f"{path} is {length} bytes long, more than the {limit} allowed (overflow)"
         fixed = sizes.field_type(field) == _T.TYPE_BYTES and sizes.options(field).fixed_length
@@ -162,6 +179,12 @@ def _walk(
         pos = span.end
         field = descriptor.fields_by_number.get(span.number)
         if field is None or sizes.ignored(field):
+            if span.wire_type == SGROUP:  # pb_skip_field skips anything but a group
+                at = f"{path} field {span.number}" if field is None else _path(field, path, False)
+                return (
+                    f"{at} arrived as a group (wire type 3), which nanopb leaves out but cannot "
+                    "skip (invalid wire_type)"
+                )
             continue  # nanopb skips what it does not know
         here = _path(field, path, envelope)
         kind = sizes.field_type(field)
@@ -171,6 +194,14 @@ def _walk(
             if span.wire_type != LEN:
                 return f"{at} arrived with wire type {span.wire_type} (nanopb: wrong wire type)"
             seen[span.number] = index + 1
+            limit = sizes.max_bytes(field) if kind != _T.TYPE_MESSAGE else None
+            if limit is not None and limit < 0:
+                room = (
+                    "string overflow"  # char a[0]: not even the NUL fits
+                    if kind == _T.TYPE_STRING and limit == -1
+                    else "its C array has a negative size, which compiles nowhere"
+                )
+                return f"{at} arrived, but its max_size leaves no room for any value ({room})"
             if kind == _T.TYPE_MESSAGE and field.message_type is not None:
                 inner = f"{field.message_type.full_name}" if envelope else at
                 pending.append((field.message_type, span.value, span.end, inner, False))

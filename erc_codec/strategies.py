@@ -11,7 +11,10 @@ nanopb's generator types them (``Sizes.field_type``, ``repeated``, ``required``)
 whose ``label_override`` makes it single holds at most one item (a required one exactly one, a
 required proto3 scalar never its default, which protobuf would not send), a string whose
 ``type_override`` is bytes may hold NULs and ``max_length + 1`` bytes, bytes overridden to a
-string hold no NUL. Test your own handlers with it.
+string hold no NUL. An envelope root has exactly one payload member set (one the codec can
+send), its metadata drawn as any field. A string or bytes field whose ``max_size`` leaves no
+room for any value (a string's 0: nanopb's array holds not even the NUL) is never set. Test your
+own handlers with it.
 """
 
 from typing import Any
@@ -22,7 +25,7 @@ from hypothesis import strategies as st
 
 from ._codec import Codec
 from ._errors import SchemaError
-from .schema import PYTHON_INT_RANGE, descriptor_of, enum_of, message_of
+from .schema import PYTHON_INT_RANGE, Sizes, descriptor_of, enum_of, message_of
 
 __all__ = ["messages"]
 
@@ -35,7 +38,11 @@ _UNBOUNDED_COUNT = 8
 def messages(codec: Codec, name: str, *, allow_nan: bool = False) -> st.SearchStrategy[Message]:
     """A strategy drawing instances of message ``name`` (a full name) of ``codec``'s schema."""
     codec.message_class(name)  # SchemaError for an unknown name, before anything is drawn
-    return _Builder(codec, allow_nan).message(descriptor_of(codec.message_class(name)))
+    builder = _Builder(codec, allow_nan)
+    descriptor = descriptor_of(codec.message_class(name))
+    if name == codec.root and codec.kinds():  # an envelope root: its payload is always set
+        return builder.envelope(descriptor)
+    return builder.message(descriptor)
 
 
 class _Builder:
@@ -53,7 +60,26 @@ class _Builder:
             self._memo[name] = built
         return self._memo[name]
 
-    def _build(self, descriptor: Descriptor) -> st.SearchStrategy[Message]:
+    def envelope(self, descriptor: Descriptor) -> st.SearchStrategy[Message]:
+        """The envelope root: exactly one payload member set (one of those the codec can send),
+        with metadata drawn as any field (the codec refuses an envelope without a payload)."""
+        sendable = []
+        for kind in self._codec.kinds().values():
+            try:
+                self._codec.payload_class(kind)
+            except SchemaError:
+                continue  # a member nobody can send or read as nanopb does
+            sendable.append(kind)
+        if not sendable:
+            raise SchemaError(f"{descriptor.full_name} has no member the codec can send")
+        field = descriptor.fields_by_name[sendable[0]]
+        assert field.containing_oneof is not None, field.full_name
+        return self._build(descriptor, (field.containing_oneof.name, frozenset(sendable)))
+
+    def _build(
+        self, descriptor: Descriptor, payload: tuple[str, frozenset[str]] | None = None
+    ) -> st.SearchStrategy[Message]:
+        """``payload``: an envelope's oneof and the members to draw from, one always set."""
         cls = self._codec.message_class(descriptor.full_name)
         sizes = self._codec.nanopb
         required: dict[str, st.SearchStrategy[Any]] = {}
@@ -62,8 +88,19 @@ class _Builder:
         for field in descriptor.fields:
             if sizes.ignored(field):
                 continue
+            if _no_room(sizes, field):  # never set: nanopb takes no value of it, sent at all
+                if sizes.required(field):
+                    raise SchemaError(
+                        f"{field.full_name}: nanopb requires it, but its max_size leaves no "
+                        f"room for any value: no {descriptor.full_name} can be sent"
+                    )
+                continue
             oneof = sizes.real_oneof(field)
-            if oneof is not None:
+            if payload is not None and oneof is not None and oneof.name == payload[0]:
+                if field.name in payload[1]:
+                    member = st.fixed_dictionaries({field.name: self._field(field)})
+                    oneofs.setdefault(oneof.name, []).append(member)
+            elif oneof is not None:
                 member = st.fixed_dictionaries({field.name: self._field(field)})
                 oneofs.setdefault(oneof.name, [st.just({})]).append(member)
             elif field.has_presence and not sizes.required(field):  # submessages, `optional`s
@@ -135,6 +172,19 @@ class _Builder:
             characters = st.characters(codec="utf-8", exclude_characters="\0" if string else "")
             return st.text(characters, max_size=room).map(lambda value: _fit_utf8(value, room))
         raise SchemaError(f"{field.full_name}: a group, which nanopb does not support")
+
+
+def _no_room(sizes: Sizes, field: FieldDescriptor) -> bool:
+    """Whether ``field`` holds strings or bytes (map keys or values too) whose nanopb
+    ``max_size`` leaves no room for any value, an empty one included (a string's 0 or less,
+    bytes' below 0: the contract refuses any sent)."""
+    entry = field.message_type
+    if entry is not None and entry.GetOptions().map_entry:
+        return any(_no_room(sizes, inner) for inner in entry.fields)
+    if field.type not in (_T.TYPE_STRING, _T.TYPE_BYTES):
+        return False
+    limit = sizes.max_bytes(field)
+    return limit is not None and limit < 0
 
 
 def _merge(left: dict[str, Any], right: dict[str, Any]) -> dict[str, Any]:

@@ -17,9 +17,10 @@ from pathlib import Path
 from typing import Any, cast
 
 import pytest
+from hypothesis import given, settings
 
 import erc_codec
-from erc_codec import Codec, DecodeError, EncodeError, MessageCodec, SchemaError
+from erc_codec import Codec, DecodeError, EncodeError, MessageCodec, SchemaError, strategies
 from erc_codec.schema import Sizes, compile_files, load_schema, resolve_options
 
 TREES = Path(__file__).resolve().parent / "any_trees"
@@ -1071,7 +1072,8 @@ def test_a_dispatcher_counts_a_member_nobody_can_read_and_handles_the_others() -
     """Its datagrams end in the "unsupported" counter (not an exception out of feed), and a
     handler for it is refused, saying why."""
     codec = Codec.from_path(UNSENDABLE, "Env")
-    dispatcher = erc_codec.Dispatcher(codec)
+    drops: list[erc_codec.Drop] = []
+    dispatcher = erc_codec.Dispatcher(codec, on_drop=drops.append)
     handled: list[Any] = []
     dispatcher.register("fine", handled.append)
     with pytest.raises(SchemaError, match=_COUNTS):
@@ -1081,6 +1083,11 @@ def test_a_dispatcher_counts_a_member_nobody_can_read_and_handles_the_others() -
     stats = dispatcher.stats()
     assert (stats.undecodable, stats.handled) == ({"unsupported": 1}, {"fine": 1})
     assert handled[0].x == 1
+    # the drop names the member its error knows, as a decoded datagram's drop would
+    ((drop,),) = [drops]
+    assert (drop.reason, drop.kind, drop.data.hex()) == ("unsupported", "counts", "12020801")
+    assert isinstance(drop.error, SchemaError)
+    assert isinstance(drop.error, erc_codec.DecodeError)
 
 
 _EXTENSION_TYPE = re.compile(r"pb_extension_type_t (\w+); /\* field type: char \w+\[(\d+)\]; \*/")
@@ -1119,3 +1126,57 @@ def test_extension_options_resolve_as_nanopbs_generator_resolves_them(
         if name.startswith("pk.")  # not nanopb.proto's own
     }
     assert ours == theirs == {"pk_ex": 10, "pk_R_inner": 9, "pk_R_plain": 3, "pk_other": 6}
+
+
+# -- a max_size that leaves no room for any value ------------------------------------------------
+
+
+@pytest.mark.parametrize("syntax", ["proto3", "proto2"])
+@pytest.mark.parametrize(
+    ("kind", "written", "size"),
+    [
+        ("string", "[(nanopb).max_size = 0]", 12),  # 1 + (1 + 0 - 1), + 11 for b
+        ("string", "[(nanopb).max_size = -1]", 20),  # varint(-1) is ten bytes: 1 + (10 - 1 - 1)
+        ("string", "[(nanopb).max_length = -1]", 12),  # max_size 0
+        ("string", "-s max_size=0", 12),
+        ("bytes", "[(nanopb).max_size = -1]", 21),
+    ],
+)
+def test_a_max_size_with_no_room_for_any_value_is_sized_as_the_generator_does_and_never_sent(
+    generator: None, tmp_path: Path, syntax: str, kind: str, written: str, size: int
+) -> None:
+    """nanopb's generator takes the option as given (no error, no callback): ``char a[0]``, whose
+    encoder answers "zero-length string" and decoder "string overflow" to any value, or an
+    array of negative size no compiler takes. The field has nanopb's size and is never sent;
+    a message without it is sent and received as any other."""
+    label = "optional " if syntax == "proto2" else ""
+    option, dash_s = ("", [written[3:]]) if written.startswith("-s") else (written, [])
+    (tmp_path / "s.proto").write_text(
+        f'syntax = "{syntax}";\nimport "nanopb.proto";\n'
+        f"message S {{ {label}{kind} a = 1 {option}; {label}int32 b = 2; }}\n"
+    )
+    out = tmp_path / "out"
+    out.mkdir()
+    theirs = generator_sizes(out, tmp_path, ["s.proto"], *(f"-s{s}" for s in dash_s))
+    codec = Codec.from_path(tmp_path, "S", settings=dash_s)
+    assert codec.sizes() == theirs == {"S": size}
+    s: Any = codec.message_class("S")
+    assert codec.decode(codec.encode(s(b=1)), strict=True) == ("S", s(b=1))
+    values: list[str | bytes] = ["x", ""] if kind == "string" else [b"x", b""]
+    if syntax == "proto3":
+        values.pop()  # protobuf sends no empty proto3 value
+    for sent in (s(a=value) for value in values):
+        with pytest.raises(
+            EncodeError, match=r"^S\.a cannot be sent: nanopb's max_size -?\d+ leaves no"
+        ):
+            codec.encode(sent)
+        with pytest.raises(DecodeError, match=r"S\.a arrived, but its max_size leaves"):
+            codec.decode(sent.SerializeToString(), strict=True)
+
+    @given(message=strategies.messages(codec, "S"))
+    @settings(max_examples=30, database=None)
+    def never_drawn(message: Any) -> None:
+        assert not message.HasField("a") if syntax == "proto2" else not message.a
+        assert codec.decode(codec.encode(message), strict=True) == ("S", message)
+
+    never_drawn()

@@ -446,3 +446,101 @@ def test_a_map_entry_is_a_root_as_nanopb_generates_it(mapkeys: Peer) -> None:
     too_long = codec.message_class("Labels.ByNameEntry")(key="abcde")
     assert re.search(r"^Labels\.ByNameEntry\.key is 5 bytes long", _refused(codec, too_long))
     assert mapkeys.recode("Labels_ByNameEntry", too_long.SerializeToString()) == "string overflow"
+
+
+# -- fields nanopb leaves out: its decoder skips them, but not a group ---------------------------
+
+IGNORED = erc_codec.Codec.from_path(ANY_TREES / "ignored", root="Holder")
+
+
+@pytest.fixture(scope="module")
+def ignored(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Peer]:
+    build = tmp_path_factory.mktemp("nanopb-ignored")
+    peer = build_0491(ANY_TREES / "ignored", ["ignored.proto"], ["G", "Holder"], build)
+    yield peer
+    peer.close()
+
+
+def test_a_field_nanopb_leaves_out_is_sent_and_dropped_by_the_board(ignored: Peer) -> None:
+    """An ignored int32 (FT_IGNORE) and a deprecated one under discard_deprecated are sent as
+    protobuf writes them; nanopb's decoder skips them and takes the rest."""
+    ((ok, listed),) = ignored.ask("S")
+    assert ok
+    assert listed == "G=11 Holder=39"
+    assert (IGNORED.max_size("G"), IGNORED.max_size("Holder")) == (11, 39)
+    g, holder = IGNORED.message_class("G"), IGNORED.message_class("Holder")
+    message = holder(inner=g(a=1, dropped=5, old=3))
+    sent = IGNORED.encode(message, "exact")
+    assert sent.hex() == "0a06080120052803"
+    assert ignored.recode("Holder", sent) == IGNORED.encode(holder(inner=g(a=1)), "exact")
+    assert IGNORED.decode(sent, strict=True).message == message  # nanopb takes it
+
+
+@pytest.mark.parametrize(
+    ("field", "why"),
+    [("grp", "FT_IGNORE"), ("many", "FT_IGNORE"), ("gone", "discard_deprecated")],
+)
+@pytest.mark.parametrize("where", ["inner", "items[1]"])
+def test_a_group_nanopb_leaves_out_is_refused_as_its_decoder_refuses_it(
+    ignored: Peer, field: str, why: str, where: str
+) -> None:
+    """pb_skip_field skips any wire type but a group's: nanopb's decoder refuses the message
+    ("invalid wire_type"), so encode refuses it and a strict decode says so."""
+    message: Any = IGNORED.message_class("Holder")()
+    inner = message.inner if where == "inner" else [message.items.add(), message.items.add()][1]
+    inner.a = 1
+    group = getattr(inner, field)
+    (group.add() if field == "many" else group).SetInParent()
+    data = message.SerializeToString()
+    assert ignored.recode("Holder", data) == "invalid wire_type"
+    path = re.escape(f"Holder.{where}.{field}")
+    with pytest.raises(erc_codec.EncodeError, match=rf"^{path} is set, but it is a group nanopb "):
+        IGNORED.encode(message)
+    with pytest.raises(erc_codec.EncodeError, match=rf"leaves out \({why}\), which its decoder"):
+        IGNORED.encode(message, "exact")
+    assert IGNORED.decode(data).message == message  # protobuf's reading takes it
+    refused = rf"refuses the Holder: {path} arrived as a group .* \(invalid wire_type\)$"
+    with pytest.raises(erc_codec.DecodeError, match=refused):
+        IGNORED.decode(data, strict=True)
+
+
+@given(data=st.data())
+@settings(max_examples=50, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_drawn_messages_never_set_a_group_nanopb_leaves_out(
+    ignored: Peer, data: st.DataObject
+) -> None:
+    message = data.draw(strategies.messages(IGNORED, "Holder"))
+    exact = IGNORED.encode(message, "exact")
+    assert ignored.recode("Holder", exact) == exact
+    assert IGNORED.decode(exact, strict=True) == ("Holder", message)
+
+
+def test_a_string_with_no_room_is_what_nanopbs_decoder_refuses_and_never_sent(
+    tmp_path: Path,
+) -> None:
+    """``max_size = 0``: the generator writes ``char a[0]``, which takes no value, an empty one
+    included ("string overflow"); a message without it goes through nanopb unchanged."""
+    tree = tmp_path / "tree"
+    tree.mkdir()
+    (tree / "s.proto").write_text(
+        'syntax = "proto2";\nimport "nanopb.proto";\n'
+        "message S { optional int32 b = 1; optional string a = 2 [(nanopb).max_size = 0]; }\n"
+    )
+    build = tmp_path / "build"
+    build.mkdir()
+    peer = build_0491(tree, ["s.proto"], ["S"], build)
+    try:
+        codec = erc_codec.Codec.from_path(tree, root="S")
+        assert peer.ask("S") == [(True, f"S={codec.max_size('S')}")]
+        s: Any = codec.message_class("S")
+        exact = codec.encode(s(b=1), "exact")
+        assert peer.recode("S", exact) == exact
+        for value in ("", "x"):
+            data = s(b=1, a=value).SerializeToString()
+            assert peer.recode("S", data) == "string overflow"
+            with pytest.raises(erc_codec.EncodeError, match=r"\(nanopb: zero-length string\)$"):
+                codec.encode(s(b=1, a=value))
+            with pytest.raises(erc_codec.DecodeError, match=r"\(string overflow\)$"):
+                codec.decode(data, strict=True)
+    finally:
+        peer.close()
