@@ -54,7 +54,7 @@ class Codec(Envelope):
     ``SchemaError`` naming the file and line. A message erc-codec cannot encode or decode as
     nanopb does (one protobuf's Python runtime cannot build: more than 63 required fields,
     clashing JSON names; an editions DELIMITED field; an override protobuf does not write as
-    nanopb reads it; a field named as a public attribute of protobuf's Message) keeps nanopb's
+    nanopb reads it; a field named as a method erc-codec asks a message for) keeps nanopb's
     size in ``sizes()`` and ``max_size``: only encoding or decoding it (a member carrying it, or
     the whole root) is a ``SchemaError`` saying why.
     ``options_file`` and ``settings`` are nanopb's generator's ``-f`` and ``-s``,

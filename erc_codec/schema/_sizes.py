@@ -35,9 +35,8 @@ full name).
 
 from collections.abc import Sequence
 
-from google.protobuf import descriptor_pb2, empty_pb2
+from google.protobuf import descriptor_pb2
 from google.protobuf.descriptor import Descriptor, FieldDescriptor, OneofDescriptor
-from google.protobuf.message import Message
 
 from .._errors import SchemaError
 from ._descriptors import declarations, extensions
@@ -83,16 +82,15 @@ _DELIMITED = (
     "message (wire type 2), so each side refuses or drops the other's bytes; make it a "
     "length-prefixed message field (nanopb's generated code stays the same)"
 )
-# The public attributes of a protobuf message: a field of one of these names is what an
-# instance's attribute gives in upb (its value, not the method), so protobuf's own code breaks on
-# it (``json_format``'s ``ListFields``, ``SerializeToString``) as erc-codec's would. Message's own,
-# and what upb's message classes add (``Extensions``, ``FindInitializationErrors``); private
-# names and a class's nested types and enum values hide nothing an instance is asked for.
+# What erc-codec and protobuf's json_format ask a message instance for: a field of one of these
+# names is what the instance's attribute gives in upb (its value, not the method), so they break
+# on it. Other public names (Clear, Extensions, ByteSize, SerializeToString: erc-codec calls the
+# class's) a field may take: tests/test_any_schema.py sends and reads such fields in every form.
 _MESSAGE_ATTRIBUTES = frozenset(
-    name
-    for source in (Message, empty_pb2.Empty, empty_pb2.Empty())
-    for name in dir(source)
-    if not name.startswith("_")
+    (
+        *("ClearField", "CopyFrom", "DESCRIPTOR", "HasField", "ListFields", "MergeFrom"),
+        *("SerializePartialToString", "SetInParent", "WhichOneof"),
+    )
 )
 # nanopb's int_size values (IS_8 .. IS_64; IS_DEFAULT is 0) as bits.
 _INT_BITS = {8: 8, 16: 16, 32: 32, 64: 64}
@@ -504,8 +502,9 @@ class Sizes:
         """Why erc-codec cannot encode or decode ``root`` as nanopb does, or ``None``: the first
         thing, depth first from ``root`` (through ``fields`` of it, default all), that is a
         message protobuf's Python runtime refuses to build (``Schema.refused``), a message with a
-        field named as a public attribute of protobuf's messages (``_MESSAGE_ATTRIBUTES``: ignored
-        by nanopb or not, it hides the method on every instance), a field written as a group
+        field named as a method erc-codec or json_format asks a message for
+        (``_MESSAGE_ATTRIBUTES``: ignored by nanopb or not, it hides the method on every
+        instance), a field written as a group
         where nanopb has a length-prefixed message (``_DELIMITED``), or a field whose nanopb
         overrides protobuf does not write as nanopb reads them (``wire_mismatch``). nanopb's
         sizes hold all the same: a codec loads such a schema and refuses only to encode or decode
