@@ -129,6 +129,7 @@ def resolve_options(
     for proto in files:
         rules = _read_rules(options_path(tree, include, options_file, proto.name))
         base = resolved.files[proto.name] = _merge(top, rules, proto.name, proto.options)
+        extended = list(extensions(proto, nested=False))  # and each message's, below
         for declaration in declarations(proto):
             message = declaration.proto
             name = declaration.name
@@ -138,6 +139,7 @@ def resolve_options(
                 annotated = message.options if message.HasField("options") else None
                 resolved.enums[name] = _merge(parent, rules, seen, annotated)
                 continue
+            extended += declaration.extensions()
             own = resolved.messages[name] = _merge(base, rules, seen, message.options)
             fields, prefix = resolved.fields, f"{name}."
             for field in message.field:
@@ -155,7 +157,7 @@ def resolve_options(
                 # oneofs carry no (nanopb) annotation: only .options lines reach them
                 dotted = f"{seen}.{oneof.name}"
                 resolved.oneofs[prefix + oneof.name] = _merge(own, rules, dotted, None)
-        for extension in extensions(proto):
+        for extension in extended:
             # The generator starts an extension from its file's options (not its scope's) and
             # matches it as its full name: ``pkg.ext``, ``pkg.Scope.ext`` under M_NONE.
             declared = extension.proto
