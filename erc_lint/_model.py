@@ -465,9 +465,10 @@ class Revision:
                 schema = Schema(self.root, root, set_, self.tree.includes)
                 sizes = Sizes(schema, self._options_file, self._settings, self._nanopb_version)
                 refusal = sizes.refusal(root)
-                if refusal is not None:
+                if refusal is not None:  # no size; max_size would say so in located words
                     self._refusals[root] = refusal
-                size = sizes.max_size(root)
+                else:
+                    size = sizes.max_size(root)
             except FileError:
                 raise  # a .options file that is no file stops the run; it is no missing size
             except SchemaError:
