@@ -506,3 +506,43 @@ def test_limit_changes_once_per_pair(tmp_path: Path) -> None:
     assert [limit_changes(pair, change) for pair in pairs] == plain
     assert [limit_changes(pair, change) for pair in pairs] == plain  # from the memo
     assert sum(map(len, plain)) == 2  # key's max_size, ticks' width
+
+
+def test_sizes_from_the_revisions_resolved_options_are_sizes_own() -> None:
+    """The revision model hands Sizes the options it resolved for the whole tree (a speed trick
+    for bench_lint's proto2+editions ratio): over every lint case tree with an envelope, the
+    sizes are those Sizes resolves for the root's files itself; a tree declaring a name twice
+    is resolved again."""
+    from erc_codec import SchemaError
+    from erc_codec.schema import Sizes, load_schema, resolve_options
+
+    compared = 0
+    for folder in sorted(CASES.glob("**/new")) + sorted(CASES.glob("**/old")):
+        try:
+            schema = load_schema(folder, "PBEnvelope")
+            plain = Sizes(schema).all()
+        except SchemaError:
+            continue
+        revision = build(load_tree(folder))
+        assert revision.nanopb().unique, folder
+        assert Sizes(schema, resolved=revision.nanopb()).all() == plain, folder
+        compared += 1
+    assert compared >= 25
+    twice = resolve_options(CASES, [])
+    twice.unique = False  # as resolve_options marks a tree declaring a name twice (below)
+    assert Sizes(schema, resolved=twice).all() == plain
+
+
+def test_resolved_options_say_when_two_files_declare_one_name(tmp_path: Path) -> None:
+    for name in ("a.proto", "b.proto"):
+        (tmp_path / name).write_text('syntax = "proto3";\nmessage M { int32 x = 1; }\n')
+    (tmp_path / "c.proto").write_text('syntax = "proto3";\nmessage N { int32 x = 1; }\n')
+    files = {  # two protoc runs: one would refuse the second M
+        f.name: f
+        for run in (["a.proto", "c.proto"], ["b.proto"])
+        for f in compile_files(tmp_path, run).file
+    }
+    from erc_codec.schema import resolve_options
+
+    assert resolve_options(tmp_path, [files["a.proto"], files["c.proto"]]).unique
+    assert not resolve_options(tmp_path, list(files.values())).unique

@@ -59,9 +59,12 @@ class ResolvedOptions:
     """nanopb options resolved for a schema, by full name: ``messages["Msg"]``,
     ``fields["Msg.f"]``, ``oneofs["Msg.o"]``, ``enums["Msg.Kind"]``, and each file's own by its
     name, ``files["a/b.proto"]`` (its ``mangle_names`` and ``package`` among them), and each
-    extension's by its full name, ``extensions["pkg.Scope.ext"]``."""
+    extension's by its full name, ``extensions["pkg.Scope.ext"]``. ``unique``: no full name was
+    declared by two of the files (a tree may hold two never compiled together), so the options
+    of any of the files are those ``resolve_options`` gives for them alone."""
 
     def __init__(self) -> None:
+        self.unique = True
         self.files: dict[str, Options] = {}
         self.messages: dict[str, Options] = {}
         self.fields: dict[str, Options] = {}
@@ -137,9 +140,11 @@ def resolve_options(
             if not isinstance(message, descriptor_pb2.DescriptorProto):
                 parent = resolved.messages[declaration.parent] if declaration.parent else base
                 annotated = message.options if message.HasField("options") else None
+                resolved.unique = resolved.unique and name not in resolved.enums
                 resolved.enums[name] = _merge(parent, rules, seen, annotated)
                 continue
             extended += declaration.extensions()
+            resolved.unique = resolved.unique and name not in resolved.messages
             own = resolved.messages[name] = _merge(base, rules, seen, message.options)
             fields, prefix = resolved.fields, f"{name}."
             for field in message.field:

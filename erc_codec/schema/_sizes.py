@@ -172,11 +172,14 @@ class Sizes:
         options_file: str = "%s.options",
         settings: Sequence[str] = (),
         nanopb_version: str = NANOPB_VERSIONS[0],
+        resolved: ResolvedOptions | None = None,
     ) -> None:
         """nanopb's sizes for ``schema``, its generator run from the tree's root with the
         schema's include folders (``-I``), ``-f options_file`` and ``-s`` for each setting
         (``"max_size:61"``), by the rules of generator ``nanopb_version`` (``NANOPB_VERSIONS``;
-        another value is a ``SchemaError``)."""
+        another value is a ``SchemaError``). ``resolved``: the options ``resolve_options`` gave
+        with these inputs for the schema's files or more (``unique``), which a caller holding
+        them (erc-lint's revision model) spares resolving again."""
         if nanopb_version not in NANOPB_VERSIONS:
             raise SchemaError(
                 f"nanopb_version {nanopb_version!r}: erc-codec knows the generator rules of "
@@ -186,9 +189,11 @@ class Sizes:
         # master after 0.4.9.1 sizes callback and pointer fields whose bound is known
         self._any_allocation = nanopb_version != NANOPB_VERSIONS[0]
         self._schema = schema
-        self._options: ResolvedOptions = resolve_options(
-            schema.tree, schema.files, schema.include, options_file, settings
-        )
+        if resolved is None or not resolved.unique:
+            resolved = resolve_options(
+                schema.tree, schema.files, schema.include, options_file, settings
+            )
+        self._options: ResolvedOptions = resolved
         self._optional: set[str] = set()  # proto3 `optional` fields (not in a real oneof)
         for proto in schema.files:
             for declaration in declarations(proto):
