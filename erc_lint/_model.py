@@ -562,10 +562,10 @@ class Revision:
 
 def _has_group(file: descriptor_pb2.FileDescriptorProto) -> bool:
     """Whether a file declares a proto2 group: a field of one of its messages, or an extension."""
-    fields = [e.proto for e in extensions(file)]
+    fields = list(file.extension)
     for declared in declarations(file):
         if isinstance(declared.proto, descriptor_pb2.DescriptorProto):
-            fields.extend(declared.proto.field)
+            fields += (*declared.proto.field, *declared.proto.extension)
     return any(f.type == _FD.TYPE_GROUP for f in fields)
 
 

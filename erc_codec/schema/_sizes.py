@@ -186,8 +186,9 @@ class Sizes:
                 f"{' and '.join(NANOPB_VERSIONS)} (0.4.x up to 0.4.9.1, and master after it)"
             )
         self.nanopb_version = nanopb_version
-        # master after 0.4.9.1 sizes callback and pointer fields whose bound is known
-        self._any_allocation = nanopb_version != NANOPB_VERSIONS[0]
+        # master after 0.4.9.1: it sizes callback and pointer fields whose bound is known, and
+        # looks types up otherwise (``nanopb_finds``)
+        self._master = nanopb_version != NANOPB_VERSIONS[0]
         self._schema = schema
         if resolved is None or not resolved.unique:
             resolved = resolve_options(
@@ -448,11 +449,11 @@ class Sizes:
 
     def _require_generated(self, message: Descriptor) -> None:
         """``SchemaError`` when nanopb's generator refuses the file of ``message``."""
-        why = self._located(message.file.name) if message.file.name in self._refused else ""
-        if why:
+        if message.file.name in self._refused:
             raise SchemaError(
-                f"nanopb's generator refuses {message.file.name} ({why}): it writes no code "
-                f"for {message.full_name}, so no size"
+                f"nanopb's generator refuses {message.file.name} "
+                f"({self._located(message.file.name)}): it writes no code for "
+                f"{message.full_name}, so no size"
             )
         left_out = self._left_out(message)
         if left_out is not None:
@@ -567,7 +568,7 @@ class Sizes:
     def _problem(self, field: FieldDescriptor) -> str | None:
         """Why ``field`` itself (not what it contains) has no static size, if it hasn't."""
         options = self.options(field)
-        if options.type in (_FT_CALLBACK, _FT_POINTER) and not self._any_allocation:
+        if options.type in (_FT_CALLBACK, _FT_POINTER) and not self._master:
             kind = "FT_CALLBACK" if options.type == _FT_CALLBACK else "FT_POINTER"
             return f"nanopb type {kind} (sized from nanopb_version 1.0.0-dev on, if bounded)"
         if self.repeated(field) and self.max_count(field) is None:
@@ -709,7 +710,7 @@ class Sizes:
                 (referring.package, files[referring.name]),
                 (defining.package, files[defining.name]),
                 kind.full_name,
-                master_lookup=self._any_allocation,
+                master_lookup=self._master,
             )
         return found
 
