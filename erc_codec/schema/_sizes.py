@@ -195,13 +195,7 @@ class Sizes:
                 schema.tree, schema.files, schema.include, options_file, settings
             )
         self._options: ResolvedOptions = resolved
-        self._optional: set[str] = set()  # proto3 `optional` fields (not in a real oneof)
-        for proto in schema.files:
-            for declaration in declarations(proto):
-                if isinstance(declaration.proto, descriptor_pb2.DescriptorProto):
-                    for field in declaration.proto.field:
-                        if field.proto3_optional:
-                            self._optional.add(f"{declaration.name}.{field.name}")
+        self._optional: set[str] | None = None  # proto3 `optional` fields: ``real_oneof``
         self._refused = self._refused_files()
         self._memo: dict[str, int | None] = {}
         self._lookups: dict[str, bool] = {}  # field -> whether nanopb finds its type
@@ -223,23 +217,11 @@ class Sizes:
                 if not isinstance(message, descriptor_pb2.DescriptorProto):
                     continue
                 grouped += (e for e in declaration.extensions() if e.proto.type == _T.TYPE_GROUP)
-                if proto.name in refused or not self._wanted(
-                    self._schema.descriptor(declaration.name)
-                ):
+                if proto.name in refused:
                     continue
-                for field in message.field:  # as written: a DELIMITED field is TYPE_MESSAGE here
-                    dotted = f"{declaration.name}.{field.name}"
-                    options = self._options.fields[dotted]
-                    kind = (
-                        options.type_override if options.HasField("type_override") else field.type
-                    )
-                    left_out = options.type == _FT_IGNORE or (
-                        options.discard_deprecated and field.options.deprecated
-                    )
-                    why = None if left_out else _generator_stops(field.type, kind)
-                    if why is not None:
-                        refused[proto.name] = ("field", dotted, f"{dotted} {why}")
-                        break
+                stop = self._stop(declaration.name, message)
+                if stop is not None and self._wanted(self._schema.descriptor(declaration.name)):
+                    refused[proto.name] = ("field", *stop)
             # An extension that is a group fails the generator too, unless its FT_IGNORE spares
             # the file (the generator then builds nothing of it).
             extension = next(
@@ -253,6 +235,20 @@ class Sizes:
                 plain = f"it imports {imported}, where {refused[imported][2]}"
                 refused[proto.name] = ("import", imported, plain)
         return refused
+
+    def _stop(self, name: str, message: descriptor_pb2.DescriptorProto) -> tuple[str, str] | None:
+        """The first field of message ``name`` that stops nanopb's generator, if it keeps it:
+        its full name and why (``A.g is a proto2 group, ...``)."""
+        for field in message.field:  # as written: a DELIMITED field is TYPE_MESSAGE here
+            dotted = f"{name}.{field.name}"
+            options = self._options.fields[dotted]
+            kind = options.type_override if options.HasField("type_override") else field.type
+            why = _generator_stops(field.type, kind)
+            if why is None or options.type == _FT_IGNORE:
+                continue  # nothing stops the generator, or it leaves the field out
+            if not (options.discard_deprecated and field.options.deprecated):
+                return dotted, f"{dotted} {why}"
+        return None
 
     def _located(self, file: str) -> str:
         """Why nanopb's generator refuses ``file`` (one ``_refused`` lists), with the location of
@@ -289,6 +285,15 @@ class Sizes:
 
     def real_oneof(self, field: FieldDescriptor) -> OneofDescriptor | None:
         """The oneof ``field`` belongs to, unless it is the synthetic one of an ``optional``."""
+        if self._optional is None:  # walked on first use: a refused root needs no oneof
+            self._optional = {
+                f"{declaration.name}.{field.name}"
+                for proto in self._schema.files
+                for declaration in declarations(proto)
+                if isinstance(declaration.proto, descriptor_pb2.DescriptorProto)
+                for field in declaration.proto.field
+                if field.proto3_optional
+            }
         if field.full_name in self._optional:
             return None
         return field.containing_oneof
