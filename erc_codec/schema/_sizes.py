@@ -287,12 +287,12 @@ class Sizes:
         """The oneof ``field`` belongs to, unless it is the synthetic one of an ``optional``."""
         if self._optional is None:  # walked on first use: a refused root needs no oneof
             self._optional = {
-                f"{declaration.name}.{field.name}"
+                f"{declaration.name}.{member.name}"
                 for proto in self._schema.files
                 for declaration in declarations(proto)
                 if isinstance(declaration.proto, descriptor_pb2.DescriptorProto)
-                for field in declaration.proto.field
-                if field.proto3_optional
+                for member in declaration.proto.field
+                if member.proto3_optional
             }
         if field.full_name in self._optional:
             return None
