@@ -1,6 +1,6 @@
 """Wall time of ``erc-lint OLD NEW`` against buf's breaking-change checker (WIRE), as a ratio.
 
-    python benchmarks/bench_lint.py [--quick] [--rounds N] [--keep]
+    python benchmarks/bench_lint.py [--quick] [--rounds N] [--keep] [--here]
 
 Both contenders run as subprocesses on the same pairs of generated trees (written to a temporary
 folder, never into the repository): ``erc-lint OLD NEW`` and ``buf breaking NEW --against OLD``
@@ -13,8 +13,13 @@ information. Before timing, a sanity check makes sure both really compare the tr
 against itself both must report no error, on OLD against NEW both must report the changes NEW
 makes, naming each member (the proto3 pair: a changed field type and a deleted field; the other: a
 changed default, a deleted field, an extension's changed type, a group made a plain message);
-anything else stops the script with exit status 2. erc-lint's packages are byte-compiled first, as
-a wheel install leaves them. Each round also times the start-up floor, this Python importing
+anything else stops the script with exit status 2. The erc-lint timed is a wheel of this checkout
+installed in a new virtual environment, as ``pipx install`` leaves it: byte-compiled, its
+dependencies at the versions this interpreter has (pip fetches them, or takes them from its
+cache), and nothing of this interpreter's own site-packages on its path, whose ``.pth`` files may
+run code at every start (a sandbox's certificate hook importing certifi: some 13 ms of every run
+here). ``--here``, or an install pip cannot make, times this interpreter's erc-lint instead,
+byte-compiled first. Each round also times the start-up floor, erc-lint's interpreter importing
 erc-lint's dependencies and nothing of its own, which is printed for information as a share of
 buf's time.
 
@@ -39,9 +44,11 @@ a target is missed.
 
 import argparse
 import compileall
+import importlib.metadata
 import json
 import os
 import random
+import re
 import shutil
 import statistics
 import subprocess
@@ -360,13 +367,56 @@ def _executable(name: str) -> str:
     return found
 
 
+def _pinned() -> list[str]:
+    """erc-codec's own dependencies (and grpcio-tools' grpcio), each at the version installed
+    here, so that the isolated install runs the very same libraries."""
+    wanted = [
+        re.split(r"[^A-Za-z0-9._-]", requirement, maxsplit=1)[0]
+        for requirement in importlib.metadata.requires("erc-codec") or []
+        if "extra ==" not in requirement
+    ]
+    pins = []
+    for name in [*wanted, "grpcio"]:
+        try:
+            pins.append(f"{name}=={importlib.metadata.version(name)}")
+        except importlib.metadata.PackageNotFoundError:
+            continue  # not for this Python (tomli on 3.11 and later)
+    return pins
+
+
+def isolated_install(folder: Path) -> tuple[str, str]:
+    """erc-lint and its interpreter from a new virtual environment in ``folder``, installed from
+    a wheel of this checkout as ``pipx install`` leaves it: byte-compiled, the dependencies at
+    this interpreter's versions, and nothing of this interpreter's own site-packages on its path
+    (whatever the ``.pth`` files there run at every start is no part of erc-lint's time).
+    Raises ``subprocess.CalledProcessError`` where pip cannot install it."""
+    root = Path(__file__).resolve().parent.parent
+    wheels, venv = folder / "wheel", folder / "venv"
+    quiet = ("--quiet", "--disable-pip-version-check")
+    build = [sys.executable, "-m", "pip", "wheel", *quiet, "--no-deps", "--no-build-isolation"]
+    subprocess.run([*build, "-w", str(wheels), str(root)], check=True, capture_output=True)
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, capture_output=True)
+    scripts = venv / ("Scripts" if os.name == "nt" else "bin")
+    (wheel,) = wheels.glob("erc_codec-*.whl")
+    install = [str(scripts / "python"), "-m", "pip", "install", *quiet, str(wheel), *_pinned()]
+    subprocess.run(install, check=True, capture_output=True)
+    return str(scripts / "erc-lint"), str(scripts / "python")
+
+
 @dataclass(frozen=True)
 class Tools:
     erc_lint: str
+    python: str  # erc-lint's interpreter, for the start-up floor
     buf: str
 
     def erc_lint_command(self, old: Path, new: Path, *extra: str) -> list[str]:
         return [self.erc_lint, str(old), str(new), *extra]
+
+    def floor_command(self) -> list[str]:
+        # The part of every erc-lint run that is no code of its own: the interpreter start-up,
+        # the imports of its dependencies, and the interpreter's shutdown.
+        imported = "import click, google.protobuf.descriptor_pb2, grpc_tools._protoc_compiler"
+        return [self.python, "-c", imported]
 
     def buf_command(self, old: Path, *extra: str) -> list[str]:
         # Run in NEW, so the v2 configuration's module ("." by default) is the tree itself.
@@ -473,22 +523,13 @@ class Times:
         return min(self.samples)
 
 
-# What every erc-lint run pays before any code of its own: the interpreter's start-up, the
-# imports of its dependencies, and the interpreter's shutdown (erc-lint ends as any command does).
-_FLOOR = [
-    sys.executable,
-    "-c",
-    "import click, google.protobuf.descriptor_pb2, grpc_tools._protoc_compiler",
-]
-
-
 def interleaved(tools: Tools, old: Path, new: Path, rounds: int) -> tuple[Times, Times, Times]:
     """erc-lint, buf and the start-up floor, in turn, ``rounds`` times each."""
     ours, theirs, floor = Times(), Times(), Times()
     for _ in range(rounds):
         ours.samples.append(_timed(tools.erc_lint_command(old, new), new.parent, 1))
         theirs.samples.append(_timed(tools.buf_command(old), new, _BUF_FINDINGS))
-        floor.samples.append(_timed(_FLOOR, new, 0))
+        floor.samples.append(_timed(tools.floor_command(), new, 0))
     return ours, theirs, floor
 
 
@@ -500,26 +541,43 @@ def _compile_bytecode() -> None:
             compileall.compile_dir(folder, quiet=1)
 
 
+def _contender(folder: Path, here: bool) -> tuple[str, str]:
+    """The erc-lint to time and its interpreter: an isolated install in ``folder``, else (with
+    ``here``, or where pip cannot make one) this interpreter's, byte-compiled."""
+    if not here:
+        try:
+            return isolated_install(folder)
+        except (OSError, ValueError, ImportError, subprocess.CalledProcessError) as error:
+            detail = getattr(error, "stderr", b"") or b""
+            last = detail.decode(errors="replace").strip().splitlines()[-1:] or [str(error)]
+            print(f"no isolated install ({last[0]}): timing this interpreter's erc-lint")
+    _compile_bytecode()
+    return _executable("erc-lint"), sys.executable
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer rounds (a smoke run)")
     parser.add_argument("--rounds", type=int, help="rounds per measurement (default 11, quick 3)")
     parser.add_argument("--keep", action="store_true", help="keep the generated trees; print where")
+    parser.add_argument(
+        "--here",
+        action="store_true",
+        help="time the erc-lint this interpreter has installed, not an isolated install",
+    )
     args = parser.parse_args()
     rounds = args.rounds or (3 if args.quick else 11)
     scaling_rounds = args.rounds or (1 if args.quick else 5)
 
-    _compile_bytecode()
-    tools = Tools(_executable("erc-lint"), _executable("buf"))
-    buf_version = _run([tools.buf, "--version"], Path.cwd()).stdout.strip()
-    print(f"erc-lint: {tools.erc_lint}; buf {buf_version}: {tools.buf}; {os.cpu_count()} CPUs")
-    print(
-        f"times: median of {rounds} interleaved rounds (best beside it); scaling: median of "
-        f"{scaling_rounds}"
-    )
-
     folder = Path(tempfile.mkdtemp(prefix="bench-lint-"))
     try:
+        tools = Tools(*_contender(folder, args.here), _executable("buf"))
+        buf_version = _run([tools.buf, "--version"], Path.cwd()).stdout.strip()
+        print(f"erc-lint: {tools.erc_lint}; buf {buf_version}: {tools.buf}; {os.cpu_count()} CPUs")
+        print(
+            f"times: median of {rounds} interleaved rounds (best beside it); scaling: median of "
+            f"{scaling_rounds}"
+        )
         pairs = {"proto3": False, "proto2+editions": True}
         measured: dict[str, tuple[Times, Times, Times]] = {}
         for name, legacy in pairs.items():
