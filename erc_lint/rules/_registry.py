@@ -102,16 +102,13 @@ class Report:
         self.container = container  # in_old: where NEW has the element's container
         self.like = like  # a tree rule's report graded as this rule is (a rename: FIELD_RENAMED)
 
-    def _members(self) -> tuple[object, ...]:
-        return tuple(getattr(self, name) for name in self.__slots__)
-
     def __eq__(self, other: object) -> bool:  # as a NamedTuple's: the tests compare reports
         if not isinstance(other, Report):
             return NotImplemented
-        return self._members() == other._members()
+        return _members(self) == _members(other)
 
     def __hash__(self) -> int:
-        return hash(self._members())
+        return hash(_members(self))
 
     def __repr__(self) -> str:
         members = ", ".join(f"{name}={getattr(self, name)!r}" for name in self.__slots__)
@@ -130,6 +127,10 @@ _DeletedCheck = Callable[[Message, Change], Reports]
 _MethodCheck = Callable[[MethodPair, Change], Reports]
 _TreeCheck = Callable[[Revision, Change], Reports]
 _FindingsCheck = Callable[["Found", Change], Reports]
+
+
+def _members(report: Report) -> tuple[object, ...]:
+    return tuple(getattr(report, name) for name in report.__slots__)
 
 
 class Found:
