@@ -33,6 +33,7 @@ _ENUM_VALUE = 2
 _SERVICE_METHOD = 2
 
 Proto = descriptor_pb2.DescriptorProto | descriptor_pb2.EnumDescriptorProto
+_MessageProto = descriptor_pb2.DescriptorProto
 
 
 class Location(NamedTuple):
@@ -57,11 +58,13 @@ class Declaration(NamedTuple):
 
     @property
     def is_message(self) -> bool:
-        return isinstance(self.proto, descriptor_pb2.DescriptorProto)
+        return isinstance(self.proto, _MessageProto)
 
     def member(self, index: int) -> tuple[int, ...]:
         """The source path of the ``index``-th field of a message, or value of an enum."""
-        return (*self.path, _MESSAGE_FIELD if self.is_message else _ENUM_VALUE, index)
+        # Asked once per field and value: isinstance here, not through is_message.
+        kind = _MESSAGE_FIELD if isinstance(self.proto, _MessageProto) else _ENUM_VALUE
+        return (*self.path, kind, index)
 
     def oneof(self, index: int) -> tuple[int, ...]:
         """The source path of a message's ``index``-th oneof."""
@@ -106,8 +109,10 @@ def _message(
         declaration = pending.pop()
         yield declaration
         outer, message = declaration.name, declaration.proto
-        if not isinstance(message, descriptor_pb2.DescriptorProto):
+        if not isinstance(message, _MessageProto):
             continue
+        if not message.nested_type and not message.enum_type:
+            continue  # most messages: nothing inside to walk
         inside: list[Declaration] = [
             Declaration(
                 f"{outer}.{nested.name}",
