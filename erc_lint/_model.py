@@ -810,9 +810,9 @@ def _enum(
     revision.enums.setdefault(model.name, model)
     for j, value in enumerate(proto.value):
         entry = EnumValue(model.name, value.name, value.number, source, declaration.member(j))
-        _define(revision, declaration.scope + value.name, entry)
-        model.values.setdefault(value.number, entry)
-        model.by_name.setdefault(value.name, entry)
+        _define(revision, declaration.scope + entry.name, entry)  # the model's attributes, as
+        model.values.setdefault(entry.number, entry)  # for a field: each upb read makes an object
+        model.by_name.setdefault(entry.name, entry)
     model.reserved.ranges.extend((r.start, r.end) for r in proto.reserved_range)
     model.reserved.names.update(proto.reserved_name)
 
