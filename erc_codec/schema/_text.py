@@ -51,9 +51,12 @@ def imports(text: str) -> Iterator[tuple[int, int, str]]:
     """``(start, end, spelling)`` of each import's file name as protoc reads it: ``start:end``
     spans its string literals (several, joined, perhaps over several lines, with whatever lies
     between them), ``spelling`` is their text unescaped (comments skipped)."""
-    if "import" not in text:
+    last = text.rfind("import")
+    if last < 0:
         return
     for match in _IMPORTS.finditer(text):
+        if match.start() > last:
+            break  # no statement starts after the last keyword: the rest is never scanned
         first = match[1]
         if first is None:
             continue
