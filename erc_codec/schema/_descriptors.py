@@ -191,11 +191,12 @@ class SourceIndex:
     def _index(self) -> dict[tuple[int, ...], descriptor_pb2.SourceCodeInfo.Location]:
         if self._proto is not None:
             # Declarations sit at even-length paths; the odd ones (names, numbers, types) are many.
-            self._locations = {
-                tuple(loc.path): loc
-                for loc in self._proto.source_code_info.location
-                if not len(loc.path) % 2
-            }
+            # Each location's path read once: every read of it makes a new container.
+            locations = self._locations
+            for loc in self._proto.source_code_info.location:
+                path = loc.path
+                if not len(path) % 2:
+                    locations[tuple(path)] = loc
             self._proto = None
         return self._locations
 
