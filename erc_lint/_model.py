@@ -708,8 +708,14 @@ def _message(
     users = [f for f in parent.fields.values() if f.type == name] if parent and map_entry else []
     declared = users[0].at if users else None
     model = Message(name, file, source, declared or declaration.path, map_entry)
-    oneofs = [oneof.name for oneof in proto.oneof_decl]
-    maps = {f"{name}.{nested.name}" for nested in proto.nested_type if nested.options.map_entry}
+    # Most messages have no oneof, nested type or reserved range: no comprehension for them.
+    declared_oneofs, nested_types = proto.oneof_decl, proto.nested_type
+    oneofs = [oneof.name for oneof in declared_oneofs] if declared_oneofs else []
+    maps = (
+        {f"{name}.{nested.name}" for nested in nested_types if nested.options.map_entry}
+        if nested_types
+        else set()
+    )
     for j, f in enumerate(proto.field):
         real_oneof = f.HasField("oneof_index") and not f.proto3_optional
         if real_oneof:
@@ -727,8 +733,11 @@ def _message(
         model.fields.setdefault(entry.number, entry)  # the model's, not protobuf's, attributes:
         model.by_name.setdefault(entry.name, entry)  # each upb read makes a new object
     # protoc's message ranges end before ``end``; enum ranges include it
-    model.reserved.ranges.extend((r.start, r.end - 1) for r in proto.reserved_range)
-    model.reserved.names.update(proto.reserved_name)
+    ranges, names = proto.reserved_range, proto.reserved_name
+    if ranges:
+        model.reserved.ranges.extend((r.start, r.end - 1) for r in ranges)
+    if names:
+        model.reserved.names.update(names)
     for extension_range in proto.extension_range:
         model.extension_ranges.append((extension_range.start, extension_range.end - 1))
         model.reserved_extensions.update(
@@ -813,8 +822,11 @@ def _enum(
         _define(revision, declaration.scope + entry.name, entry)  # the model's attributes, as
         model.values.setdefault(entry.number, entry)  # for a field: each upb read makes an object
         model.by_name.setdefault(entry.name, entry)
-    model.reserved.ranges.extend((r.start, r.end) for r in proto.reserved_range)
-    model.reserved.names.update(proto.reserved_name)
+    ranges, names = proto.reserved_range, proto.reserved_name
+    if ranges:
+        model.reserved.ranges.extend((r.start, r.end) for r in ranges)
+    if names:
+        model.reserved.names.update(names)
 
 
 def type_of(f: descriptor_pb2.FieldDescriptorProto) -> tuple[str, str]:
