@@ -717,7 +717,8 @@ def _message(
         else set()
     )
     for j, f in enumerate(proto.field):
-        real_oneof = f.HasField("oneof_index") and not f.proto3_optional
+        # (a field of a message that declares no oneof is in none: no question to protobuf)
+        real_oneof = bool(oneofs) and f.HasField("oneof_index") and not f.proto3_optional
         if real_oneof:
             model.oneofs.setdefault(oneofs[f.oneof_index], declaration.oneof(f.oneof_index))
         plain = map_entry or (bool(maps) and f.type_name.lstrip(".") in maps)  # never delimited
