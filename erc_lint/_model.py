@@ -70,6 +70,7 @@ _SCALARS = {
 # A proto2 group is a message type as far as the wire and the rules go.
 _KINDS = {_FD.TYPE_MESSAGE: "message", _FD.TYPE_GROUP: "message", _FD.TYPE_ENUM: "enum"}
 _IDEMPOTENCY = descriptor_pb2.MethodOptions.IdempotencyLevel
+_new_field = tuple.__new__
 _Files = dict[str, descriptor_pb2.FileDescriptorProto]
 # How a message field's encoding is named, as buf names it in a type: a proto2 group, an editions
 # field with ``message_encoding = DELIMITED`` (the same bytes), or a length-prefixed message.
@@ -107,16 +108,22 @@ class Field(NamedTuple):
         return "Extension" if self.extension else "Field"
 
 
-class EnumValue(NamedTuple):
-    owner: str
-    name: str
-    number: int
-    source: SourceIndex
-    at: tuple[int, ...]
+class EnumValue:
+    # Plain classes, this and Method, as Message and Enum are: nothing reads one as a tuple, and
+    # making a NamedTuple class costs some 0.15 ms of every run's start-up (bench_lint's 30-file
+    # ratio to buf, target <= 1.0x).
+    __slots__ = ("at", "name", "number", "owner", "source")
 
-    @property
-    def kind(self) -> str:
-        return "enum value"
+    kind = "enum value"
+
+    def __init__(
+        self, owner: str, name: str, number: int, source: SourceIndex, at: tuple[int, ...]
+    ) -> None:
+        self.owner = owner
+        self.name = name
+        self.number = number
+        self.source = source
+        self.at = at
 
     @property
     def location(self) -> Location:
@@ -235,16 +242,40 @@ class Enum:
         return [v.name for v in self.by_name.values() if v.number == number]
 
 
-class Method(NamedTuple):
-    service: str
-    name: str
-    input: str  # full names of the request and response messages
-    output: str
-    client_streaming: bool
-    server_streaming: bool
-    idempotency: str  # "IDEMPOTENCY_UNKNOWN", "NO_SIDE_EFFECTS" or "IDEMPOTENT"
-    source: SourceIndex
-    at: tuple[int, ...]
+class Method:
+    __slots__ = (
+        "at",
+        "client_streaming",
+        "idempotency",
+        "input",
+        "name",
+        "output",
+        "server_streaming",
+        "service",
+        "source",
+    )
+
+    def __init__(
+        self,
+        service: str,
+        name: str,
+        input: str,
+        output: str,
+        client_streaming: bool,
+        server_streaming: bool,
+        idempotency: str,
+        source: SourceIndex,
+        at: tuple[int, ...],
+    ) -> None:
+        self.service = service
+        self.name = name
+        self.input = input  # full names of the request and response messages
+        self.output = output
+        self.client_streaming = client_streaming
+        self.server_streaming = server_streaming
+        self.idempotency = idempotency  # "IDEMPOTENCY_UNKNOWN", "NO_SIDE_EFFECTS" or "IDEMPOTENT"
+        self.source = source
+        self.at = at
 
     @property
     def location(self) -> Location:
@@ -677,10 +708,17 @@ def _message(
     users = [f for f in parent.fields.values() if f.type == name] if parent and map_entry else []
     declared = users[0].at if users else None
     model = Message(name, file, source, declared or declaration.path, map_entry)
-    oneofs = [oneof.name for oneof in proto.oneof_decl]
-    maps = {f"{name}.{nested.name}" for nested in proto.nested_type if nested.options.map_entry}
+    # Most messages have no oneof, nested type or reserved range: no comprehension for them.
+    declared_oneofs, nested_types = proto.oneof_decl, proto.nested_type
+    oneofs = [oneof.name for oneof in declared_oneofs] if declared_oneofs else []
+    maps = (
+        {f"{name}.{nested.name}" for nested in nested_types if nested.options.map_entry}
+        if nested_types
+        else set()
+    )
     for j, f in enumerate(proto.field):
-        real_oneof = f.HasField("oneof_index") and not f.proto3_optional
+        # (a field of a message that declares no oneof is in none: no question to protobuf)
+        real_oneof = bool(oneofs) and f.HasField("oneof_index") and not f.proto3_optional
         if real_oneof:
             model.oneofs.setdefault(oneofs[f.oneof_index], declaration.oneof(f.oneof_index))
         plain = map_entry or (bool(maps) and f.type_name.lstrip(".") in maps)  # never delimited
@@ -693,11 +731,14 @@ def _message(
             oneofs[f.oneof_index] if real_oneof else None,
             plain,
         )
-        model.fields.setdefault(f.number, entry)
-        model.by_name.setdefault(f.name, entry)
+        model.fields.setdefault(entry.number, entry)  # the model's, not protobuf's, attributes:
+        model.by_name.setdefault(entry.name, entry)  # each upb read makes a new object
     # protoc's message ranges end before ``end``; enum ranges include it
-    model.reserved.ranges.extend((r.start, r.end - 1) for r in proto.reserved_range)
-    model.reserved.names.update(proto.reserved_name)
+    ranges, names = proto.reserved_range, proto.reserved_name
+    if ranges:
+        model.reserved.ranges.extend((r.start, r.end - 1) for r in ranges)
+    if names:
+        model.reserved.names.update(names)
     for extension_range in proto.extension_range:
         model.extension_ranges.append((extension_range.start, extension_range.end - 1))
         model.reserved_extensions.update(
@@ -729,21 +770,27 @@ def _field(
             encoding = _GROUP
         else:
             encoding = _DELIMITED if features.delimited and not plain else _LENGTH_PREFIXED
-    return Field(  # positionally: bench_lint's 1,000-file tree builds 30,000 of them
-        owner,
-        name or f.name,
-        f.number,
-        type_,
-        kind,
-        cardinality,
-        oneof,
-        source,
-        at,
-        encoding,
-        f.default_value if f.HasField("default_value") else None,
-        type_ == "string" and features.verifies_utf8,
-        f.json_name,
-        name is not None,
+    # tuple.__new__ rather than Field(...), whose __new__ is a Python function of 14 parameters:
+    # some 0.4 ms of each run's 1,000 fields (bench_lint's 30-file ratio to buf, <= 1.0x);
+    # test_lint_model holds the fields made so to those Field(...) makes.
+    return _new_field(
+        Field,
+        (
+            owner,
+            name or f.name,
+            f.number,
+            type_,
+            kind,
+            cardinality,
+            oneof,
+            source,
+            at,
+            encoding,
+            f.default_value if f.HasField("default_value") else None,
+            type_ == "string" and features.verifies_utf8,
+            f.json_name,
+            name is not None,
+        ),
     )
 
 
@@ -773,14 +820,18 @@ def _enum(
     revision.enums.setdefault(model.name, model)
     for j, value in enumerate(proto.value):
         entry = EnumValue(model.name, value.name, value.number, source, declaration.member(j))
-        _define(revision, declaration.scope + value.name, entry)
-        model.values.setdefault(value.number, entry)
-        model.by_name.setdefault(value.name, entry)
-    model.reserved.ranges.extend((r.start, r.end) for r in proto.reserved_range)
-    model.reserved.names.update(proto.reserved_name)
+        _define(revision, declaration.scope + entry.name, entry)  # the model's attributes, as
+        model.values.setdefault(entry.number, entry)  # for a field: each upb read makes an object
+        model.by_name.setdefault(entry.name, entry)
+    ranges, names = proto.reserved_range, proto.reserved_name
+    if ranges:
+        model.reserved.ranges.extend((r.start, r.end) for r in ranges)
+    if names:
+        model.reserved.names.update(names)
 
 
 def type_of(f: descriptor_pb2.FieldDescriptorProto) -> tuple[str, str]:
     """A field's type as the rules name it (``float``, or a full name) and its kind."""
-    kind = _KINDS.get(f.type, "scalar")
-    return (f.type_name.lstrip(".") if kind != "scalar" else _SCALARS[f.type]), kind
+    number = f.type
+    kind = _KINDS.get(number, "scalar")
+    return (f.type_name.lstrip(".") if kind != "scalar" else _SCALARS[number]), kind

@@ -1,6 +1,7 @@
 """erc_lint's loader: every file compiled on its own terms, imports resolved whatever their
 spelling, what loading met returned as load problems."""
 
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -216,3 +217,31 @@ def test_editions_compile_up_to_what_the_bundled_protoc_supports(tmp_path: Path)
     # UNSTABLE: "later than ... 2024" from 1.81 on; 'Unknown edition "UNSTABLE".' before (the
     # floor's 1.74), located in unstable.proto as asserted above.
     assert "UNSTABLE" in texts[-1], texts
+
+
+def test_the_import_scan_matches_the_plain_keyword_pattern() -> None:
+    """erc_codec.schema's import scan spells its keyword ``i(?<!\\wi)mport\\b`` so that re can
+    skip ahead to the characters a match starts with (bench_lint's ratio to buf): it finds what
+    the plain pattern, with ``\\bimport\\b``, finds, at the start of a text, after word and other
+    characters, in comments, strings and identifiers, whatever follows; and it stops at the last
+    ``import`` of a text, where the plain scan goes on to its end."""
+    string = r'"(?:\\.|[^"\\\n])*"|\'(?:\\.|[^\'\\\n])*\''
+    comment = r"//[^\n]*|/\*.*?\*/"
+    gap = rf"(?:[ \t\n\r\v\f]|{comment})"
+    plain = re.compile(
+        rf"{comment}|{string}|\bimport\b(?:{gap}*(?:public|weak)\b)?"
+        rf"{gap}*({string})((?:{gap}*(?:{string}))*){gap}*;",
+        re.DOTALL,
+    )
+    pieces = [
+        "import", "import ", "ximport", "_import", "import_", "importx", "é", "import\t",
+        "9import", ".import", '"a.proto"', "'b.proto'", '"un', "'un", "//", "/*", "*/", "\n",
+        " ", ";", "public", "weak", "\\", "\\x41", "\\u00e9", "package", "message A {}", "i",
+        "mport", ".proto",
+    ]  # fmt: skip
+    texts = [a + b + c for a in pieces for b in pieces for c in pieces]
+    texts += [" ".join(pieces), "".join(pieces), "\n".join(reversed(pieces))]
+    for text in texts:
+        found = [(start, end) for start, end, _ in imports(text)]
+        spans = [(m.start(1), m.end(2)) for m in plain.finditer(text) if m[1] is not None]
+        assert found == spans, text

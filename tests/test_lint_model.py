@@ -13,7 +13,7 @@ from lint_support import READING, protoc_edition, tree
 import erc_lint
 from erc_codec.schema import Sizes, load_schema, options_class
 from erc_lint._loader import load_tree
-from erc_lint._model import build
+from erc_lint._model import Field, build
 
 
 @pytest.mark.parametrize(
@@ -186,6 +186,24 @@ def test_features_resolve_as_a_descriptor_pool_resolves_them(tmp_path: Path) -> 
     # Each reading is met both ways, so the comparison above can fail.
     assert {("required", False), ("optional", True), ("optional", False)} <= seen
     assert {("utf8", True), ("utf8", False), ("closed", True), ("closed", False)} <= seen
+
+
+def test_fields_made_with_tuple_new_are_those_field_makes(tmp_path: Path) -> None:
+    """The model makes its fields with ``tuple.__new__`` (bench_lint's ratio to buf): each is the
+    Field that ``Field(...)`` makes of its members, none missing, fields and extensions alike."""
+    root = tmp_path / "t"
+    for name, text in compiled_features().items():
+        (root / name).parent.mkdir(parents=True, exist_ok=True)
+        (root / name).write_text(text)
+    revision = build(load_tree(root))
+    messages = [*revision.messages.values(), *revision.extended.values()]
+    made = [f for m in messages for f in (*m.fields.values(), *m.extensions.values())]
+    assert any(f.extension for f in made)
+    assert any(not f.extension for f in made)
+    for field in made:
+        assert type(field) is Field
+        assert Field(**field._asdict()) == field
+        assert len(field) == len(Field._fields)
 
 
 def test_a_tree_mixing_syntaxes_is_compared_completely(tmp_path: Path) -> None:
