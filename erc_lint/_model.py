@@ -594,12 +594,16 @@ def _without_source(file: descriptor_pb2.FileDescriptorProto) -> bytes:
 
 
 def _has_group(file: descriptor_pb2.FileDescriptorProto) -> bool:
-    """Whether a file declares a proto2 group: a field of one of its messages, or an extension."""
-    fields = list(file.extension)
-    for declared in declarations(file):
-        if isinstance(declared.proto, descriptor_pb2.DescriptorProto):
-            fields += (*declared.proto.field, *declared.proto.extension)
-    return any(f.type == _FD.TYPE_GROUP for f in fields)
+    """Whether a file declares a proto2 group: a field of one of its messages, or an extension.
+    Its messages are walked without naming them (``declarations`` does): the question is asked
+    of every file a root needs, and bench_lint's proto3 pair has no group in any of them."""
+    fields = [file.extension]
+    messages = list(file.message_type)
+    while messages:
+        message = messages.pop()
+        fields += (message.field, message.extension)
+        messages += message.nested_type
+    return any(f.type == _FD.TYPE_GROUP for declared in fields for f in declared)
 
 
 # nanopb's FieldType values as the generator stores them (FT_INLINE is static fixed_length).
