@@ -466,9 +466,8 @@ class Revision:
         files = self._root_files(root)
         size = None
         if files:
-            set_ = descriptor_pb2.FileDescriptorSet(file=files.values())
             try:
-                schema = Schema(self.root, root, set_, self.tree.includes)
+                schema = Schema(self.root, root, tuple(files.values()), self.tree.includes)
                 # The tree's options, resolved once for the rules, are the root files' too (when
                 # no name is declared twice): bench_lint's proto2+editions ratio to buf (<= 1.0x)
                 # spares two resolutions; test_lint_model holds the sizes to Sizes' own.
