@@ -17,6 +17,7 @@ asks, once per revision (and root).
 
 from collections import deque
 from collections.abc import Iterator, Sequence
+from itertools import zip_longest
 from pathlib import Path
 from typing import NamedTuple
 
@@ -72,6 +73,7 @@ _KINDS = {_FD.TYPE_MESSAGE: "message", _FD.TYPE_GROUP: "message", _FD.TYPE_ENUM:
 _IDEMPOTENCY = descriptor_pb2.MethodOptions.IdempotencyLevel
 _new_field = tuple.__new__
 _Files = dict[str, descriptor_pb2.FileDescriptorProto]
+_Proto = descriptor_pb2.DescriptorProto | descriptor_pb2.EnumDescriptorProto
 # How a message field's encoding is named, as buf names it in a type: a proto2 group, an editions
 # field with ``message_encoding = DELIMITED`` (the same bytes), or a length-prefixed message.
 _GROUP, _DELIMITED, _LENGTH_PREFIXED = "group", "message (delimited encoding)", "message"
@@ -308,10 +310,12 @@ class Revision:
     __slots__ = (
         "_failed_names",
         "_files",
+        "_grouped",
         "_has_options",
         "_nanopb",
         "_nanopb_version",
         "_options_file",
+        "_options_paths",
         "_refusals",
         "_settings",
         "_sizes",
@@ -344,6 +348,8 @@ class Revision:
         # Every global name a definition takes (C++ scoping: enum values beside their enum).
         self.definitions: dict[str, list[Definition]] = {}
         self._files: dict[str, _Files] = {}  # by root: what protoc resolved its types in
+        self._grouped: dict[str, bool] = {}  # by file: whether it declares a proto2 group
+        self._options_paths: dict[str, Path | None] = {}  # by file: its .options file, if any
         self._nanopb: ResolvedOptions | None = None  # nanopb's options, when first asked
         self._has_options: bool | None = None  # whether anything sets one, when first asked
         self._sizes: dict[str, int | None] = {}  # by root: nanopb's size, when first asked
@@ -491,9 +497,8 @@ class Revision:
         files = self._root_files(root)
         size = None
         if files:
-            set_ = descriptor_pb2.FileDescriptorSet(file=files.values())
             try:
-                schema = Schema(self.root, root, set_, self.tree.includes)
+                schema = Schema(self.root, root, tuple(files.values()), self.tree.includes)
                 # The tree's options, resolved once for the rules, are the root files' too (when
                 # no name is declared twice): bench_lint's proto2+editions ratio to buf (<= 1.0x)
                 # spares two resolutions; test_lint_model holds the sizes to Sizes' own.
@@ -522,51 +527,70 @@ class Revision:
         A.g is a proto2 group, ...``. Sized only where a file ``root`` needs holds a group
         (bench_lint's 30-file ratio: sizing a root costs some 35 ms)."""
         files = self._root_files(root).values()
-        if not any(_has_group(file) for file in files):
+        if not any(self._has_group(file) for file in files):
             return None
         self.max_size(root)
         return self._refusals.get(root)
 
-    def size_inputs(self, root: str) -> dict[tuple[str, str], object]:
-        """What nanopb computes ``root``'s size from: the descriptor of every message and enum it
-        reaches (without source locations, so comments and layout don't count) and, for each file
-        holding one, its package, syntax, edition, file options and ``.options`` text; and every
-        file it needs that declares a proto2 group, whole. Equal inputs, equal sizes: comparing
-        them spares two size computations."""
+    def size_inputs(self, root: str) -> Iterator[tuple[tuple[str, str], object]]:
+        """What nanopb computes ``root``'s size from, one input at a time: every file it needs
+        that declares a proto2 group, whole (by file name); the descriptor of every message and
+        enum it reaches (without source locations, so comments and layout don't count), as the
+        root reaches them; then, for each file holding one, its package, syntax, edition, file
+        options and ``.options`` text (by file name). Equal inputs, equal sizes: comparing them
+        spares two size computations. Two revisions with the same inputs give them in the same
+        order, so a comparison stops at the first that differs (``same_size_inputs``)."""
         files = self._root_files(root)
-        index: dict[str, tuple[descriptor_pb2.FileDescriptorProto, Declaration]] = {}
-        for file in files.values():
-            for declared in declarations(file):
-                index.setdefault(declared.name, (file, declared))
-        found: dict[tuple[str, str], object] = {}
-        for file in files.values():
+        for name in sorted(files):
             # A group anywhere in a file the root needs may make the generator refuse it (and
             # what it leaves out is decided by options of messages the root may not reach).
-            if _has_group(file):
-                whole = descriptor_pb2.FileDescriptorProto()
-                whole.CopyFrom(file)
-                whole.ClearField("source_code_info")
-                found["grouped", file.name] = whole.SerializeToString(deterministic=True)
-        pending = [root]
+            if self._has_group(files[name]):
+                yield ("grouped", name), _without_source(files[name])
+        index: dict[str, tuple[descriptor_pb2.FileDescriptorProto, _Proto]] = {}
+        for file in files.values():
+            for declared in declarations(file):
+                index.setdefault(declared.name, (file, declared.proto))
+        holding: dict[str, descriptor_pb2.FileDescriptorProto] = {}
+        pending, seen = [root], set()
         while pending:
             name = pending.pop()
-            if ("type", name) in found or name not in index:
+            if name in seen or name not in index:
                 continue
-            file, declared = index[name]
-            proto = declared.proto
-            found["type", name] = proto.SerializeToString(deterministic=True)
+            seen.add(name)
+            file, proto = index[name]
+            yield ("type", name), proto.SerializeToString(deterministic=True)
             if isinstance(proto, descriptor_pb2.DescriptorProto):
                 pending.extend(f.type_name.lstrip(".") for f in proto.field if f.type_name)
-            if ("file", file.name) not in found:
-                options = self._options_path(file.name)
-                text = read_file(options) if options is not None else None
-                settings = file.options.SerializeToString(deterministic=True)
-                found["file", file.name] = (file.package, file.syntax, file.edition, settings, text)
-        return found
+            holding.setdefault(file.name, file)
+        for name in sorted(holding):
+            file = holding[name]
+            options = self._options_path(name)
+            text = read_file(options) if options is not None else None
+            settings = file.options.SerializeToString(deterministic=True)
+            yield ("file", name), (file.package, file.syntax, file.edition, settings, text)
+
+    def same_size_inputs(self, other: "Revision", root: str) -> bool:
+        """Whether ``root``'s size inputs (``size_inputs``) are the same in both revisions,
+        compared one by one until one differs: bench_lint's proto2+editions pair (its ratio to
+        buf, <= 1.0x) differs in a file holding a group, found before any type is serialized.
+        test_same_size_inputs_is_the_plain_comparison holds it to comparing them all."""
+        pairs = zip_longest(self.size_inputs(root), other.size_inputs(root))
+        return all(mine == theirs for mine, theirs in pairs)
+
+    def _has_group(self, file: descriptor_pb2.FileDescriptorProto) -> bool:
+        """Whether a file declares a proto2 group, asked once per file."""
+        grouped = self._grouped.get(file.name)
+        if grouped is None:
+            grouped = self._grouped[file.name] = _has_group(file)
+        return grouped
 
     def _options_path(self, name: str) -> Path | None:
-        """The options file nanopb's generator reads for file ``name``, if any."""
-        return options_path(self.root, self.tree.includes, self._options_file, name)
+        """The options file nanopb's generator reads for file ``name``, if any (looked for once)."""
+        if name not in self._options_paths:
+            self._options_paths[name] = options_path(
+                self.root, self.tree.includes, self._options_file, name
+            )
+        return self._options_paths[name]
 
     def _root_files(self, root: str) -> _Files:
         """The file defining message ``root`` and every file it imports, each after its imports:
@@ -591,13 +615,25 @@ class Revision:
         return order
 
 
+def _without_source(file: descriptor_pb2.FileDescriptorProto) -> bytes:
+    """A file's descriptor without its source locations, serialized."""
+    whole = descriptor_pb2.FileDescriptorProto()
+    whole.CopyFrom(file)
+    whole.ClearField("source_code_info")
+    return whole.SerializeToString(deterministic=True)
+
+
 def _has_group(file: descriptor_pb2.FileDescriptorProto) -> bool:
-    """Whether a file declares a proto2 group: a field of one of its messages, or an extension."""
-    fields = list(file.extension)
-    for declared in declarations(file):
-        if isinstance(declared.proto, descriptor_pb2.DescriptorProto):
-            fields += (*declared.proto.field, *declared.proto.extension)
-    return any(f.type == _FD.TYPE_GROUP for f in fields)
+    """Whether a file declares a proto2 group: a field of one of its messages, or an extension.
+    Its messages are walked without naming them (``declarations`` does): the question is asked
+    of every file a root needs, and bench_lint's proto3 pair has no group in any of them."""
+    fields = [file.extension]
+    messages = list(file.message_type)
+    while messages:
+        message = messages.pop()
+        fields += (message.field, message.extension)
+        messages += message.nested_type
+    return any(f.type == _FD.TYPE_GROUP for declared in fields for f in declared)
 
 
 # nanopb's FieldType values as the generator stores them (FT_INLINE is static fixed_length).

@@ -1,6 +1,7 @@
 """erc_lint's model of a revision: what nanopb sizes a root from, and its size; what each field and
 enum means on the wire, in every syntax, as the protobuf runtime reads it."""
 
+import itertools
 from pathlib import Path
 
 import pytest
@@ -8,7 +9,7 @@ from google.protobuf import descriptor_pool, message_factory
 from google.protobuf.descriptor import FieldDescriptor
 from google.protobuf.descriptor_pb2 import FeatureSet, FieldOptions
 from google.protobuf.message import DecodeError
-from lint_support import READING, protoc_edition, tree
+from lint_support import HEADER, READING, protoc_edition, tree
 
 import erc_lint
 from erc_codec.schema import Sizes, load_schema, options_class
@@ -41,11 +42,68 @@ def test_equal_size_inputs_mean_equal_sizes(
         (root / "reading.options").write_text(files["reading.options"])
         revisions.append(build(load_tree(root)))
     old, new = revisions
-    assert (old.size_inputs("PBEnvelope") == new.size_inputs("PBEnvelope")) == same
+    assert (dict(old.size_inputs("PBEnvelope")) == dict(new.size_inputs("PBEnvelope"))) == same
     sizes = (old.max_size("PBEnvelope"), new.max_size("PBEnvelope"))
     assert None not in sizes
     if same:
         assert sizes[0] == sizes[1]
+
+
+# A proto2 file holding a group, imported by the envelope without being reached from it: the
+# generator refuses the envelope's file for it.
+_GROUPED = (
+    'syntax = "proto2";\n'
+    "message Legacy {\n  optional group Item = 1 {\n    optional int32 x = 1;\n  }\n}\n"
+)
+_WITH_GROUPS = {**READING, "envelope.proto": 'import "legacy.proto";\n' + READING["envelope.proto"]}
+_SIZE_VARIANTS: dict[str, dict[str, str]] = {
+    "plain": READING,
+    "options": {**READING, "reading.options": "Reading.label max_size:32\n"},
+    "comment": {**READING, "reading.proto": READING["reading.proto"] + "// the end\n"},
+    "int_type": {**READING, "reading.proto": READING["reading.proto"].replace("uint32", "int32")},
+    "extra_import": {
+        **READING,
+        "envelope.proto": 'import "other.proto";\n' + READING["envelope.proto"],
+        "other.proto": "message Other { string s = 1; }\n",
+    },
+    "grouped": {**_WITH_GROUPS, "legacy.proto": _GROUPED},
+    "grouped_commented": {**_WITH_GROUPS, "legacy.proto": _GROUPED + "// the end\n"},
+    "grouped_changed": {**_WITH_GROUPS, "legacy.proto": _GROUPED.replace("int32 x", "int64 x")},
+    "grouped_no_more": {
+        **_WITH_GROUPS,
+        "legacy.proto": _GROUPED.replace("optional group Item = 1 {", "message Item {").replace(
+            "  }\n}", "  }\n  optional Item item = 1;\n}"
+        ),
+    },
+}
+
+
+def test_same_size_inputs_is_the_plain_comparison(tmp_path: Path) -> None:
+    """ENVELOPE_SIZE_GROWN's early-exit comparison (bench_lint's proto2+editions ratio) answers
+    as comparing every input would, for every pair of these revisions."""
+    revisions = []
+    for name, files in _SIZE_VARIANTS.items():
+        root = tmp_path / name
+        root.mkdir()
+        for path, text in files.items():
+            plain = text.startswith("syntax") or path.endswith(".options")
+            (root / path).write_text(text if plain else HEADER + text)
+        revision = build(load_tree(root))
+        assert not revision.problems, name
+        revisions.append(revision)
+    same = set()
+    for old in revisions:
+        for new in revisions:
+            plain = dict(old.size_inputs("PBEnvelope")) == dict(new.size_inputs("PBEnvelope"))
+            assert old.same_size_inputs(new, "PBEnvelope") == plain, (old.root.name, new.root.name)
+            if plain and old is not new:
+                same.add(frozenset((old.root.name, new.root.name)))
+    # another file imported, holding no type the root reaches and no group, is no input
+    alike = [
+        ("plain", "comment", "extra_import", "grouped_no_more"),
+        ("grouped", "grouped_commented"),
+    ]
+    assert same == {frozenset(pair) for names in alike for pair in itertools.combinations(names, 2)}
 
 
 def test_a_roots_size_is_computed_once_per_revision(tmp_path: Path) -> None:

@@ -17,7 +17,7 @@ from erc_lint import RULES, Config, Rule
 from erc_lint._loader import load_tree
 from erc_lint._model import build
 from erc_lint._pairing import WIRE_GROUPS, wire_compatible
-from erc_lint.rules._registry import PAIRS
+from erc_lint.rules._registry import PAIRS, Report
 
 SECTIONS = ["## What it does", "## Why is this bad?", "## Example", "## Use instead"]
 
@@ -74,6 +74,19 @@ def test_every_rules_example_shows_the_rule(rule: Rule, tmp_path: Path) -> None:
         (tmp_path / side / "example.proto").write_text(header + text)
     found = erc_lint.lint(tmp_path / "Before", tmp_path / "After", Config(use=(rule.id,)))
     assert rule.id in {finding.rule for finding in found}, found
+
+
+def test_a_report_at_an_element_is_found_at_its_location(tmp_path: Path) -> None:
+    """A tree rule's report may name the element it is about (its location read only where the
+    report becomes a finding, bench_lint's proto2+editions ratio): it points where the report at
+    the element's location points."""
+    revision = build(load_tree(tree(tmp_path, READING)))
+    message = revision.messages["Reading"]
+    value = revision.enums["Mode"].values[1]
+    for element in (message, message.fields[2], value):
+        plain = Report(element.location, "m")
+        assert Report(element, "m").where == plain.where == plain.location
+        assert plain.where.line > 1  # a declaration's line, not the file's first
 
 
 @pytest.mark.parametrize(

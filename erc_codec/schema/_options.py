@@ -136,36 +136,48 @@ def resolve_options(
         for declaration in declarations(proto):
             message = declaration.proto
             name = declaration.name
-            seen = nanopb_name(proto.package, base, name)  # what the patterns are matched with
+            # Where the file has no options lines and an element no annotation, it has its
+            # parent's options: given without _merge's call, and without the name only options
+            # lines are matched with. Nearly every element, and some 20% of this resolution on
+            # bench_lint's proto2+editions pair (its ratio to buf, target <= 1.0x); the sizes
+            # are held to nanopb's generator's by test_generator_inputs, test_sizes and
+            # test_nanopb_rules.
+            annotated = message.HasField("options")
+            seen = nanopb_name(proto.package, base, name) if rules else name
             if not isinstance(message, descriptor_pb2.DescriptorProto):
                 parent = resolved.messages[declaration.parent] if declaration.parent else base
-                annotated = message.options if message.HasField("options") else None
                 resolved.unique = resolved.unique and name not in resolved.enums
-                resolved.enums[name] = _merge(parent, rules, seen, annotated)
+                resolved.enums[name] = (
+                    _merge(parent, rules, seen, message.options) if rules or annotated else parent
+                )
                 continue
             extended += declaration.extensions()
             resolved.unique = resolved.unique and name not in resolved.messages
-            own = resolved.messages[name] = _merge(base, rules, seen, message.options)
+            own = resolved.messages[name] = (
+                _merge(base, rules, seen, message.options) if rules or annotated else base
+            )
             fields, prefix = resolved.fields, f"{name}."
             for field in message.field:
                 if not rules and not field.HasField("options"):
-                    # What _merge gives, without the call: nothing applies. Most fields, and
-                    # some 20% of this resolution on bench_lint's proto2+editions pair (its ratio
-                    # to buf, target <= 1.0x); the sizes are held to nanopb's generator's by
-                    # test_generator_inputs, test_sizes and test_nanopb_rules.
-                    fields[prefix + field.name] = own
+                    fields[prefix + field.name] = own  # nothing applies (see above)
                     continue
                 options = field.options if field.HasField("options") else None
                 dotted = f"{seen}.{field.name}"
                 fields[prefix + field.name] = _merge(own, rules, dotted, options)
-            for oneof in message.oneof_decl:
-                # oneofs carry no (nanopb) annotation: only .options lines reach them
-                dotted = f"{seen}.{oneof.name}"
-                resolved.oneofs[prefix + oneof.name] = _merge(own, rules, dotted, None)
+            if rules:  # oneofs carry no (nanopb) annotation: only .options lines reach them
+                for oneof in message.oneof_decl:
+                    dotted = f"{seen}.{oneof.name}"
+                    resolved.oneofs[prefix + oneof.name] = _merge(own, rules, dotted, None)
+            else:
+                for oneof in message.oneof_decl:
+                    resolved.oneofs[prefix + oneof.name] = own
         for extension in extended:
             # The generator starts an extension from its file's options (not its scope's) and
             # matches it as its full name: ``pkg.ext``, ``pkg.Scope.ext`` under M_NONE.
             declared = extension.proto
+            if not rules and not declared.HasField("options"):
+                resolved.extensions[extension.name] = base  # nothing applies (see above)
+                continue
             annotation = declared.options if declared.HasField("options") else None
             seen = nanopb_name(proto.package, base, extension.name)
             resolved.extensions[extension.name] = _merge(base, rules, seen, annotation)

@@ -35,21 +35,27 @@ class Schema:
     fields, fields whose JSON names clash): there it holds a copy it can build (those required
     fields made optional, JSON names made the field names), sized like the original, and
     ``refused`` says why such a message has no class. ``include`` are the import folders
-    searched after ``tree``; ``shown`` is where messages say the files are.
+    searched after ``tree``; ``shown`` is where messages say the files are. ``files``: a set
+    protoc wrote, or its files (each after its imports), which the schema reads and never
+    changes.
     """
 
     def __init__(
         self,
         tree: Path,
         root: str,
-        files: descriptor_pb2.FileDescriptorSet,
+        files: descriptor_pb2.FileDescriptorSet | Sequence[descriptor_pb2.FileDescriptorProto],
         include: Sequence[Path] = (),
         shown: Path | None = None,
     ) -> None:
         self.tree = tree
         self.include = tuple(include)
         self.shown = tree if shown is None else shown  # where messages say the files are
-        self.files = tuple(files.file)
+        # a caller holding the files (erc-lint's revision model) spares copying them into a set:
+        # bench_lint's proto2+editions ratio to buf (<= 1.0x)
+        if isinstance(files, descriptor_pb2.FileDescriptorSet):
+            files = files.file
+        self.files = tuple(files)
         # The tree's own files, judged now: a git revision's scratch folder is gone once loaded;
         # a copy of nanopb.proto or descriptor.proto it ships is a vocabulary, not its schema.
         self._own = tuple(

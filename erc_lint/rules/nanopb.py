@@ -320,14 +320,14 @@ def envelope_over_budget(revision: Revision, change: Change) -> Reports:
                 or f"nanopb writes {root.replace('.', '_')}_size depends on runtime parameters"
             )
             yield Report(
-                message.location,
+                message,
                 f'Message "{root}" has no fixed size: its budget of {budget} bytes cannot hold '
                 f"({why}).",
                 key=key,
             )
         else:
             yield Report(
-                message.location,
+                message,
                 f'Maximum size of message "{root}" is {size} bytes, over its budget of {budget} '
                 f"bytes: headroom {budget - size} bytes.",
                 key=key,

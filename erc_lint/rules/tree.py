@@ -214,7 +214,7 @@ def embedded_repeated(revision: Revision, change: Change) -> Reports:
         for path, field in revision.reach(root):
             if field.cardinality == "repeated":
                 yield Report(
-                    field.location,
+                    field,
                     f'{field_prefix(field, field.owner)} is repeated, and embedded root "{root}" '
                     f"reaches it as {path}.",
                     key=_reached(revision, change, root, field),
@@ -266,7 +266,7 @@ def embedded_unbounded(revision: Revision, change: Change) -> Reports:
             if why is not None:
                 grouped = grouped or why.startswith(_GROUP)
                 yield Report(
-                    field.location,
+                    field,
                     f'{field_prefix(field, field.owner)} is {why}, and embedded root "{root}" '
                     f"reaches it as {path}.",
                     key=_reached(revision, change, root, field),
@@ -275,7 +275,7 @@ def embedded_unbounded(revision: Revision, change: Change) -> Reports:
         refusal = revision.refusal(root) if message is not None and not grouped else None
         if message is not None and refusal is not None:
             yield Report(
-                message.location,
+                message,
                 f'Embedded root "{root}" has no fixed size: {refusal}.',
                 key=f"{root}:refused",
             )
@@ -378,7 +378,7 @@ def _field_reuse(
             for p in clashes
         )
         yield Report(
-            field.location,
+            field,
             f"{field_prefix(field, field.owner)} reuses a number that carried "
             f"{_history(ledger, clashes)}.",
             key=_id(key),
@@ -410,7 +410,7 @@ def _value_reuse(
         # a pure rename, unless an old name of the number lives on under another number
         renamed = not any(p.key.name in enum.by_name for p in clashes)
         yield Report(
-            value.location,
+            value,
             f'Enum value "{value.number}" with name "{value.name}" on enum "{value.owner}" '
             f"reuses a number that carried {_history(ledger, clashes)}.",
             key=_id(keys[0]),
