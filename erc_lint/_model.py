@@ -71,6 +71,7 @@ _SCALARS = {
 # A proto2 group is a message type as far as the wire and the rules go.
 _KINDS = {_FD.TYPE_MESSAGE: "message", _FD.TYPE_GROUP: "message", _FD.TYPE_ENUM: "enum"}
 _IDEMPOTENCY = descriptor_pb2.MethodOptions.IdempotencyLevel
+_NANOPB_EXTENSION = 1010  # (nanopb) on google.protobuf.FieldOptions, in nanopb.proto
 _new_field = tuple.__new__
 _Files = dict[str, descriptor_pb2.FileDescriptorProto]
 _Proto = descriptor_pb2.DescriptorProto | descriptor_pb2.EnumDescriptorProto
@@ -424,13 +425,15 @@ class Revision:
 
     def has_nanopb_options(self) -> bool:
         """Whether anything sets a nanopb option: a generator setting, an options file of one of
-        the files (found as the generator finds it), or a file importing nanopb.proto
-        (annotations). Without any, every option of every field is nanopb's default, and
-        resolving them would show nothing."""
+        the files (found as the generator finds it), or nanopb.proto under any name among the
+        files protoc read (annotations: what imports it may set options). Without any, every
+        option of every field is nanopb's default, and resolving them would show nothing."""
         if self._has_options is None:
-            self._has_options = bool(self._settings) or any(
-                "nanopb.proto" in file.dependency or self._options_path(file.name) is not None
-                for file in self.tree.imported.values()
+            files = self.tree.imported.values()
+            self._has_options = (
+                bool(self._settings)
+                or any(map(_is_nanopb_vocabulary, files))
+                or any(self._options_path(file.name) is not None for file in files)
             )
         return self._has_options
 
@@ -621,6 +624,16 @@ def _without_source(file: descriptor_pb2.FileDescriptorProto) -> bytes:
     whole.CopyFrom(file)
     whole.ClearField("source_code_info")
     return whole.SerializeToString(deterministic=True)
+
+
+def _is_nanopb_vocabulary(file: descriptor_pb2.FileDescriptorProto) -> bool:
+    """Whether ``file`` is nanopb.proto, whatever it is called (``third_party/nanopb.proto``):
+    the file extending protobuf's field options with ``(nanopb)``, number 1010."""
+    return any(
+        extension.number == _NANOPB_EXTENSION
+        and extension.extendee == ".google.protobuf.FieldOptions"
+        for extension in file.extension
+    )
 
 
 def _has_group(file: descriptor_pb2.FileDescriptorProto) -> bool:
