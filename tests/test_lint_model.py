@@ -5,11 +5,12 @@ import itertools
 from pathlib import Path
 
 import pytest
+from git_support import HEADER
 from google.protobuf import descriptor_pool, message_factory
 from google.protobuf.descriptor import FieldDescriptor
 from google.protobuf.descriptor_pb2 import FeatureSet, FieldOptions
 from google.protobuf.message import DecodeError
-from lint_support import HEADER, READING, protoc_edition, tree
+from lint_support import READING, protoc_edition, tree
 
 import erc_lint
 from erc_codec.schema import Sizes, load_schema, options_class
