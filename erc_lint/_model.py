@@ -578,7 +578,19 @@ class Revision:
         buf, <= 1.0x) differs in a file holding a group, found before any type is serialized.
         test_same_size_inputs_is_the_plain_comparison holds it to comparing them all."""
         pairs = zip_longest(self.size_inputs(root), other.size_inputs(root))
-        return all(mine == theirs for mine, theirs in pairs)
+        same = all(mine == theirs for mine, theirs in pairs)
+        if not same:  # what went uncompared is read all the same, as comparing it all reads it
+            self._read_options_files(root)
+            other._read_options_files(root)
+        return same
+
+    def _read_options_files(self, root: str) -> None:
+        """Read the options file of every file ``root`` needs: one that is no regular file (a
+        FIFO) stops the run (``FileError``), whether the root is sized or not."""
+        for name in self._root_files(root):
+            options = self._options_path(name)
+            if options is not None:
+                read_file(options)
 
     def _has_group(self, file: descriptor_pb2.FileDescriptorProto) -> bool:
         """Whether a file declares a proto2 group, asked once per file."""

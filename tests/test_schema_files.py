@@ -150,6 +150,23 @@ def test_a_nanopb_options_file_that_is_no_file_is_exit_2(tmp_path: Path) -> None
     refused(run("erc_lint", str(root), str(root)), complaint)
 
 
+def test_an_options_file_that_is_no_file_stops_a_size_check_that_stops_early(
+    tmp_path: Path,
+) -> None:
+    """OLD and NEW differ before NEW's options file is compared, and OLD has no size: NEW's
+    options file is read all the same."""
+    old, new = envelope_tree(tmp_path / "old"), envelope_tree(tmp_path / "new")
+    (old / "envelope.proto").write_text(ENVELOPE.replace("int32 a = 1;", "string a = 1;"))
+    (new / "envelope.proto").write_text(
+        ENVELOPE.replace("int32 a = 1;", "string a = 1;\n  string b = 2;")
+    )
+    (new / "pyproject.toml").write_text('[tool.erc-lint]\nuse = ["ENVELOPE_SIZE_GROWN"]\n')
+    os.mkfifo(new / "envelope.options")
+    refused(
+        run("erc_lint", str(old), str(new)), f"{new}/envelope.options: not a regular file (a FIFO)"
+    )
+
+
 def test_a_configuration_or_ledger_beside_the_protos_that_is_a_fifo_is_refused(
     tmp_path: Path,
 ) -> None:
