@@ -369,19 +369,18 @@ def _executable(name: str) -> str:
 
 def _pinned() -> list[str]:
     """erc-codec's own dependencies (and grpcio-tools' grpcio), each at the version installed
-    here, so that the isolated install runs the very same libraries."""
-    wanted = [
-        re.split(r"[^A-Za-z0-9._-]", requirement, maxsplit=1)[0]
-        for requirement in importlib.metadata.requires("erc-codec") or []
-        if "extra ==" not in requirement
-    ]
+    here, so that the isolated install runs the very same libraries; one under an environment
+    marker (tomli, before Python 3.11) as erc-codec asks for it, for pip to judge."""
     pins = []
-    for name in [*wanted, "grpcio"]:
-        try:
-            pins.append(f"{name}=={importlib.metadata.version(name)}")
-        except importlib.metadata.PackageNotFoundError:
-            continue  # not for this Python (tomli on 3.11 and later)
-    return pins
+    for requirement in importlib.metadata.requires("erc-codec") or []:
+        if "extra ==" in requirement:
+            continue
+        if ";" in requirement:
+            pins.append(requirement)
+            continue
+        name = re.split(r"[^A-Za-z0-9._-]", requirement, maxsplit=1)[0]
+        pins.append(f"{name}=={importlib.metadata.version(name)}")
+    return [*pins, f"grpcio=={importlib.metadata.version('grpcio')}"]
 
 
 def isolated_install(folder: Path) -> tuple[str, str]:

@@ -38,6 +38,7 @@ from erc_codec.schema import (
     declarations,
     declared_names,
     extensions,
+    is_nanopb_vocabulary,
     options_path,
     read_file,
     resolve_options,
@@ -71,7 +72,6 @@ _SCALARS = {
 # A proto2 group is a message type as far as the wire and the rules go.
 _KINDS = {_FD.TYPE_MESSAGE: "message", _FD.TYPE_GROUP: "message", _FD.TYPE_ENUM: "enum"}
 _IDEMPOTENCY = descriptor_pb2.MethodOptions.IdempotencyLevel
-_NANOPB_EXTENSION = 1010  # (nanopb) on google.protobuf.FieldOptions, in nanopb.proto
 _new_field = tuple.__new__
 _Files = dict[str, descriptor_pb2.FileDescriptorProto]
 _Proto = descriptor_pb2.DescriptorProto | descriptor_pb2.EnumDescriptorProto
@@ -432,7 +432,7 @@ class Revision:
             files = self.tree.imported.values()
             self._has_options = (
                 bool(self._settings)
-                or any(map(_is_nanopb_vocabulary, files))
+                or any(map(is_nanopb_vocabulary, files))
                 or any(self._options_path(file.name) is not None for file in files)
             )
         return self._has_options
@@ -580,11 +580,11 @@ class Revision:
         pairs = zip_longest(self.size_inputs(root), other.size_inputs(root))
         same = all(mine == theirs for mine, theirs in pairs)
         if not same:  # what went uncompared is read all the same, as comparing it all reads it
-            self._read_options_files(root)
-            other._read_options_files(root)
+            self.read_options_files(root)
+            other.read_options_files(root)
         return same
 
-    def _read_options_files(self, root: str) -> None:
+    def read_options_files(self, root: str) -> None:
         """Read the options file of every file ``root`` needs: one that is no regular file (a
         FIFO) stops the run (``FileError``), whether the root is sized or not."""
         for name in self._root_files(root):
@@ -636,16 +636,6 @@ def _without_source(file: descriptor_pb2.FileDescriptorProto) -> bytes:
     whole.CopyFrom(file)
     whole.ClearField("source_code_info")
     return whole.SerializeToString(deterministic=True)
-
-
-def _is_nanopb_vocabulary(file: descriptor_pb2.FileDescriptorProto) -> bool:
-    """Whether ``file`` is nanopb.proto, whatever it is called (``third_party/nanopb.proto``):
-    the file extending protobuf's field options with ``(nanopb)``, number 1010."""
-    return any(
-        extension.number == _NANOPB_EXTENSION
-        and extension.extendee == ".google.protobuf.FieldOptions"
-        for extension in file.extension
-    )
 
 
 def _has_group(file: descriptor_pb2.FileDescriptorProto) -> bool:

@@ -22,7 +22,8 @@ sizes and nanopb limits. Nothing here encodes envelopes or talks to a network.
 - nanopb: ``resolve_options`` (``.options`` files, found as the generator finds them
   (``options_path``), its ``-f`` (``given_options_file``: one as a user gives it) and ``-s``,
   and annotations; patterns match ``nanopb_name``, the name under ``mangle_names``, and
-  ``nanopb_finds`` says whether a field's type is found under them) and ``Sizes``
+  ``nanopb_finds`` says whether a field's type is found under them; ``is_nanopb_vocabulary``
+  recognizes nanopb.proto under any name) and ``Sizes``
   (``<Message>_size`` as the generator computes it, by the rules of one of ``NANOPB_VERSIONS``,
   the fixed-size contract's limits; ``PYTHON_INT_RANGE``, what protobuf's Python runtime lets
   each integer type hold);
@@ -46,6 +47,7 @@ from ._options import (
     Options,
     ResolvedOptions,
     given_options_file,
+    is_nanopb_vocabulary,
     options_class,
     options_path,
     resolve_options,
@@ -116,6 +118,7 @@ __all__ = [
     "file_exists",
     "given_options_file",
     "imports",
+    "is_nanopb_vocabulary",
     "load_schema",
     "message_of",
     "nanopb_finds",

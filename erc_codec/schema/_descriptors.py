@@ -33,7 +33,7 @@ _ENUM_VALUE = 2
 _SERVICE_METHOD = 2
 
 Proto = descriptor_pb2.DescriptorProto | descriptor_pb2.EnumDescriptorProto
-_MessageProto = descriptor_pb2.DescriptorProto
+_MessageProto = descriptor_pb2.DescriptorProto  # a global, not a module attribute, per isinstance
 
 
 class Location(NamedTuple):

@@ -21,6 +21,7 @@ from google.protobuf.message import Message
 from .._errors import SchemaError
 from ._descriptors import Location, SourceIndex, declarations
 from ._files import FileError, proto_files, read_text
+from ._options import is_nanopb_vocabulary
 from ._protoc import ProtocError, compile_files
 from ._text import declared_names, package_name
 
@@ -317,17 +318,13 @@ def _hint(base: Path, root: str) -> str:
 
 _LIMIT_REQUIRED = 63  # upb's mini tables hold at most this many required fields per message
 _LIMIT_DEPTH = 100  # protobuf's runtimes decode messages nested at most this deep
-_NANOPB = 1010  # the number of nanopb.proto's extensions of protobuf's options
 
 
 def _vocabulary(proto: descriptor_pb2.FileDescriptorProto) -> bool:
     """Whether ``proto`` is an option vocabulary, not part of a schema: protobuf's
     descriptor.proto, or a copy of nanopb.proto under any name (the file that extends
     ``google.protobuf.FieldOptions`` with nanopb's ``(nanopb)``, number 1010)."""
-    return proto.name == "google/protobuf/descriptor.proto" or any(
-        extension.extendee == ".google.protobuf.FieldOptions" and extension.number == _NANOPB
-        for extension in proto.extension
-    )
+    return proto.name == "google/protobuf/descriptor.proto" or is_nanopb_vocabulary(proto)
 
 
 def _add(

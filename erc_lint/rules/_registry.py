@@ -115,7 +115,7 @@ class Report:
         self.container = container  # in_old: where NEW has the element's container
         self.like = like  # a tree rule's report graded as this rule is (a rename: FIELD_RENAMED)
 
-    def __eq__(self, other: object) -> bool:  # as a NamedTuple's: the tests compare reports
+    def __eq__(self, other: object) -> bool:  # member by member: the tests compare reports
         if not isinstance(other, Report):
             return NotImplemented
         return _members(self) == _members(other)
