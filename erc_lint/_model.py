@@ -639,15 +639,12 @@ def _without_source(file: descriptor_pb2.FileDescriptorProto) -> bytes:
 
 
 def _has_group(file: descriptor_pb2.FileDescriptorProto) -> bool:
-    """Whether a file declares a proto2 group: a field of one of its messages, or an extension.
-    Its messages are walked without naming them (``declarations`` does): the question is asked
-    of every file a root needs, and bench_lint's proto3 pair has no group in any of them."""
+    """Whether a file declares a proto2 group: a field of one of its messages, or an extension."""
     fields = [file.extension]
-    messages = list(file.message_type)
-    while messages:
-        message = messages.pop()
-        fields += (message.field, message.extension)
-        messages += message.nested_type
+    for declared in declarations(file):
+        proto = declared.proto
+        if isinstance(proto, descriptor_pb2.DescriptorProto):
+            fields += (proto.field, proto.extension)
     return any(f.type == _FD.TYPE_GROUP for declared in fields for f in declared)
 
 
