@@ -15,10 +15,13 @@ time would otherwise compare false with every later clock reading, and the kind 
 out again).
 
 Timeouts from the wire: ``seen(kind, now, timeout=...)`` takes the timeout the sender advertised
-(the envelope's ``timeout`` metadata, converted to seconds). A kind nobody configured becomes
-watched with it; a configured kind is watched with the shorter of the two, so a sender can make
-its watch stricter but never looser, and an advertised 0 or ``None`` changes nothing: a sender
-cannot switch its own brake off.
+(the envelope's ``timeout`` metadata, converted to seconds). It applies to the gap it promises,
+the one up to the next arrival, which brings its own. A configured kind is watched with the
+shorter of the two, so a sender can make its watch stricter but never looser, and an arrival
+advertising 0 or ``None`` is watched with the configured timeout: a sender cannot switch its own
+brake off, nor leave a shortened timeout behind for arrivals that promise nothing. A kind nobody
+configured is watched while its arrivals advertise a timeout, and not after one that advertises
+none.
 """
 
 import enum
@@ -90,8 +93,9 @@ class Watchdog:
 
     def seen(self, kind: str, now: float, timeout: float | None = None) -> None:
         """``kind`` arrived at ``now``, its sender advertising ``timeout`` seconds (``None`` or 0:
-        none). An unwatched kind without one only has its rate measured; with one it becomes
-        watched. A configured timeout wins over a longer advertised one."""
+        none) until the next arrival. An unwatched kind without one only has its rate measured;
+        with one it becomes watched. A configured timeout wins over a longer advertised one and
+        applies again when an arrival advertises none."""
         instant("now", now)
         if timeout:
             try:
@@ -110,13 +114,12 @@ class Watchdog:
         else:
             recent.append([number, 1])
         watched = self._watched.get(kind)
-        if timeout:
-            if watched is None:
-                watched = self._watched[kind] = _Watched(None, timeout, configured=False)
-            else:
-                watched.timeout = min(watched.configured, timeout)
-        elif watched is None:
-            return
+        if watched is None:
+            if not timeout:
+                return
+            watched = self._watched[kind] = _Watched(None, timeout, configured=False)
+        else:  # this arrival's promise replaces the last one's
+            watched.timeout = min(watched.configured, timeout) if timeout else watched.configured
         watched.last = now
         if watched.state is Liveness.INACTIVE:
             watched.state = Liveness.ACTIVE
@@ -124,6 +127,8 @@ class Watchdog:
                 watched.timed_out = False
                 if self._on_recover is not None:
                     self._on_recover(kind)
+        if watched.timeout == math.inf:  # only its senders watched it, and this one promised none
+            del self._watched[kind]
 
     def poll(self, now: float) -> list[str]:
         """Kinds whose timeout passed since the last poll (``on_timeout`` is called for each)."""

@@ -218,9 +218,23 @@ def test_a_configured_timeout_wins_over_a_longer_advertised_one() -> None:
     assert watchdog.timeout("drive_motor") == 0.2
     assert watchdog.poll(1.21) == ["drive_motor"]
     watchdog.seen("drive_motor", 2.0, timeout=0)  # nor switch it off with 0
-    assert watchdog.timeout("drive_motor") == 0.2
+    assert watchdog.timeout("drive_motor") == 0.3
     watchdog.seen("drive_motor", 3.0, timeout=1.0)  # longer again: back to the configured one
     assert watchdog.timeout("drive_motor") == 0.3
+
+
+@pytest.mark.parametrize("advertised", [None, 0])
+def test_a_shortened_timeout_lasts_one_gap(advertised: float | None) -> None:
+    """One datagram advertising 1 ms must not leave the brake flapping between later commands
+    that advertise nothing: each arrival's promise replaces the last one's."""
+    watchdog = Watchdog()
+    watchdog.watch("drive_motor", period=0.1, timeout=0.3)
+    watchdog.seen("drive_motor", 0.0, timeout=0.001)
+    assert watchdog.poll(0.002) == ["drive_motor"]  # the promised gap passed
+    watchdog.seen("drive_motor", 0.1, timeout=advertised)
+    assert watchdog.timeout("drive_motor") == 0.3
+    assert watchdog.poll(0.35) == []
+    assert watchdog.poll(0.41) == ["drive_motor"]
 
 
 def test_an_advertised_timeout_follows_the_sender() -> None:
@@ -228,9 +242,14 @@ def test_an_advertised_timeout_follows_the_sender() -> None:
     watchdog.seen("arm_ctrl", 0.0, timeout=0.5)
     watchdog.seen("arm_ctrl", 0.1, timeout=2.0)  # nobody configured a ceiling: the latest counts
     assert watchdog.timeout("arm_ctrl") == 2.0
-    watchdog.seen("arm_ctrl", 0.2)  # an arrival without one keeps the watch
-    assert watchdog.poll(2.1) == []
-    assert watchdog.poll(2.21) == ["arm_ctrl"]
+    assert watchdog.poll(2.05) == []
+    assert watchdog.poll(2.11) == ["arm_ctrl"]
+    watchdog.seen("arm_ctrl", 3.0, timeout=0.5)  # it recovers, watched with its new promise
+    assert watchdog.state("arm_ctrl") is Liveness.ACTIVE
+    watchdog.seen("arm_ctrl", 3.2)  # an arrival promising nothing ends the watch
+    assert watchdog.state("arm_ctrl") is Liveness.UNCONFIGURED
+    assert watchdog.timeout("arm_ctrl") is None
+    assert watchdog.poll(100.0) == []
 
 
 @pytest.mark.parametrize("advertised", [-1.0, math.nan, math.inf])
