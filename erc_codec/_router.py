@@ -17,8 +17,10 @@ payload's and those beside it on the envelope, byte for byte (a newer sender's f
 newer receiver through an older relay); the stripped and padded forms are cut from that.
 
 Failsafe: for each ``Failsafe(kind, ...)`` (one per kind) the router watches ``kind`` with its
-configured timeout (a sender's advertised ``timeout`` metadata can shorten it, never lengthen it,
-see ``Watchdog``). Only what reaches the failsafe's destinations counts as an arrival: a datagram
+configured timeout (a sender's advertised ``timeout`` metadata can shorten it for the gap up to
+the next arrival, never lengthen it, see ``Watchdog``). Its timing is bounded: a timeout from
+1 ms to 1 h, a rate from 0.01 to 1000 Hz; a value outside can only mean always braking or never.
+Only what reaches the failsafe's destinations counts as an arrival: a datagram
 of the kind forwarded to at least one of them (from one of its ``sources``, when it names them);
 one dropped, or routed elsewhere only, does not release the brake. The first ``poll`` counts as
 an arrival, so a kind that never arrives engages its failsafe one timeout after the router
@@ -38,11 +40,20 @@ from ._envelope import Mode
 from ._errors import DecodeError, EncodeError, SchemaError
 from ._watchdog import Liveness, Watchdog
 
-__all__ = ["Failsafe", "FailsafeEvent", "Outgoing", "Route", "Router", "RouterStats"]
+__all__ = [
+    "Failsafe",
+    "FailsafeEvent",
+    "Outgoing",
+    "Route",
+    "Router",
+    "RouterStats",
+    "failsafe_timing",
+]
 
 _FORMS = ("exact", "strip", "pad")
 _CACHED_SOURCES = 1024  # (source, kind) pairs whose destinations are remembered
 _RATES = (0.01, 1000.0)  # Hz: a failsafe repeats at least every 100 s, at most every millisecond
+_TIMEOUTS = (0.001, 3600.0)  # seconds of silence before a failsafe engages
 
 
 class Route(NamedTuple):
@@ -210,6 +221,21 @@ class Router:
                 engaged.due = now + interval
         return out
 
+    def bypassing(self, kind: str) -> list[int]:
+        """The routes (by index) that deliver ``kind`` to its failsafe's destinations from
+        senders the failsafe's ``sources`` does not name: while the failsafe is engaged, those
+        destinations receive their commands between its own datagrams."""
+        to, sources = self._brakes[kind]
+        if sources is None:
+            return []
+        return [
+            index
+            for index, (targets, kinds, accepted) in enumerate(self._routes)
+            if (kinds is None or kind in kinds)
+            and not to.isdisjoint(targets)
+            and (accepted is None or not accepted <= sources)
+        ]
+
     def engaged(self) -> frozenset[str]:
         """The kinds whose failsafe is engaged now."""
         return frozenset(self._engaged)
@@ -275,19 +301,14 @@ class Router:
             raise SchemaError(f"failsafe: {kind!r} is not a payload kind of {self._codec.root}")
         if kind in self._failsafes:
             raise ValueError(f"failsafe {kind}: a second failsafe for {kind} (one per kind)")
-        rate = failsafe.rate
-        low, high = _RATES
-        if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not low <= rate <= high:
-            raise ValueError(
-                f"failsafe {kind}: rate must be a number of Hz from {low:g} to {high:g}, "
-                f"not {rate!r}"
-            )
         try:
-            timeout = duration("timeout", failsafe.timeout)
+            rate, timeout = failsafe_timing(failsafe.rate, failsafe.timeout)
         except ValueError as error:
             raise ValueError(f"failsafe {kind}: {error}") from None
         if not failsafe.to:
             raise ValueError(f"failsafe {kind}: to names no destination")
+        if len(set(failsafe.to)) < len(failsafe.to):
+            raise ValueError(f"failsafe {kind}: to names a destination twice: {failsafe.to}")
         datagrams = []
         for name in failsafe.to:
             self._known(name, f"failsafe {kind}")
@@ -358,3 +379,18 @@ class Router:
         self._released_count[kind] = self._released_count.get(kind, 0) + 1
         if self._on_event is not None:
             self._on_event(FailsafeEvent(kind, False, now))
+
+
+def failsafe_timing(rate: float, timeout: float) -> tuple[float, float]:
+    """``(rate, timeout)`` if both are within a failsafe's bounds (a ``ValueError`` naming the
+    one that is not): a rate from 0.01 to 1000 Hz, a timeout from 1 ms to 1 h."""
+    low, high = _RATES
+    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not low <= rate <= high:
+        raise ValueError(f"rate must be a number of Hz from {low:g} to {high:g}, not {rate!r}")
+    shortest, longest = _TIMEOUTS
+    timeout = duration("timeout", timeout)
+    if not shortest <= timeout <= longest:
+        raise ValueError(
+            f"timeout must be from {shortest:g} to {longest:g} seconds, not {timeout!r}"
+        )
+    return rate, timeout

@@ -134,6 +134,13 @@ def test_configuration_errors_name_what_is_wrong(codec: Codec) -> None:
         failsafe = Failsafe("drive_motor", stop, ("board",), 10, timeout)  # type: ignore[arg-type]
         with pytest.raises(ValueError, match="timeout must be a positive"):
             Router(codec, FORMS, to_board, [failsafe])
+    for timeout in (1e-300, 0.0009, 3601, 1e308):
+        failsafe = Failsafe("drive_motor", stop, ("board",), 10, timeout)
+        with pytest.raises(ValueError, match=r"timeout must be from 0\.001 to 3600 seconds"):
+            Router(codec, FORMS, to_board, [failsafe])
+    twice = Failsafe("drive_motor", stop, ("board", "board"), 10, 0.3)
+    with pytest.raises(ValueError, match="to names a destination twice"):
+        Router(codec, FORMS, to_board, [twice])
     with pytest.raises(ValueError, match="failsafe drive_motor: to names no destination"):
         Router(codec, FORMS, to_board, [Failsafe("drive_motor", stop, (), 10, 0.3)])
     brake = Failsafe("drive_motor", stop, ("board",), 10, 0.3)
@@ -192,6 +199,36 @@ def test_the_failsafe_follows_an_advertised_timeout_but_never_a_longer_one(codec
     lax = codec.encode(codec.message_class("drive_motor")(), "exact", timeout=60_000)
     capped.route(lax, "base", 0.0)
     assert capped.poll(0.31) != []  # the sender asked for a minute: the configured 0.3 s wins
+
+
+def test_an_advertised_timeout_holds_for_one_gap_only(codec: Codec) -> None:
+    """One datagram advertising 1 ms does not shorten the watch for the commands after it that
+    advertise none: the brake would flap between every command."""
+    router, events = brake(codec, timeout=0.3)
+    Drive = codec.message_class("drive_motor")
+    router.route(codec.encode(Drive(distance_to_go=1.0), "exact", timeout=1), "base", 0.0)
+    assert router.poll(0.002) == [Outgoing("board", h("4a 00"))]  # the promised 1 ms passed
+    plain = codec.encode(Drive(distance_to_go=1.0), "exact")
+    for now in (0.1, 0.2, 0.3, 0.4):
+        router.route(plain, "base", now)
+        assert router.poll(now + 0.05) == []  # 0.3 s again, the configured timeout
+    assert [event.engaged for event in events] == [True, False]
+
+
+def test_routes_around_a_failsafes_sources_are_named(codec: Codec) -> None:
+    """A route delivering the watched kind to the failsafe's destinations from senders its
+    sources leave out: those senders' commands reach the board between the brake's datagrams."""
+    Drive = codec.message_class("drive_motor")
+    routes = [
+        Route(("board",), kinds=("drive_motor",), sources=("ground",)),
+        Route(("jetson",), kinds=("drive_motor",)),
+        Route(("board",), sources=("ground", "test")),
+        Route(("board", "jetson"), kinds=("drive_motor", "arm_ctrl")),
+    ]
+    watched = Failsafe("drive_motor", Drive(), ("board",), 10, 0.3, sources=("ground",))
+    assert Router(codec, FORMS, routes, [watched]).bypassing("drive_motor") == [2, 3]
+    anyone = watched._replace(sources=None)  # every sender counts: nothing goes around it
+    assert Router(codec, FORMS, routes, [anyone]).bypassing("drive_motor") == []
 
 
 def test_a_kind_that_never_arrives_engages_its_failsafe_a_timeout_after_the_start(
