@@ -1,12 +1,17 @@
 """erc-codec relay: its configuration checked key by key, and a live relay over 127.0.0.1."""
 
 import json
+import os
 import re
 import signal
 import socket
+import struct
 import subprocess
 import sys
 import tempfile
+import threading
+import time
+import tracemalloc
 from pathlib import Path
 
 import pytest
@@ -60,7 +65,50 @@ FAILSAFE = '[[failsafes]]\nkind = "drive_motor"\nto = ["base"]\nrate = 10\ntimeo
         ),
         (GOOD + '[relay]\nstatus = "loud"\n', "relay.status must be line, json or none"),
         (GOOD + "[relay]\ninterval = nan\n", "relay.interval must be a positive, finite"),
-        (GOOD + "[relay]\ninterval = 0.001\n", r"relay.interval must be at least 0\.01 s"),
+        (GOOD + "[relay]\ninterval = 0.001\n", r"relay.interval must be from 0\.01 to 3600 s"),
+        (GOOD + "[relay]\ninterval = 1e308\n", r"relay.interval must be from 0\.01 to 3600 s"),
+        (GOOD + '[relay]\ndebug = ["base"]\n', "relay.debug must be a string"),
+        (GOOD + "[relay]\ndebug = { a = 1 }\n", "relay.debug must be a string"),
+        (GOOD + '[relay]\ndebug = "logger"\n', r"relay.debug: no destination 'logger'"),
+        (GOOD.replace(', form = "exact"', ', via = ["rover"]'), "destinations.base.via must be"),
+        ("a = " + "[" * 5000 + "]" * 5000 + "\n", "not TOML: nested too deeply"),
+        (GOOD + FAILSAFE.replace("0.3", "1e-300"), r"failsafes\[0\].timeout must be from 0\.001"),
+        (
+            GOOD + FAILSAFE.replace("0.3", "1e308"),
+            r"failsafes\[0\].timeout must be from 0\.001 to 3600",
+        ),
+        (
+            GOOD + FAILSAFE.replace("0.3", "nan"),
+            r"failsafes\[0\].timeout must be a positive, finite",
+        ),
+        (GOOD + FAILSAFE.replace("0.3", '"soon"'), r"failsafes\[0\].timeout must be a positive"),
+        (
+            GOOD + FAILSAFE.replace('to = ["base"]', 'to = ["base", "base"]'),
+            r"failsafes\[0\].to names 'base' twice",
+        ),
+        (GOOD.replace('to = ["base"]', 'to = ["base", "base"]'), r"routes\[0\].to names 'base'"),
+        (GOOD.replace("127.0.0.1:9", "127.0.0.1:0"), "destinations.base.address: port 0 is no"),
+        (GOOD.replace("127.0.0.1:9", "0.0.0.0:9"), "0.0.0.0 means every local address"),
+        (
+            GOOD + '[sources]\na = "127.0.0.1:7"\nb = "127.0.0.1:7"\n',
+            r"sources.b: '127.0.0.1:7' is sources.a already",
+        ),
+        (
+            GOOD + '[sources]\na = "127.0.0.1:7"\nb = "[::ffff:127.0.0.1]:7"\n',
+            r"sources.b: '\[::ffff:127.0.0.1\]:7' is sources.a already",
+        ),
+        (
+            GOOD.replace('rover = "0"', 'rover = "[::]:5000"').replace(
+                "127.0.0.1:9", "[::ffff:127.0.0.1]:5000"
+            ),
+            r"destinations.base.address: the relay listens there itself \(\[listen\] rover\)",
+        ),
+        (
+            GOOD.replace('rover = "0"', 'rover = "9"').replace(
+                "127.0.0.1:9", "[::ffff:127.0.0.1]:9"
+            ),
+            r"destinations.base.address: the relay listens there itself",
+        ),
         (GOOD + FAILSAFE + "message = 5\n", r"failsafes\[0\].message must be a table"),
         (
             GOOD + FAILSAFE + FAILSAFE.replace("rate = 10", "rate = 5"),
@@ -193,7 +241,10 @@ def test_the_readmes_rover_configuration_is_valid() -> None:
     assert config.destinations["jetson"].form == "strip"
     assert [failsafe.kind for failsafe in config.failsafes] == ["drive_motor"]
     assert config.debug == "debug"
-    assert config.sources == {("192.168.1.20", 6000): "jetson"}
+    assert config.sources == {  # as an IPv4 socket and a dual-stack one report it
+        ("192.168.1.20", 6000): "jetson",
+        ("::ffff:192.168.1.20", 6000): "jetson",
+    }
     erc_codec.Router(
         CODEC,
         {name: destination.form for name, destination in config.destinations.items()},
@@ -255,3 +306,269 @@ def test_a_relay_forwards_metadata_named_like_encodes_parameters(tmp_path: Path)
     assert relay.returncode == 0, errors
     counters = json.loads(errors.rsplit("counters: ", 1)[1])
     assert (counters["routes"]["base"]["forwarded"], counters["errors"]) == (1, {})
+
+
+def test_a_configuration_over_a_mebibyte_is_refused_unread(tmp_path: Path) -> None:
+    config = tmp_path / "relay.toml"
+    config.write_text(GOOD + "#" * (1 << 20) + "\n")
+    done = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "relay", str(config)],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert done.returncode == 2
+    assert done.stderr == f"Error: {config}: larger than 1 MiB: not a relay configuration\n"
+
+
+def interface_address() -> str:
+    """One of this host's IPv4 addresses that is not 127.0.0.1 (an interface's, if it has one)."""
+    import fcntl
+    import struct
+
+    for _, name in socket.if_nameindex():
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+            try:
+                answer = fcntl.ioctl(probe, 0x8915, struct.pack("256s", name.encode()[:15]))
+            except OSError:  # no IPv4 address on it
+                continue
+        address = socket.inet_ntoa(answer[20:24])
+        if not address.startswith("127."):
+            return address
+    return "127.0.0.2"  # loopback only: still this host's, under another spelling
+
+
+def test_a_wildcard_listener_refuses_a_destination_at_an_interface_address(
+    tmp_path: Path,
+) -> None:
+    config = tmp_path / "relay.toml"
+    address = interface_address()
+    config.write_text(
+        GOOD.replace('rover = "0"', 'rover = "0.0.0.0:5000"').replace(
+            "127.0.0.1:9", f"{address}:5000"
+        )
+    )
+    done = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "relay", str(config)],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert done.returncode == 2, done.stderr
+    assert "destinations.base.address: the relay listens there itself" in done.stderr
+
+
+# -- the failsafe whatever its output does -----------------------------------------------------
+
+DRIVE = CODEC.message_class("drive_motor")
+BRAKE = bytes.fromhex("4a 00")  # the all-zero drive command, exact
+RATE, TIMEOUT = 20, 0.3
+
+
+def braking_config(tmp_path: Path, board: socket.socket, relay: str) -> Path:
+    """A relay that forwards drive commands to ``board`` and brakes it after TIMEOUT s."""
+    config = tmp_path / "relay.toml"
+    config.write_text(
+        f"""
+[listen]
+rover = "0"
+[destinations]
+board = {{ address = "127.0.0.1:{board.getsockname()[1]}", form = "exact" }}
+[[routes]]
+to = ["board"]
+kinds = ["drive_motor"]
+[[failsafes]]
+kind = "drive_motor"
+to = ["board"]
+rate = {RATE}
+timeout = {TIMEOUT}
+[relay]
+{relay}
+"""
+    )
+    return config
+
+
+def drive_and_go_quiet(port: int, board: socket.socket, commands: int) -> float:
+    """Send ``commands`` drive commands at 20 Hz, each received by the board before the next;
+    then be silent: the seconds from the last command to the first brake datagram."""
+    go = CODEC.encode(DRIVE(distance_to_go=1.5), "exact")
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as base:
+        for _ in range(commands):
+            base.sendto(go, ("127.0.0.1", port))
+            while (got := board.recv(4096)) == BRAKE:  # brakes from before the first command
+                pass
+            assert got == go
+            time.sleep(1 / 20)
+        quiet = time.monotonic()
+        assert board.recv(4096) == BRAKE
+        return time.monotonic() - quiet
+
+
+def brakes_for(board: socket.socket, seconds: float) -> int:
+    """Brake datagrams the board receives in the next ``seconds``."""
+    count, end = 0, time.monotonic() + seconds
+    while (left := end - time.monotonic()) > 0:
+        board.settimeout(left)
+        try:
+            assert board.recv(4096) == BRAKE
+        except TimeoutError:
+            break
+        count += 1
+    board.settimeout(10)
+    return count
+
+
+def test_a_stopped_stdout_reader_holds_up_neither_routing_nor_the_brake(tmp_path: Path) -> None:
+    """Status lines every 10 ms to a stdout nobody reads for 5 s: the pipe fills within a second
+    or two, then the relay's queue, and the lines after that are dropped and counted."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as board:
+        board.bind(("127.0.0.1", 0))
+        board.settimeout(10)
+        relay = run_relay(braking_config(tmp_path, board, 'status = "json"\ninterval = 0.01'))
+        try:
+            assert relay.stderr is not None
+            assert relay.stdout is not None
+            port = int(relay.stderr.readline().rsplit(":", 1)[1])
+            errors: list[str] = []
+            drain = threading.Thread(target=lambda: errors.extend(relay.stderr or ()))
+            drain.start()
+            time.sleep(2.0)  # the pipe is full by now
+            gap = drive_and_go_quiet(port, board, commands=20)
+            assert gap < TIMEOUT + 1 / RATE + 0.25, gap
+            assert brakes_for(board, 1.0) >= RATE // 2
+            time.sleep(1.0)  # 5 s with nobody reading
+            dropped = 0
+            while not dropped:  # read again: the lines that found no room were counted
+                dropped = json.loads(relay.stdout.readline())["output"]["stdout"]["dropped"]
+        finally:
+            relay.send_signal(signal.SIGTERM)
+            assert relay.stdout is not None
+            relay.stdout.read()  # stderr is the drain's
+            relay.wait(10)
+            drain.join(10)
+            relay.stdout.close()
+            assert relay.stderr is not None
+            relay.stderr.close()
+        sent = brakes_for(board, 0.2)  # what was still on its way to the board
+    counters = json.loads("".join(errors).rsplit("counters: ", 1)[1])
+    assert counters["routes"]["board"]["forwarded"] == 20
+    assert counters["listen"]["rover"]["received"] == 20
+    assert counters["dropped"] == {}
+    assert counters["errors"] == {}
+    assert counters["failsafe"]["engaged"]["drive_motor"] >= 2  # at the start, and after
+    assert counters["routes"]["board"]["failsafe"] >= RATE // 2 + sent
+
+
+def test_a_closed_stderr_leaves_the_brake_braking(tmp_path: Path) -> None:
+    """`erc-codec relay cfg.toml 2>&1 | head -1`: the first line read, the reader gone."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as board:
+        board.bind(("127.0.0.1", 0))
+        board.settimeout(10)
+        relay = run_relay(braking_config(tmp_path, board, 'status = "json"\ninterval = 0.1'))
+        try:
+            assert relay.stderr is not None
+            assert relay.stdout is not None
+            port = int(relay.stderr.readline().rsplit(":", 1)[1])
+            relay.stderr.close()
+            for _ in range(2):  # engaged, released, engaged again: each line a broken pipe
+                gap = drive_and_go_quiet(port, board, commands=10)
+                assert gap < TIMEOUT + 1 / RATE + 0.25, gap
+                assert brakes_for(board, 0.5) >= RATE // 4
+            for _ in range(100):  # the status lines, 10 a second, until one has seen it all
+                metrics = json.loads(relay.stdout.readline())
+                if metrics["failsafe"]["released"].get("drive_motor", 0) >= 2:
+                    break
+        finally:
+            relay.send_signal(signal.SIGTERM)
+            relay.communicate(timeout=10)
+    assert relay.returncode == 0
+    assert metrics["output"]["stderr"]["closed"] == "Broken pipe"
+    assert metrics["output"]["stderr"]["dropped"] >= 1
+    assert metrics["routes"]["board"]["forwarded"] == 20
+    assert metrics["errors"] == {}
+
+
+def test_a_datagram_from_the_relays_own_address_is_dropped_and_counted(tmp_path: Path) -> None:
+    """However a destination leads back to the relay, what comes from its own socket goes
+    nowhere: here a datagram whose source is the relay's own address and port."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as board:
+        board.bind(("127.0.0.1", 0))
+        board.settimeout(10)
+        config = braking_config(tmp_path, board, 'status = "none"')
+        config.write_text(config.read_text().replace('kinds = ["drive_motor"]\n', ""))
+        relay = run_relay(config)
+        try:
+            assert relay.stderr is not None
+            port = int(relay.stderr.readline().rsplit(":", 1)[1])
+            go = CODEC.encode(DRIVE(distance_to_go=1.5), "exact")
+            header = struct.pack("!HHHH", port, port, 8 + len(go), 0)  # no UDP checksum
+            with socket.socket(socket.AF_INET, socket.SOCK_RAW, socket.IPPROTO_UDP) as raw:
+                raw.sendto(header + go, ("127.0.0.1", 0))  # from 127.0.0.1:port, the relay's
+            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as base:
+                base.sendto(go, ("127.0.0.1", port))
+            while (got := board.recv(4096)) == BRAKE:
+                pass
+            assert got == go  # the second, from the base station
+        finally:
+            relay.send_signal(signal.SIGTERM)
+            _, errors = relay.communicate(timeout=10)
+    counters = json.loads(errors.rsplit("counters: ", 1)[1])
+    assert counters["listen"]["rover"]["received"] == 2
+    assert counters["dropped"] == {"looped": 1}
+    assert counters["routes"]["board"]["forwarded"] == 1
+
+
+def test_a_route_around_the_failsafes_sources_is_warned_at_the_start(tmp_path: Path) -> None:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as board:
+        board.bind(("127.0.0.1", 0))
+        config = braking_config(tmp_path, board, 'status = "none"')
+        config.write_text(
+            config.read_text()
+            .replace("timeout = 0.3\n", 'timeout = 0.3\nsources = ["ground"]\n')
+            .replace('rover = "0"\n', 'rover = "0"\nground = "0"\n')
+        )
+        relay = run_relay(config)
+        try:
+            assert relay.stderr is not None
+            warning = relay.stderr.readline()
+            assert relay.stderr.readline().startswith("relaying: listening on")
+        finally:
+            relay.send_signal(signal.SIGTERM)
+            relay.communicate(timeout=10)
+    assert warning == (
+        f"{config}: warning: routes[0] delivers drive_motor to board from senders "
+        "failsafes[0].sources does not name: while the brake is engaged, their commands reach "
+        "it between the brake datagrams\n"
+    )
+
+
+def test_failsafe_events_are_counted_not_kept(tmp_path: Path) -> None:
+    """A sender advertising 1 ms makes the brake engage and release between every command: a
+    relay that kept its events grew with them."""
+    from erc_codec.cli._lines import LineStream
+    from erc_codec.cli._relay import _Relay
+    from erc_codec.cli._relayconfig import read_config
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as board:
+        board.bind(("127.0.0.1", 0))
+        config = read_config(braking_config(tmp_path, board, 'status = "none"'), CODEC)
+    with open(os.devnull, "w") as sink:
+        stream = LineStream(sink.fileno(), "null")
+        session = _Relay(CODEC, config, stream, stream)
+        go = CODEC.encode(DRIVE(distance_to_go=1.0), "exact", timeout=1)
+        tracemalloc.start()
+        try:
+            for cycle in range(20_000):
+                now = cycle * 0.01
+                session.router.route(go, "rover", now)
+                session.router.poll(now + 0.005)  # 5 ms of silence: engaged
+                if cycle == 1_000:
+                    before = tracemalloc.get_traced_memory()[0]
+            grown = tracemalloc.get_traced_memory()[0] - before
+        finally:
+            tracemalloc.stop()
+            stream.close(1.0)
+    stats = session.router.stats()
+    assert stats.engaged["drive_motor"] == stats.released["drive_motor"] + 1 == 20_000
+    assert grown < 50_000, grown

@@ -8,8 +8,14 @@ While it runs it prints, every ``interval`` seconds, a status line on stderr (or
 ``status = "json"``, one JSON object a line on stdout): per destination the datagrams forwarded,
 failsafe datagrams; drops by reason; failsafe events; the latency the relay adds
 (from a datagram's read to its send, p50/p99/max over the last 10,000); per listening endpoint
-what the kernel dropped and the sends that failed. SIGTERM and SIGINT end it, printing the
-same counters on stderr.
+what the kernel dropped and the sends that failed; per output stream the lines written and
+dropped. SIGTERM and SIGINT end it, printing the same counters on stderr.
+
+The failsafe's guarantee: nothing but the configuration decides when a brake datagram goes out.
+Output never waits for its reader (``LineStream``: a slow or stuck reader costs lines, counted,
+and a closed one ends that output alone); an exception in routing, polling, sending or reporting
+is counted under ``errors`` by type and the loop goes on; a datagram from one of the relay's own
+sockets is dropped (``looped``), so no spelling of its own address can make it forward to itself.
 """
 
 import contextlib
@@ -26,12 +32,16 @@ from .._codec import Codec
 from .._errors import CodecError
 from .._router import FailsafeEvent, Router
 from .._transport import UdpEndpoint, open_udp
+from ._lines import LineStream, flush_standard_streams
+from ._local import receives
 from ._relayconfig import TICK, Config, read_config
 from ._shared import Fatal, load, one_line, schema_options, shown
 
 __all__ = ["relay"]
 
 _LATENCIES = 10_000  # latency samples kept for the percentiles
+_SENDERS = 256  # senders on one of the relay's own ports whose verdict (itself or not) is kept
+_DRAIN = 2.0  # seconds a slow reader gets, at the end, for the lines still queued
 
 
 @click.command()
@@ -49,21 +59,34 @@ def relay(config: Path, tree: str | None, root: str | None) -> None:
 
     codec = load(tree, root)
     settings = read_config(config, codec)
+    flush_standard_streams()
+    stderr = LineStream(2, "stderr")
+
+    def closed(name: str, reason: str) -> None:
+        stderr.write(f"relay: {name} closed ({reason}): routing and braking go on without it")
+
+    stdout = LineStream(1, "stdout", on_closed=closed)
     try:
-        session = _Relay(codec, settings)
-    except (ValueError, CodecError) as error:  # what the configuration names does not exist
-        raise Fatal(f"{config}: {one_line(str(error))}") from None
-    with contextlib.suppress(KeyboardInterrupt):
-        asyncio.run(session.run())
-    click.echo(f"counters: {json.dumps(session.metrics())}", err=True)
+        try:
+            session = _Relay(codec, settings, stdout, stderr)
+        except (ValueError, CodecError) as error:  # what the configuration names does not exist
+            raise Fatal(f"{config}: {one_line(str(error))}") from None
+        for warning in session.warnings():
+            stderr.write(f"{config}: warning: {warning}")
+        with contextlib.suppress(KeyboardInterrupt):
+            asyncio.run(session.run())
+        stderr.write(f"counters: {json.dumps(session.metrics())}")
+    finally:
+        stdout.close(_DRAIN)
+        stderr.close(_DRAIN)
 
 
 class _Relay:
-    """One running relay: its router, endpoints, counters and latency samples."""
+    """One running relay: its router, endpoints, output, counters and latency samples."""
 
-    def __init__(self, codec: Codec, config: Config) -> None:
+    def __init__(self, codec: Codec, config: Config, stdout: LineStream, stderr: LineStream):
         self.config = config
-        self.events: list[FailsafeEvent] = []
+        self.stdout, self.stderr = stdout, stderr
         self.router = Router(
             codec,
             {name: destination.form for name, destination in config.destinations.items()},
@@ -74,8 +97,24 @@ class _Relay:
         )
         self.endpoints: dict[str, UdpEndpoint] = {}
         self.latencies: deque[float] = deque(maxlen=_LATENCIES)
-        self.errors: dict[str, int] = {}  # error type → datagrams it stopped (none expected)
+        self.errors: dict[str, int] = {}  # error type → times it stopped a step (none expected)
+        self.looped = 0  # datagrams that came from one of the relay's own sockets
         self._targets: dict[str, tuple[UdpEndpoint, tuple[Any, ...]]] = {}
+        self._ports: frozenset[int] = frozenset()  # the ports the relay's sockets are bound to
+        self._own: dict[tuple[Any, ...], bool] = {}  # sender → whether it is one of them
+
+    def warnings(self) -> list[str]:
+        """What the configuration allows that a reader may not expect: a route that delivers a
+        failsafe's kind to its destinations from senders its ``sources`` does not name."""
+        found = []
+        for index, failsafe in enumerate(self.config.failsafes):
+            for route in self.router.bypassing(failsafe.kind):
+                found.append(
+                    f"routes[{route}] delivers {failsafe.kind} to {', '.join(failsafe.to)} from "
+                    f"senders failsafes[{index}].sources does not name: while the brake is "
+                    "engaged, their commands reach it between the brake datagrams"
+                )
+        return found
 
     async def run(self) -> None:
         import asyncio
@@ -99,10 +138,11 @@ class _Relay:
                     raise Fatal(f"cannot listen on {shown(address)} ({name}): {error}") from None
             for name, destination in self.config.destinations.items():
                 self._targets[name] = (self.endpoints[destination.via], destination.address)
+            self._ports = frozenset(endpoint.address[1] for endpoint in self.endpoints.values())
             bound = ", ".join(
                 f"{name} {shown(endpoint.address)}" for name, endpoint in self.endpoints.items()
             )
-            click.echo(f"relaying: listening on {bound}", err=True)
+            self.stderr.write(f"relaying: listening on {bound}")
             tasks = [loop.create_task(self._poll())] if self.config.failsafes else []
             if self.config.status != "none":
                 tasks.append(loop.create_task(self._report()))
@@ -133,15 +173,19 @@ class _Relay:
                 "unread": udp.unread,
                 "send_errors": udp.send_errors,  # of what was sent from it
             }
+        dropped = dict(stats.dropped)
+        if self.looped:
+            dropped["looped"] = self.looped
         return {
             "routes": routes,
-            "dropped": stats.dropped,
+            "dropped": dropped,
             "debug": stats.debug,
             "failsafe": {"engaged": stats.engaged, "released": stats.released},
             "engaged": sorted(self.router.engaged()),
             "errors": dict(self.errors),
             "latency_us": _percentiles(self.latencies),
             "listen": listening,
+            "output": {"stdout": self.stdout.stats(), "stderr": self.stderr.stats()},
         }
 
     def _heard(self, listener: str) -> Any:
@@ -150,35 +194,54 @@ class _Relay:
 
         def heard(data: bytes, sender: Any) -> None:
             start = time.perf_counter()
+            if sender[1] in self._ports and self._from_itself(sender):
+                self.looped += 1
+                return
             source = sources.get(sender[:2], listener) if sources else listener
             try:
-                out = route(data, source, clock())
+                for outgoing in route(data, source, clock()):
+                    send(outgoing.destination, outgoing.data)
             except Exception as error:  # a bug's, not the datagram's: counted, never a traceback
-                name = type(error).__name__
-                self.errors[name] = self.errors.get(name, 0) + 1
+                self._count(error)
                 return
-            for outgoing in out:
-                send(outgoing.destination, outgoing.data)
             latencies.append(time.perf_counter() - start)
 
         return heard
+
+    def _from_itself(self, sender: tuple[Any, ...]) -> bool:
+        """Whether ``sender`` is one of the relay's own sockets (a destination that leads back
+        to the relay, under a name the configuration could not tell)."""
+        key = sender[:2]
+        verdict = self._own.get(key)
+        if verdict is None:
+            verdict = any(receives(e.address, key) for e in self.endpoints.values())
+            if len(self._own) < _SENDERS:
+                self._own[key] = verdict
+        return verdict
+
+    def _count(self, error: Exception) -> None:
+        name = type(error).__name__
+        self.errors[name] = self.errors.get(name, 0) + 1
 
     def _send(self, name: str, data: bytes) -> None:
         endpoint, address = self._targets[name]
         endpoint.send_datagram(data, address)
 
     def _event(self, event: FailsafeEvent) -> None:
-        self.events.append(event)
+        """Said on stderr, counted by the router; not kept (a flapping brake is no memory)."""
         state = "engaged" if event.engaged else "released"
-        click.echo(f"failsafe {event.kind} {state}", err=True)
+        self.stderr.write(f"failsafe {event.kind} {state}")
 
     async def _poll(self) -> None:
         import asyncio
 
         poll, clock = self.router.poll, time.monotonic
         while True:
-            for outgoing in poll(clock()):
-                self._send(outgoing.destination, outgoing.data)
+            try:
+                for outgoing in poll(clock()):
+                    self._send(outgoing.destination, outgoing.data)
+            except Exception as error:  # counted; the next tick polls again
+                self._count(error)
             await asyncio.sleep(TICK)
 
     async def _report(self) -> None:
@@ -186,11 +249,14 @@ class _Relay:
 
         while True:
             await asyncio.sleep(self.config.interval)
-            metrics = self.metrics()
-            if self.config.status == "json":
-                click.echo(json.dumps(metrics))
-            else:
-                click.echo(_line(metrics), err=True)
+            try:
+                metrics = self.metrics()
+                if self.config.status == "json":
+                    self.stdout.write(json.dumps(metrics))
+                else:
+                    self.stderr.write(_line(metrics))
+            except Exception as error:  # counted; the next interval reports again
+                self._count(error)
 
 
 def _percentiles(samples: "deque[float]") -> dict[str, float | None]:

@@ -1,7 +1,10 @@
 """The ``erc-codec relay`` configuration: the TOML file read and checked against the schema.
 
 Every key is checked: an unknown one, a bad address, an unknown kind or destination is a
-``Fatal`` of one line naming the file and the key (exit 2).
+``Fatal`` of one line naming the file and the key (exit 2). So is what could only misbehave: a
+destination the relay itself receives on, however it is spelled (it would forward to itself
+forever), a destination port 0 or a wildcard host, one name twice in a list, two ``[sources]``
+names for one address, failsafe timings out of their bounds, and a file over 1 MiB.
 """
 
 import sys
@@ -14,14 +17,16 @@ from google.protobuf import json_format
 from .._checks import duration
 from .._codec import Codec
 from .._envelope import Mode
-from .._router import Failsafe, Route
+from .._router import Failsafe, Route, failsafe_timing
+from ._local import canonical, receives, spellings
 from ._shared import Fatal, one_line, parse_address, resolve
 
 __all__ = ["TICK", "Config", "Destination", "read_config"]
 
 TICK = 0.002  # seconds between two polls of the failsafes: they repeat at most 1 / TICK a second
-_INTERVAL = 0.01  # the shortest status interval, in seconds (a hundred lines a second)
-_WILDCARDS = ("0.0.0.0", "::")  # a listening host that receives on every local address
+_INTERVALS = (0.01, 3600.0)  # seconds between two status reports (a hundred lines a second)
+_WILDCARDS = ("0.0.0.0", "::")  # a host that means every local address, no destination
+_LARGEST = 1 << 20  # bytes: a relay configuration is a page or two of TOML
 
 
 class Destination(NamedTuple):
@@ -48,11 +53,18 @@ def read_config(path: Path, codec: Codec) -> Config:
     else:  # tomllib is tomli, joined to the standard library in 3.11
         import tomli as tomllib
     try:
-        document = tomllib.loads(path.read_text(encoding="utf-8"))
+        with path.open("rb") as file:
+            data = file.read(_LARGEST + 1)
     except OSError as error:
         raise Fatal(f"{path}: {error.strerror or error}") from None
+    if len(data) > _LARGEST:
+        raise Fatal(f"{path}: larger than {_LARGEST >> 20} MiB: not a relay configuration")
+    try:
+        document = tomllib.loads(data.decode("utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
         raise Fatal(f"{path}: not TOML: {one_line(str(error))}") from None
+    except RecursionError:
+        raise Fatal(f"{path}: not TOML: nested too deeply") from None
     reader = _Reader(path, codec)
     try:
         return reader.config(document)
@@ -86,18 +98,18 @@ class _Reader:
         if status not in ("line", "json", "none"):
             raise ValueError(f"relay.status must be line, json or none, not {status!r}")
         interval = duration("relay.interval", settings.get("interval", 1.0))
-        if interval < _INTERVAL:
-            raise ValueError(f"relay.interval must be at least {_INTERVAL} s, not {interval!r}")
-        return Config(
-            listen,
-            destinations,
-            sources,
-            routes,
-            failsafes,
-            settings.get("debug"),
-            status,
-            interval,
-        )
+        shortest, longest = _INTERVALS
+        if not shortest <= interval <= longest:
+            raise ValueError(
+                f"relay.interval must be from {shortest:g} to {longest:g} s, not {interval!r}"
+            )
+        debug = _text(settings, "debug", "relay")
+        if debug is not None and debug not in destinations:
+            raise ValueError(
+                f"relay.debug: no destination {debug!r} "
+                f"(destinations: {', '.join(destinations) or 'none'})"
+            )
+        return Config(listen, destinations, sources, routes, failsafes, debug, status, interval)
 
     def destinations(
         self, document: dict[str, Any], listen: dict[str, tuple[Any, ...]]
@@ -112,12 +124,18 @@ class _Reader:
             form = entry.get("form", "exact")
             if form not in ("exact", "strip", "pad"):
                 raise ValueError(f"{where}.form must be exact, strip or pad, not {form!r}")
-            via = entry.get("via", first)
+            via = _text(entry, "via", where) or first
             if via not in listen:
                 raise ValueError(f"{where}.via: no [listen] endpoint {via!r}")
             if "address" not in entry:
                 raise ValueError(f"{where}.address is missing")
             address = self.address(f"{where}.address", entry["address"])
+            if address[1] == 0:
+                raise ValueError(f"{where}.address: port 0 is no destination")
+            if canonical(address[0]) in _WILDCARDS:
+                raise ValueError(
+                    f"{where}.address: {address[0]} means every local address, no destination"
+                )
             _not_listening(f"{where}.address", address, listen)
             destinations[name] = Destination(address, cast(Mode, form), via)
         return destinations
@@ -125,7 +143,7 @@ class _Reader:
     def sources(
         self, document: dict[str, Any], listen: dict[str, tuple[Any, ...]]
     ) -> dict[tuple[str, int], str]:
-        sources = {}
+        sources: dict[tuple[str, int], str] = {}
         for name, text in _table(document, "sources").items():
             if name in listen:
                 raise ValueError(
@@ -133,7 +151,11 @@ class _Reader:
                     "could not tell them apart"
                 )
             host, port = self.address(f"sources.{name}", text)[:2]
-            sources[(host, port)] = name
+            named = sources.get((canonical(host), port))
+            if named is not None:
+                raise ValueError(f"sources.{name}: {text!r} is sources.{named} already")
+            for spelling in spellings(host):  # as a dual-stack socket reports it, too
+                sources[(spelling, port)] = name
         return sources
 
     def failsafes(self, document: dict[str, Any], senders: set[str]) -> list[Failsafe]:
@@ -199,6 +221,10 @@ class _Reader:
             )
         if timeout is None:
             raise ValueError(f"{where}.timeout is missing (seconds of silence before it engages)")
+        try:
+            failsafe_timing(rate, timeout)
+        except ValueError as error:
+            raise ValueError(f"{where}.{error}") from None
         return Failsafe(
             kind,
             message,
@@ -242,6 +268,9 @@ def _names(
         raise ValueError(f"{where}.{key} must be a list of names, not {value!r}")
     if not value:  # a route or failsafe that could never take anything
         raise ValueError(f"{where}.{key} = [] names nothing: leave it out or name at least one")
+    twice = next((name for i, name in enumerate(value) if name in value[:i]), None)
+    if twice is not None:
+        raise ValueError(f"{where}.{key} names {twice!r} twice")
     return tuple(value)
 
 
@@ -260,15 +289,10 @@ def _senders(entry: dict[str, Any], where: str, senders: set[str]) -> tuple[str,
 def _not_listening(
     where: str, address: tuple[Any, ...], listen: dict[str, tuple[Any, ...]]
 ) -> None:
-    """Refuse a destination the relay itself listens on: it would forward to itself forever."""
-    host, port = address[:2]
-    for name, (listening, bound) in ((n, a[:2]) for n, a in listen.items()):
-        if port == bound and (host == listening or (listening in _WILDCARDS and _local(host))):
+    """Refuse a destination the relay itself receives on: it would forward to itself forever."""
+    for name, bound in listen.items():
+        if receives(bound, address):
             raise ValueError(f"{where}: the relay listens there itself ([listen] {name})")
-
-
-def _local(host: str) -> bool:
-    return host in _WILDCARDS or host == "::1" or host.startswith("127.")
 
 
 def _text(entry: dict[str, Any], key: str, where: str) -> str | None:

@@ -1,0 +1,67 @@
+"""This host's own addresses, however they are spelled: what keeps the relay from sending to itself.
+
+One address has several spellings: ``::ffff:127.0.0.1`` is ``127.0.0.1`` (an IPv4-mapped IPv6
+address, which is how a dual-stack socket names an IPv4 peer), and a socket bound to a wildcard
+(``0.0.0.0``, ``::``) receives on every address of the host, loopback and interfaces alike.
+Whether an address is the host's own is asked of the kernel, with no list of interfaces: a UDP
+socket binds to it (port 0, closed at once) only if it is. A host with ``ip_nonlocal_bind`` set,
+or a socket option such as ``IP_FREEBIND``, binds to any address; the check then errs towards
+refusing.
+"""
+
+import ipaddress
+import socket
+from typing import Any
+
+__all__ = ["canonical", "is_local", "receives", "spellings"]
+
+_WILDCARDS = ("0.0.0.0", "::")
+
+
+def canonical(host: str) -> str:
+    """``host`` (a numeric IP address) in one spelling: an IPv4-mapped IPv6 address as its IPv4
+    address, any other in its compressed form; a scope (``%eth0``) is kept."""
+    address, percent, scope = host.partition("%")
+    try:
+        parsed = ipaddress.ip_address(address)
+    except ValueError:
+        return host
+    if isinstance(parsed, ipaddress.IPv6Address) and parsed.ipv4_mapped is not None:
+        return str(parsed.ipv4_mapped)
+    return str(parsed) + percent + scope
+
+
+def spellings(host: str) -> tuple[str, ...]:
+    """Every spelling a received datagram may give ``host`` as its sender: an IPv4 address
+    also as the IPv4-mapped IPv6 address a dual-stack socket reports."""
+    host = canonical(host)
+    return (host, f"::ffff:{host}") if ":" not in host else (host,)
+
+
+def is_local(host: str) -> bool:
+    """Whether ``host`` (a numeric IP address) is one of this host's, or a wildcard."""
+    host = canonical(host)
+    if host in _WILDCARDS:
+        return True
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    try:
+        with socket.socket(family, socket.SOCK_DGRAM) as probe:
+            probe.bind((host, 0))
+    except OSError:
+        return False
+    return True
+
+
+def receives(bound: tuple[Any, ...], destination: tuple[Any, ...]) -> bool:
+    """Whether a UDP socket bound to ``bound`` receives what is sent to ``destination`` (both
+    socket addresses with numeric hosts): the same port, and the same address or, for a
+    wildcard, any of this host's (an IPv4 wildcard only IPv4 ones; an IPv6 wildcard, dual-stack
+    as Linux makes it, any)."""
+    if bound[1] != destination[1]:
+        return False
+    listening, host = canonical(bound[0]), canonical(destination[0])
+    if listening == host:
+        return True
+    if listening == "::" or (listening == "0.0.0.0" and ":" not in host):
+        return is_local(host)
+    return False
