@@ -3,9 +3,10 @@
 Guarantees: every datagram fed ends in exactly one counter: handled (per kind), unhandled (a kind
 with no handler), undecodable (per ``DecodeError.reason``) or a handler error (per kind). A
 handler takes a payload: fields the schema does not know beside it, on the envelope, are counted
-by number (``unkept``), not passed on. Every
-drop also goes to the optional ``on_drop`` callback with the datagram and the reason. A handler's
-exception is caught and counted; the next datagram is dispatched as usual. No threads, no I/O.
+by number (``unkept``, at most ``MAX_UNKEPT_NUMBERS`` numbers, the rest in ``unkept_unlisted``),
+not passed on. Every drop also goes to the optional ``on_drop`` callback with the datagram and
+the reason. A handler's exception is caught and counted; the next datagram is dispatched as
+usual. No threads, no I/O.
 """
 
 from collections.abc import Callable, Mapping
@@ -17,6 +18,7 @@ from google.protobuf.message import Message
 
 from ._codec import Codec
 from ._errors import DecodeError, SchemaError, UnreadableKind
+from ._unknown import UnkeptFields
 
 __all__ = ["DispatchStats", "Dispatcher", "Drop"]
 
@@ -41,8 +43,11 @@ class DispatchStats(NamedTuple):
     undecodable: dict[str, int]  # DecodeError reason → datagrams
     handler_errors: dict[str, int]  # kind → handler exceptions
     # field number → datagrams whose envelope carried that field, unknown to the schema, beside
-    # the payload: the payload was dispatched, the field (which no handler takes) was not
+    # the payload: the payload was dispatched, the field (which no handler takes) was not; the
+    # first MAX_UNKEPT_NUMBERS numbers to arrive are listed
     unkept: Mapping[int, int] = MappingProxyType({})
+    # fields of the numbers not listed in ``unkept``, once per datagram and number
+    unkept_unlisted: int = 0
 
     @property
     def dropped(self) -> int:
@@ -82,7 +87,7 @@ class Dispatcher:
         self._unhandled: dict[str, int] = {}
         self._undecodable: dict[str, int] = {}
         self._handler_errors: dict[str, int] = {}
-        self._unkept: dict[int, int] = {}
+        self._unkept = UnkeptFields()
 
     def _parser(self, kind: str) -> Callable[[bytes], Message] | None:
         """The payload class's parser; ``None`` for a member nobody can read as nanopb does,
@@ -142,9 +147,7 @@ class Dispatcher:
             kind, message = decoded
             advertised = decoded.timeout
             if decoded.envelope_unknown_fields:  # never on peek's path: one member, no more
-                unkept = self._unkept
-                for number in {field.number for field in decoded.envelope_unknown_fields}:
-                    unkept[number] = unkept.get(number, 0) + 1
+                self._unkept.count(field.number for field in decoded.envelope_unknown_fields)
             entry = self._kinds[kind]
         if self.on_decoded is not None:
             self.on_decoded(kind)
@@ -167,7 +170,8 @@ class Dispatcher:
             dict(self._unhandled),
             dict(self._undecodable),
             dict(self._handler_errors),
-            dict(self._unkept),
+            dict(self._unkept.counts),
+            self._unkept.unlisted,
         )
 
     def _drop(self, counter: dict[str, int], key: str, drop: Drop) -> bool:

@@ -13,7 +13,8 @@ What it guarantees:
   envelope's descriptors, ``<root>_size``) in a metadata record ``erc-codec`` written first, and
   what it holds (counts by kind and by reason, senders, and ``unkept.<number>``: datagrams whose
   envelope carried field ``number``, unknown to the schema, beside the payload, which a payload
-  channel cannot hold) in ``erc-codec.summary`` written last;
+  channel cannot hold, for the first ``MAX_UNKEPT_NUMBERS`` numbers, and ``unkept.unlisted``:
+  the fields of the others) in ``erc-codec.summary`` written last;
 - memory stays flat: the writer streams chunks (zstd, CRCs on chunks and on the data section);
   what it keeps per datagram is counters.
 The file must be seekable (the library goes back to write its indexes).
@@ -42,15 +43,25 @@ from ._recording import (
     member_topic,
     require,
 )
+from ._unknown import UnkeptFields
 from .schema import descriptor_of
 
 if TYPE_CHECKING:
     from mcap.writer import Writer
 
-__all__ = ["McapWriter", "Recorded", "RecordingStats", "read_mcap", "recorded_payloads"]
+__all__ = [
+    "McapWriter",
+    "Recorded",
+    "RecordingStats",
+    "holds_log_time",
+    "read_mcap",
+    "recorded_payloads",
+    "unkept_summary",
+]
 
 Compression = Literal["zstd", "lz4", "none"]
 _MAX_SENDERS = 256  # distinct (kind, sender) pairs named in the summary; the rest are counted
+_MAX_LOG_TIME = (1 << 64) - 1  # MCAP's times are unsigned 64-bit nanoseconds: up to 2554 AD
 
 
 class RecordingStats(NamedTuple):
@@ -59,8 +70,11 @@ class RecordingStats(NamedTuple):
     messages: dict[str, int]  # kind → messages
     drops: dict[str, int]  # reason → dropped datagrams
     # field number → datagrams whose envelope carried that field, unknown to the schema, beside
-    # the payload: the payload is recorded on its channel, the field is not (``unkept``)
+    # the payload: the payload is recorded on its channel, the field is not (``unkept``); the
+    # first MAX_UNKEPT_NUMBERS numbers to arrive are listed
     unkept: Mapping[int, int] = MappingProxyType({})
+    # fields of the numbers not listed in ``unkept``, once per datagram and number
+    unkept_unlisted: int = 0
 
 
 class Recorded(NamedTuple):
@@ -124,7 +138,7 @@ class McapWriter:
         self._drops_channel = 0
         self._messages: dict[str, int] = {}
         self._drops: dict[str, int] = {}
-        self._unkept: dict[int, int] = {}
+        self._unkept = UnkeptFields()
         self._senders: dict[tuple[str, str], int] = {}
         self._unlisted_senders = 0
         self._sequence = 0
@@ -139,7 +153,10 @@ class McapWriter:
     def write(
         self, data: bytes, log_time: int, source: str = "", destination: str = ""
     ) -> str | None:
-        """Decode one datagram and write it as a message, or as a drop; its kind, or None."""
+        """Decode one datagram and write it as a message, or as a drop; its kind, or None. A
+        ``log_time`` MCAP cannot hold (``holds_log_time``) is a ``CodecError``, nothing written."""
+        if not holds_log_time(log_time):
+            raise _outside(log_time)
         try:
             decoded = self._decode(data)
         except DecodeError as error:
@@ -162,14 +179,15 @@ class McapWriter:
     def unkept(self, numbers: Iterable[int]) -> None:
         """Count a datagram whose envelope carried fields ``numbers`` beside its payload that
         the schema does not know: its payload is written (``message``), they cannot be, and
-        the summary says so (``unkept.<number>``)."""
-        unkept = self._unkept
-        for number in set(numbers):
-            unkept[number] = unkept.get(number, 0) + 1
+        the summary says so (``unkept.<number>``, or ``unkept.unlisted`` past the numbers
+        listed)."""
+        self._unkept.count(numbers)
 
     def message(self, kind: str, payload: Message | bytes, log_time: int, source: str = "") -> None:
         """Write the payload of a decoded datagram of member ``kind`` (the message, or its exact
         encoding) that arrived at ``log_time`` (nanoseconds since the epoch) from ``source``."""
+        if not holds_log_time(log_time):
+            raise _outside(log_time)
         data = payload if isinstance(payload, bytes) else payload.SerializeToString()
         self._payload(kind, data, log_time, source)
 
@@ -200,6 +218,8 @@ class McapWriter:
         destination: str = "",
     ) -> None:
         """Write a datagram that did not decode, exactly as it arrived, with why."""
+        if not holds_log_time(log_time):
+            raise _outside(log_time)
         if not self._drops_channel:
             name, files = drop_schema()
             schema = self._writer.register_schema(name, self._schema_encoding, files)
@@ -218,7 +238,10 @@ class McapWriter:
 
     def stats(self) -> RecordingStats:
         """Messages by kind and drops by reason, so far."""
-        return RecordingStats(dict(self._messages), dict(self._drops), dict(self._unkept))
+        unkept = self._unkept
+        return RecordingStats(
+            dict(self._messages), dict(self._drops), dict(unkept.counts), unkept.unlisted
+        )
 
     def close(self, summary: Mapping[str, str] | None = None) -> None:
         """Write the summary (what was written, who sent it, and ``summary``'s own entries, such
@@ -256,7 +279,7 @@ class McapWriter:
         }
         summary.update({f"messages.{k}": str(n) for k, n in sorted(self._messages.items())})
         summary.update({f"drops.{r}": str(n) for r, n in sorted(self._drops.items())})
-        summary.update({f"unkept.{f}": str(n) for f, n in sorted(self._unkept.items())})
+        summary.update(unkept_summary(self._unkept.counts, self._unkept.unlisted))
         senders: dict[str, list[tuple[int, str]]] = {}
         for (kind, source), count in self._senders.items():
             senders.setdefault(kind, []).append((count, source or "unknown"))
@@ -266,6 +289,28 @@ class McapWriter:
         if self._unlisted_senders:
             summary["senders.unlisted_messages"] = str(self._unlisted_senders)
         return summary
+
+
+def holds_log_time(log_time: int) -> bool:
+    """Whether an MCAP file can hold ``log_time``, nanoseconds since the Unix epoch: from 1970
+    to 2554 (its times are unsigned 64-bit)."""
+    return 0 <= log_time <= _MAX_LOG_TIME
+
+
+def _outside(log_time: int) -> CodecError:
+    return CodecError(
+        f"log time {log_time} ns is outside what MCAP holds: 0 to 2**64 - 1 ns since the epoch "
+        "(1970 to 2554)"
+    )
+
+
+def unkept_summary(unkept: Mapping[int, int], unlisted: int) -> dict[str, str]:
+    """A summary's entries for the fields beside the payloads that no channel holds:
+    ``unkept.<number>`` for each number listed, ``unkept.unlisted`` for the fields of the others."""
+    entries = {f"unkept.{number}": str(n) for number, n in sorted(unkept.items())}
+    if unlisted:
+        entries["unkept.unlisted"] = str(unlisted)
+    return entries
 
 
 def _texts(entries: Mapping[str, str]) -> dict[str, str]:
@@ -293,7 +338,34 @@ def read_mcap(path: str | os.PathLike[str]) -> Iterator[Recorded]:
     ``DroppedDatagram`` (``reason``, ``error``, ``length``, ``data``, ``source``,
     ``destination``). Only the ``/erc/<kind>`` and drops channels are read (a file may carry
     others, such as JSON statistics). Chunk and summary CRCs are checked; a damaged file is a
-    ``CodecError`` naming it."""
+    ``CodecError`` naming it, and so is one whose channel is not protobuf, whose schema does not
+    load or whose message does not parse with it."""
+    for message, kind, decoded in _decoded(path):
+        yield Recorded(message.log_time, kind, decoded)
+
+
+def recorded_payloads(path: str | os.PathLike[str]) -> Iterator[tuple[int, str | None, bytes]]:
+    """``(log_time, kind, payload bytes)`` of every member message of an MCAP file, and
+    ``(log_time, None, datagram as received)`` of every drop, in log-time order, the bytes as
+    the file holds them; a file ``read_mcap`` refuses is refused here, with the same error."""
+    parse_drop = dropped_datagram().FromString
+    for message, kind, _ in _decoded(path):
+        if kind is not None:
+            yield message.log_time, kind, message.data
+        else:
+            try:
+                drop: Any = parse_drop(message.data)
+            except ProtobufDecodeError as error:
+                raise CodecError(
+                    f"{path} is not a readable MCAP recording: a drop does not parse: {error}"
+                ) from None
+            yield message.log_time, None, drop.data
+
+
+def _decoded(path: str | os.PathLike[str]) -> Iterator[tuple[Any, str | None, Message]]:
+    """``(message, kind, decoded)`` of every message ``_recorded`` reads, decoded with its
+    channel's schema: a channel that is not protobuf, a schema that does not load and a message
+    that does not parse are a ``CodecError`` naming the file."""
     factory = _mcap("mcap_protobuf.decoder", "reading MCAP").DecoderFactory()
     decoders: dict[int, Any] = {}
     for schema, channel, message, kind in _recorded(path):
@@ -319,24 +391,7 @@ def read_mcap(path: str | os.PathLike[str]) -> Iterator[Recorded]:
                 f"{path} is not a readable MCAP recording: a message on {channel.topic} does "
                 f"not parse: {error}"
             ) from None
-        yield Recorded(message.log_time, kind, decoded)
-
-
-def recorded_payloads(path: str | os.PathLike[str]) -> Iterator[tuple[int, str | None, bytes]]:
-    """``(log_time, kind, payload bytes)`` of every member message of an MCAP file, and
-    ``(log_time, None, datagram as received)`` of every drop, in log-time order, undecoded."""
-    parse_drop = dropped_datagram().FromString
-    for _, _, message, kind in _recorded(path):
-        if kind is not None:
-            yield message.log_time, kind, message.data
-        else:
-            try:
-                drop: Any = parse_drop(message.data)
-            except ProtobufDecodeError as error:
-                raise CodecError(
-                    f"{path} is not a readable MCAP recording: a drop does not parse: {error}"
-                ) from None
-            yield message.log_time, None, drop.data
+        yield message, kind, decoded
 
 
 def _recorded(path: str | os.PathLike[str]) -> Iterator[tuple[Any, Any, Any, str | None]]:

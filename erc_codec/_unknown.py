@@ -3,15 +3,27 @@ numbers it knows arriving with another wire type (protobuf keeps both as unknown
 sender and a receiver of different schemas show here, instead of in silently dropped values.
 
 Found on demand, never by ``decode`` itself (its speed target, benchmarks/bench_codec.py): one
-walk over the message's set fields, nested messages, lists and maps included.
+walk over the message's set fields, nested messages, lists and maps included. What keeps payloads
+only counts the fields beside them by number, in a table of bounded size (``UnkeptFields``).
 """
 
+from collections.abc import Iterable
 from typing import NamedTuple
 
 from google.protobuf import unknown_fields as _protobuf_unknown
 from google.protobuf.message import Message
 
-__all__ = ["UnknownField", "own_unknown_fields", "unknown_fields"]
+__all__ = [
+    "MAX_UNKEPT_NUMBERS",
+    "UnkeptFields",
+    "UnknownField",
+    "own_unknown_fields",
+    "unknown_fields",
+]
+
+# Distinct field numbers an unkept table lists: a schema grows by a handful of fields, while a
+# sender of random numbers would otherwise grow the table by every datagram it sends.
+MAX_UNKEPT_NUMBERS = 256
 
 
 class UnknownField(NamedTuple):
@@ -24,6 +36,33 @@ class UnknownField(NamedTuple):
     path: str
     number: int
     wire_type: int
+
+
+class UnkeptFields:
+    """Datagrams by the number of each field, unknown to the schema, that their envelope carried
+    beside the payload, where only the payload is kept (``Dispatcher``, ``McapWriter``).
+
+    ``counts`` lists the first ``MAX_UNKEPT_NUMBERS`` distinct numbers, in the order they came;
+    a field of any other number is counted in ``unlisted``, once per datagram and number. So the
+    sum of ``counts`` and ``unlisted`` is every (datagram, number) pair seen, in bounded memory.
+    """
+
+    __slots__ = ("counts", "unlisted")
+
+    def __init__(self) -> None:
+        self.counts: dict[int, int] = {}
+        self.unlisted = 0
+
+    def count(self, numbers: Iterable[int]) -> None:
+        """Count one datagram that carried fields ``numbers`` (a number given twice counts once)."""
+        counts = self.counts
+        for number in dict.fromkeys(numbers):  # first come, first listed
+            if number in counts:
+                counts[number] += 1
+            elif len(counts) < MAX_UNKEPT_NUMBERS:
+                counts[number] = 1
+            else:
+                self.unlisted += 1
 
 
 def unknown_fields(message: Message) -> tuple[UnknownField, ...]:

@@ -1,8 +1,9 @@
 """What the recording tests share: captures they write, and the tools they need.
 
 Imported as conftest is (``from recording_support import write_pcap``); it holds no tests.
-Captures are classic pcap (Ethernet, IPv4, UDP), written with struct byte by byte, so a test of
-the pcap readers does not lean on one of them to make its input. ``need`` imports a library of
+Captures are classic pcap (Ethernet, IPv4, UDP), or pcapng built block by block (``section``,
+``interface``, ``enhanced``, ``simple``), written with struct byte by byte, so a test of the
+capture readers does not lean on one of them to make its input. ``need`` imports a library of
 the test extra (or finds a program CI installs): without it a test skips and says why, except
 under ERC_REQUIRE_INTEROP=1 (CI), where it fails.
 """
@@ -65,6 +66,39 @@ def write_pcap(
             file.write(data)
             times.append(micros / 1e6)
     return times
+
+
+def block(kind: int, body: bytes, order: str = "<") -> bytes:
+    """A pcapng block: its type, its total length, the body padded to 32 bits, the length again."""
+    body += bytes(-len(body) % 4)
+    length = struct.pack(order + "I", 12 + len(body))
+    return struct.pack(order + "I", kind) + length + body + length
+
+
+def section(order: str = "<") -> bytes:
+    """A Section Header Block: byte-order magic, version 1.0, section length unknown."""
+    return block(0x0A0D0D0A, struct.pack(order + "IHHq", 0x1A2B3C4D, 1, 0, -1), order)
+
+
+def interface(
+    linktype: int, snaplen: int = 0, options: tuple[tuple[int, bytes], ...] = (), order: str = "<"
+) -> bytes:
+    """An Interface Description Block, with ``options`` (code, value) and their end."""
+    body = struct.pack(order + "HHI", linktype, 0, snaplen)
+    for code, value in [*options, (0, b"")]:
+        body += struct.pack(order + "HH", code, len(value)) + value + bytes(-len(value) % 4)
+    return block(1, body, order)
+
+
+def enhanced(number: int, ticks: int, packet: bytes, order: str = "<") -> bytes:
+    """An Enhanced Packet Block of interface ``number``, its time in the interface's units."""
+    head = struct.pack(order + "IIIII", number, ticks >> 32, ticks & 0xFFFFFFFF, *[len(packet)] * 2)
+    return block(6, head + packet, order)
+
+
+def simple(packet: bytes, original: int | None = None, order: str = "<") -> bytes:
+    """A Simple Packet Block: the packet's original length, then the bytes captured."""
+    return block(3, struct.pack(order + "I", original or len(packet)) + packet, order)
 
 
 def _missing(reason: str) -> None:

@@ -15,7 +15,7 @@ from typing import Any, NamedTuple
 import pytest
 from conftest import REPO
 from google.protobuf import json_format
-from recording_support import need
+from recording_support import enhanced, interface, need, section, simple
 
 import erc_codec
 
@@ -640,6 +640,78 @@ def test_decode_of_a_cut_capture_exits_2_after_the_packets_before_the_cut(
         assert summary == "1 datagram, 0 undecodable, 0 packets skipped"
         assert damage.startswith("Error: ")
         assert " is cut off " in damage or " is damaged " in damage
+
+
+def test_pcapng_simple_packet_blocks_are_read_as_interface_0s_without_a_time(
+    codec: erc_codec.Codec, tmp_path: Path
+) -> None:
+    """A Simple Packet Block has no interface of its own and no time: it is interface 0's, cut
+    to that interface's snapshot length, in each section (of either byte order)."""
+    need("dpkt")
+    fix = codec.encode(codec.message_class("SensorBoardGPSInfo")(satellites=5))
+    frame = link(ETHERNET, udp4(fix))
+    capture = tmp_path / "simple.pcapng"
+    capture.write_bytes(
+        section()
+        + interface(ETHERNET)
+        + simple(frame)
+        + section(">")  # a second section, big-endian: its own interfaces
+        + interface(ETHERNET, snaplen=len(frame) - 2, order=">")
+        + simple(frame[:-2], original=len(frame), order=">")  # cut by the snapshot length
+        + simple(frame[:-2] + b"\xee\xee", original=len(frame), order=">")  # bytes past it
+    )
+    done = run("decode", "--pcap", str(capture))
+    assert (done.code, done.err) == (
+        0,
+        "1 datagram, 0 undecodable, 2 packets skipped (2 cut short by the capture)\n",
+    )
+    (shown,) = records(done.out)
+    assert (shown["kind"], shown["message"]["satellites"]) == ("gps_info", 5)
+    assert (shown["time"], shown["src"], shown["dst"]) == (
+        None,
+        "192.168.1.20:5005",
+        "192.168.1.2:6006",
+    )
+
+
+def test_each_pcapng_packet_is_read_with_its_own_interface(
+    codec: erc_codec.Codec, tmp_path: Path
+) -> None:
+    """Interfaces of different link types and time resolutions in one capture: each packet is
+    read with its own interface's, and one naming no interface of its section is skipped."""
+    need("dpkt")
+    fix = codec.encode(codec.message_class("SensorBoardGPSInfo")(satellites=5))
+    binary_ticks = bytes([0x80 | 10])  # if_tsresol: 1/1024 s
+    hundred_seconds = struct.pack("<q", 100)  # if_tsoffset
+    capture = tmp_path / "interfaces.pcapng"
+    capture.write_bytes(
+        section()
+        + interface(ETHERNET)  # microseconds, the default
+        + interface(LINUX_SLL, options=((9, b"\x09"),))  # nanoseconds
+        + interface(101, options=((9, binary_ticks), (14, hundred_seconds)))  # raw IP
+        + interface(147)  # a link type not read
+        + enhanced(0, 1_700_000_000_000_000, link(ETHERNET, udp4(fix, sport=1)))
+        + enhanced(1, 1_700_000_000_500_000_000, link(LINUX_SLL, udp4(fix, sport=2)))
+        + enhanced(2, 1_700_000_001 * 1024 + 512, udp4(fix, sport=3))
+        + enhanced(3, 0, link(ETHERNET, udp4(fix, sport=4)))
+        + enhanced(4, 1_700_000_002_000_000, link(ETHERNET, udp4(fix, sport=5)))
+        + section()  # interfaces are a section's own: the next names one no more
+        + enhanced(0, 1_700_000_003_000_000, link(ETHERNET, udp4(fix, sport=6)))
+        + interface(ETHERNET, options=((9, b"\x03"),))  # milliseconds
+        + enhanced(0, 1_700_000_004_000, link(ETHERNET, udp4(fix, sport=7)))
+    )
+    done = run("decode", "--pcap", str(capture))
+    assert (done.code, done.err) == (
+        0,
+        "4 datagrams, 0 undecodable, 3 packets skipped "
+        "(1 link type 147 not supported, 2 no such interface)\n",
+    )
+    assert [(r["time"], r["src"], r["kind"]) for r in records(done.out)] == [
+        (1_700_000_000.0, "192.168.1.20:1", "gps_info"),
+        (1_700_000_000.5, "192.168.1.20:2", "gps_info"),
+        (1_700_000_101.5, "192.168.1.20:3", "gps_info"),
+        (1_700_000_004.0, "192.168.1.20:7", "gps_info"),
+    ]
 
 
 def test_pcap_without_dpkt_says_what_to_install(tmp_path: Path) -> None:

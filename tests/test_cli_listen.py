@@ -10,9 +10,11 @@ import sys
 import time
 
 import pytest
+from datagrams import beside
 from test_cli_net import start_listener
 
 import erc_codec
+from erc_codec._unknown import MAX_UNKEPT_NUMBERS
 
 
 def codec_datagram(kind: str) -> bytes:
@@ -134,6 +136,25 @@ def test_listen_stopped_by_a_signal_prints_its_counters(number: signal.Signals) 
     assert json.loads(out)["kind"] == "gps_info"
     counters = json.loads(err.splitlines()[-1].removeprefix("counters: "))
     assert counters["received"] == 1
+
+
+def test_listen_counts_the_fields_beside_the_payload_in_a_table_of_bounded_size() -> None:
+    """Ever new field numbers beside the payload: the counters list the first numbers to come,
+    no more, and count every field of the others, once per datagram and number."""
+    numbers = list(range(1000, 1000 + MAX_UNKEPT_NUMBERS + 100))
+    rounds = [numbers[start : start + 50] for start in range(0, len(numbers), 50)]
+    sent = [beside(numbers_of_one) for numbers_of_one in rounds * 2]
+    listener, port = start_listener("--format", "json", "--count", str(len(sent)))
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
+        for data in sent:
+            sender.sendto(data, ("127.0.0.1", port))
+            time.sleep(0.002)
+    out, err = listener.communicate(timeout=30)
+    assert listener.returncode == 0, err
+    assert [json.loads(line)["kind"] for line in out.splitlines()] == ["gps_info"] * len(sent)
+    counters = json.loads(err.splitlines()[-1].removeprefix("counters: "))
+    assert counters["unkept"] == {str(number): 2 for number in numbers[:MAX_UNKEPT_NUMBERS]}
+    assert counters["unkept_unlisted"] == 2 * 100
 
 
 def test_send_takes_a_line_decode_printed() -> None:

@@ -14,11 +14,14 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from datagrams import MODES
-from recording_support import frame, need, write_pcap
+from datagrams import MODES, beside
+from recording_support import enhanced, frame, interface, need, section, simple, write_pcap
 from test_mcap import metadata, read_back
 
 import erc_codec
+from erc_codec._recording import file_descriptor_set
+from erc_codec._unknown import MAX_UNKEPT_NUMBERS
+from erc_codec.schema import descriptor_of
 
 SO_TIMESTAMPNS = getattr(socket, "SO_TIMESTAMPNS", 35)  # Linux's number, where Python lacks it
 
@@ -116,6 +119,32 @@ def test_record_counts_the_fields_beside_the_payload_it_cannot_keep(tmp_path: Pa
     assert [m.message.data for m in read_back(out)] == [b""] * 3
     written = metadata(out)["erc-codec.summary"]
     assert (written["unkept.20"], written["unkept.40"]) == ("1", "1")
+
+
+def test_record_counts_the_fields_past_its_unkept_tables_bound(tmp_path: Path) -> None:
+    """Ever new field numbers beside the payload: the summaries list the first numbers to come,
+    no more, and count every field of the others, once per datagram and number."""
+    need("mcap")
+    out = tmp_path / "newer.mcap"
+    numbers = list(range(1000, 1000 + MAX_UNKEPT_NUMBERS + 100))
+    rounds = [numbers[start : start + 50] for start in range(0, len(numbers), 50)]
+    sent = [beside(numbers_of_one) for numbers_of_one in rounds * 2]
+    recorder, port = start_recorder(out, "--count", str(len(sent)))
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
+        for data in sent:
+            sender.sendto(data, ("127.0.0.1", port))
+            time.sleep(0.002)
+        _, err = recorder.communicate(timeout=60)
+    assert recorder.returncode == 0, err
+    result = summary(err, "recorded: ")
+    assert result["messages"] == {"gps_info": len(sent)}
+    assert result["unkept"] == {str(number): 2 for number in numbers[:MAX_UNKEPT_NUMBERS]}
+    assert result["unkept_unlisted"] == 2 * 100
+    written = metadata(out)["erc-codec.summary"]
+    assert {key: n for key, n in written.items() if key.startswith("unkept.")} == {
+        **{f"unkept.{number}": "2" for number in numbers[:MAX_UNKEPT_NUMBERS]},
+        "unkept.unlisted": "200",
+    }
 
 
 def test_record_refuses_to_overwrite_and_to_bind_twice(tmp_path: Path) -> None:
@@ -326,6 +355,26 @@ def test_replay_a_pcapng_capture_at_its_timing(
     assert result["recorded_seconds"] == pytest.approx((len(sent) - 1) * 0.08)
 
 
+def test_replay_sends_a_simple_packet_blocks_datagram_right_after_the_one_before(
+    codec: erc_codec.Codec, tmp_path: Path, catcher: Catcher
+) -> None:
+    """A Simple Packet Block carries no time: its datagram is sent, with no wait of its own."""
+    need("dpkt")
+    sent = fleet(codec)[:3]
+    capture = tmp_path / "simple.pcapng"
+    capture.write_bytes(
+        section()
+        + interface(1)
+        + simple(frame(sent[0]))
+        + enhanced(0, 1_700_000_000_000_000, frame(sent[1]))
+        + simple(frame(sent[2]))
+    )
+    result = finished(replay(capture, catcher))
+    got = [data for _, data in catcher.take(len(sent))]
+    assert got == [codec.encode(codec.decode(data).message) for data in sent]
+    assert (result["sent"], result["recorded_seconds"]) == (len(sent), 0.0)
+
+
 def test_replay_of_a_damaged_capture_sends_what_came_before(
     codec: erc_codec.Codec, tmp_path: Path, catcher: Catcher
 ) -> None:
@@ -393,6 +442,51 @@ def test_replay_of_a_damaged_recording_is_a_read_error_not_a_send_error(
         assert err.splitlines()[-1].startswith(
             f"Error: {recording} is not a readable MCAP recording: "
         ), err
+
+
+@pytest.mark.parametrize(
+    ("encoding", "schema_encoding", "schema", "data", "why"),
+    [
+        ("json", "jsonschema", b"{}", b"", "/erc/gps_info is not protobuf"),
+        ("protobuf", "protobuf", b"\xff", b"\x68\x05", "the schema of /erc/gps_info does not load"),
+        ("protobuf", "protobuf", None, b"\xff", "a message on /erc/gps_info does not parse"),
+    ],
+)
+def test_replay_refuses_a_recording_read_mcap_refuses(
+    codec: erc_codec.Codec,
+    tmp_path: Path,
+    catcher: Catcher,
+    encoding: str,
+    schema_encoding: str,
+    schema: bytes | None,
+    data: bytes,
+    why: str,
+) -> None:
+    """Another tool's MCAP whose /erc/gps_info holds what its schema does not read as the
+    payload: replay sends none of it, with read_mcap's own error."""
+    need("mcap")
+    writer_module = need("mcap.writer")
+    recording = tmp_path / "foreign.mcap"
+    gps = codec.message_class("SensorBoardGPSInfo")
+    with recording.open("wb") as file:
+        foreign = writer_module.Writer(file)
+        foreign.start()
+        if schema is None:  # the payload's own schema, as record writes it
+            schema = file_descriptor_set(descriptor_of(gps))
+        name = descriptor_of(gps).full_name
+        registered = foreign.register_schema(name, schema_encoding, schema)
+        channel = foreign.register_channel("/erc/gps_info", encoding, registered)
+        foreign.add_message(channel, 1_700_000_000_000_000_000, data, 1_700_000_000_000_000_000)
+        foreign.finish()
+    with pytest.raises(erc_codec.CodecError) as refused:
+        list(erc_codec.read_mcap(recording))
+    assert str(refused.value).startswith(f"{recording} is not a readable MCAP recording: {why}")
+    process = replay(recording, catcher, "--as-fast-as-possible")
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 1, err
+    assert err.splitlines()[-1] == f"Error: {refused.value}"
+    assert "Traceback" not in err
+    assert catcher.take(0) == []  # nothing sent
 
 
 def test_replay_only_the_kinds_asked(

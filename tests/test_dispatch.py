@@ -4,13 +4,14 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from datagrams import MAX, h, hostile_datagrams, widest_driving_diagnostics
+from datagrams import MAX, beside, h, hostile_datagrams, widest_driving_diagnostics
 from google.protobuf.message import Message
 from hypothesis import example, given
 from hypothesis import strategies as st
 
 import erc_codec
 from erc_codec import strategies
+from erc_codec._unknown import MAX_UNKEPT_NUMBERS
 from erc_codec.schema import descriptor_of, message_of
 
 CODEC = erc_codec.Codec.default()
@@ -46,6 +47,21 @@ def test_fields_beside_the_payload_are_counted_not_lost_without_a_word() -> None
     assert seen == [GPS()] * 2 + [CODEC.decode(h("62 02 68 05")).message]
     stats = dispatcher.stats()
     assert (stats.handled, stats.unkept, stats.dropped) == ({"gps_info": 3}, {20: 2, 40: 1}, 0)
+
+
+def test_the_unkept_table_stops_at_its_bound_and_counts_the_fields_past_it() -> None:
+    """A sender of ever new field numbers beside the payload: the table lists the first numbers
+    to come, no more, and counts every field of the others, once per datagram and number."""
+    dispatcher = erc_codec.Dispatcher(CODEC)
+    dispatcher.register("gps_info", lambda message: None)
+    numbers = list(range(1000, 1000 + MAX_UNKEPT_NUMBERS + 100))
+    rounds = [numbers[start : start + 50] for start in range(0, len(numbers), 50)]
+    for numbers_of_one in rounds * 2:  # each number in two datagrams, once given twice
+        assert dispatcher.feed(beside(numbers_of_one + numbers_of_one[-1:]))
+    stats = dispatcher.stats()
+    assert stats.handled == {"gps_info": 2 * len(rounds)}
+    assert stats.unkept == {number: 2 for number in numbers[:MAX_UNKEPT_NUMBERS]}
+    assert stats.unkept_unlisted == 2 * 100
 
 
 def test_unknown_kinds_cannot_be_registered() -> None:

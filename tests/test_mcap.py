@@ -6,6 +6,7 @@ import io
 import os
 import random
 import shutil
+import struct
 import subprocess
 import sys
 from pathlib import Path
@@ -13,11 +14,21 @@ from typing import Any, BinaryIO, cast
 
 import pytest
 from conftest import REPO
-from datagrams import MODES, random_payloads
+from datagrams import MODES, beside, random_payloads
 from google.protobuf import descriptor_pb2
-from recording_support import need, need_program, write_pcap
+from recording_support import (
+    enhanced,
+    frame,
+    interface,
+    need,
+    need_program,
+    section,
+    simple,
+    write_pcap,
+)
 
 import erc_codec
+from erc_codec._unknown import MAX_UNKEPT_NUMBERS
 from erc_codec.schema import descriptor_of
 
 T0 = 1_700_000_000_000_000_000
@@ -293,6 +304,46 @@ def test_decode_pcap_mcap_writes_a_capture(codec: erc_codec.Codec, tmp_path: Pat
     assert not target.exists()
 
 
+def test_a_capture_time_mcap_cannot_hold_is_a_counted_skip(
+    codec: erc_codec.Codec, tmp_path: Path
+) -> None:
+    """pcapng times reach far past MCAP's (unsigned 64-bit nanoseconds: 1970 to 2554) and
+    before 1970: each such datagram is skipped and counted, the rest written, exit 1; a Simple
+    Packet Block, which has no time, is logged at the time of the datagram written before it."""
+    need("dpkt")
+    need("mcap")
+    gps = codec.message_class("SensorBoardGPSInfo")
+    fixes = [frame(codec.encode(gps(satellites=number))) for number in range(6)]
+    capture, out = tmp_path / "far.pcapng", tmp_path / "far.mcap"
+    capture.write_bytes(
+        section()
+        + interface(1, options=((9, b"\x00"),))  # whole seconds
+        + interface(1, options=((14, struct.pack("<q", -(10**10))),))  # 10**10 s before
+        + simple(fixes[0])  # before any time: the epoch
+        + enhanced(0, 1 << 63, fixes[1])  # 2**63 seconds: some 3e11 years on
+        + enhanced(0, T0 // 10**9, fixes[2])
+        + simple(fixes[3])  # the time written last, never the one skipped
+        + enhanced(1, 0, fixes[4])  # in 1653
+        + enhanced(0, T0 // 10**9 + 1, fixes[5])
+    )
+    done = run("decode", "--pcap", str(capture), "--mcap", str(out))
+    assert done.returncode == 1, done.stderr
+    assert done.stderr == (
+        "4 datagrams, 0 undecodable, 2 packets skipped (2 time outside MCAP's range); "
+        f"{out}: 4 messages on 1 channel, 0 drops\n"
+    )
+    written = [(m.message.log_time, m.decoded_message.satellites) for m in read_back(out)]
+    assert written == [(0, 0), (T0, 2), (T0, 3), (T0 + 10**9, 5)]
+    assert metadata(out)["erc-codec.summary"]["capture.skipped.time outside MCAP's range"] == "2"
+    with erc_codec.McapWriter(io.BytesIO(), codec) as writer:
+        for log_time in (-1, 1 << 64):
+            with pytest.raises(erc_codec.CodecError, match=f"log time {log_time} ns is outside"):
+                writer.write(codec.encode(gps()), log_time)
+            with pytest.raises(erc_codec.CodecError, match="is outside what MCAP holds"):
+                writer.drop(b"", log_time, "empty")
+    assert writer.stats() == erc_codec.RecordingStats({}, {})  # nothing written
+
+
 def test_without_the_mcap_extra_one_line_names_it(tmp_path: Path) -> None:
     code = "import sys; sys.modules['mcap'] = None; from erc_codec.cli._main import main; main()"
     capture = tmp_path / "x.pcap"
@@ -463,3 +514,35 @@ def test_fields_beside_the_payload_that_a_channel_cannot_hold_are_counted(
         assert writer.write(beside[1], T0) == "gps_info"
         writer.write(bytes.fromhex("62026805"), T0)  # the payload's own: kept on its channel
         assert writer.stats().unkept == {20: 1, 40: 1}
+
+
+def test_the_unkept_table_stops_at_its_bound_and_counts_the_fields_past_it(
+    codec: erc_codec.Codec, tmp_path: Path
+) -> None:
+    """A capture of ever new field numbers beside the payload: the writer lists the first
+    numbers to come, no more, and counts every field of the others, in its stats, the file's
+    summary and decode's summary line."""
+    need("dpkt")
+    need("mcap")
+    numbers = list(range(1000, 1000 + MAX_UNKEPT_NUMBERS + 100))
+    rounds = [numbers[start : start + 50] for start in range(0, len(numbers), 50)]
+    datagrams = [beside(numbers_of_one) for numbers_of_one in rounds * 2]
+    with erc_codec.McapWriter(io.BytesIO(), codec) as writer:
+        for number, data in enumerate(datagrams):
+            assert writer.write(data, T0 + number) == "gps_info"
+        writer.unkept([numbers[-1], numbers[-1]])  # a number given twice counts once
+    stats = writer.stats()
+    assert stats.unkept == {number: 2 for number in numbers[:MAX_UNKEPT_NUMBERS]}
+    assert stats.unkept_unlisted == 2 * 100 + 1
+    capture, out = tmp_path / "newer.pcap", tmp_path / "newer.mcap"
+    write_pcap(capture, datagrams)
+    done = run("decode", "--pcap", str(capture), "--mcap", str(out))
+    assert done.returncode == 0, done.stderr
+    listed = ", ".join(f"{number} (2)" for number in numbers[:MAX_UNKEPT_NUMBERS])
+    assert done.stderr.endswith(f"beside the payload: {listed}, other numbers (200)\n")
+    summary = metadata(out)["erc-codec.summary"]
+    unkept = {key: n for key, n in summary.items() if key.startswith("unkept.")}
+    assert unkept == {
+        **{f"unkept.{number}": "2" for number in numbers[:MAX_UNKEPT_NUMBERS]},
+        "unkept.unlisted": "200",
+    }

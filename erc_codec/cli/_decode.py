@@ -116,7 +116,8 @@ def decode(
     is not hex; line_too_long, with "line", for one longer than 262144
     characters, dropped unread), so the stream stays one JSON object a line,
     and decoding goes on with the next datagram. With
-    --pcap every object starts with "time", "src" and "dst" (address:port);
+    --pcap every object starts with "time" (null for a pcapng Simple Packet
+    Block, which has none), "src" and "dst" (address:port);
     --pcap and --framed end with a summary line on stderr (packets skipped
     and why; frames rejected and why, bytes discarded between frames), and
     standard input with lines that are not hex with their count; any input
@@ -131,11 +132,13 @@ def decode(
     \b
     Exit status: 0 every datagram decoded (frames rejected or bytes discarded
     between frames show in the summary only, if a frame decoded); 1 at least
-    one did not, a line was not hex or too long, or there was nothing to
-    decode (empty input, no frame); 2 usage error (HEX that spells no bytes
-    or odd digits, unknown --kind), unreadable or damaged capture (after
-    decoding what comes before the damage), schema that does not load, or
-    --pcap without dpkt.
+    one did not, a line was not hex or too long, there was nothing to decode
+    (empty input, no frame), or with --mcap a datagram's time is outside what
+    MCAP holds (1970 to 2554: skipped, counted; a Simple Packet Block's
+    datagram takes the time of the one before); 2 usage error (HEX that
+    spells no bytes or odd digits, unknown --kind), unreadable or damaged
+    capture (after decoding what comes before the damage), schema that does
+    not load, or --pcap without dpkt.
     Every error is one line.
     """
     codec = load(tree, root)

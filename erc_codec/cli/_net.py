@@ -196,12 +196,15 @@ def listen(
 
     The counters are printed on stderr when it stops (after --count datagrams, --seconds,
     Ctrl-C or SIGTERM: exit status 0): datagrams received, handled by kind, undecodable by
-    reason, dropped; and those that never reached it: dropped by the kernel (its receive buffer
-    full: null where the system does not say), unread (still queued when it stopped), with the
-    receive buffer granted, in bytes (4 MiB is asked for; Linux grants up to twice
-    net.core.rmem_max). With --foxglove, a Foxglove client (ws://127.0.0.1:8765 unless
-    --foxglove-address says otherwise) sees every kind on /erc/<kind>, drops on
-    /erc-codec/drops, the GPS fix on /erc-codec/fix and rates on /erc-codec/stats.
+    reason, dropped; the fields beside the payloads that the schema does not know, which no
+    line shows, by number (unkept: datagrams carrying each of the first 256 numbers seen;
+    unkept_unlisted: the fields of any other number); and those that never reached it: dropped
+    by the kernel (its receive buffer full: null where the system does not say), unread (still
+    queued when it stopped), with the receive buffer granted, in bytes (4 MiB is asked for;
+    Linux grants up to twice net.core.rmem_max). With --foxglove, a Foxglove client
+    (ws://127.0.0.1:8765 unless --foxglove-address says otherwise) sees every kind on
+    /erc/<kind>, drops on /erc-codec/drops, the GPS fix on /erc-codec/fix and rates on
+    /erc-codec/stats.
     """
     import asyncio
 
@@ -233,6 +236,10 @@ def listen(
         "unread": udp.unread,
         "receive_buffer": udp.receive_buffer,
     }
+    if stats.unkept:  # fields beside the payloads, unknown to the schema, which no line shows
+        summary["unkept"] = {str(number): n for number, n in sorted(stats.unkept.items())}
+    if stats.unkept_unlisted:  # fields of the numbers past those listed
+        summary["unkept_unlisted"] = stats.unkept_unlisted
     click.echo(f"counters: {json.dumps(summary)}", err=True)
 
 

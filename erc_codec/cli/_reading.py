@@ -223,7 +223,11 @@ def _from_capture(printer: Printer, capture: Capture) -> str:
     damage, then the summary and the damage are reported and the command exits 2.
     """
     for datagram in capture.datagrams():
-        where = {"time": datagram.time, "src": datagram.source, "dst": datagram.destination}
+        where: dict[str, object] = {
+            "time": datagram.time,  # null: a pcapng Simple Packet Block carries no time
+            "src": datagram.source,
+            "dst": datagram.destination,
+        }
         printer.datagram(datagram.data, where)
     skipped = capture.skipped
     reasons = ", ".join(f"{count} {why}" for why, count in sorted(skipped.items()))

@@ -32,7 +32,7 @@ from .._codec import Codec
 from .._dispatch import Dispatcher, Drop
 from .._envelope import Decoded, Mode
 from .._errors import CodecError, EncodeError
-from .._mcap import McapWriter, recorded_payloads
+from .._mcap import McapWriter, holds_log_time, recorded_payloads, unkept_summary
 from .._recording import nanoseconds
 from .._transport import UdpEndpoint, open_udp
 from ._pcap import Capture
@@ -51,6 +51,7 @@ from ._writer import WriterProcess
 
 __all__ = ["capture_to_mcap", "record", "replay"]
 
+_UNTIMELY = "time outside MCAP's range"  # the skip reason of a datagram MCAP cannot log
 _STOPS = ("SIGINT", "SIGTERM", "SIGHUP")  # what ends a recording (SIGHUP: not on Windows)
 _MCAP_MAGIC = b"\x89MCAP0\r\n"
 _CAPTURE_MAGICS = {
@@ -77,18 +78,32 @@ def create(output: Path) -> BinaryIO:
 
 
 def capture_to_mcap(capture: Capture, codec: Codec, output: Path) -> tuple[int, str]:
-    """Write every UDP datagram of a capture to an MCAP file: the number that did not decode
-    (written as drops) and the summary line. A damaged capture is written up to the damage, the
-    file finished, the summary printed, then the damage is the command's error (exit 2)."""
+    """Write every UDP datagram of a capture to an MCAP file: the number that are not messages
+    in it (written as drops, or skipped for a time MCAP cannot hold) and the summary line.
+
+    A datagram without a time (a pcapng Simple Packet Block's) is logged at the time of the one
+    written before it (0, the epoch, if none was); one whose time MCAP cannot hold (before 1970,
+    after 2554) is skipped, counted with the capture's skipped packets. A damaged capture is
+    written up to the damage, the file finished, the summary printed, then the damage is the
+    command's error (exit 2)."""
     file = create(output)
+    untimely = 0  # datagrams whose time MCAP cannot hold
     try:
         writer = McapWriter(file, codec, source=f"capture {capture.path.name}")
         write = writer.write
+        last = 0  # the log time of the datagram written last
         try:
             for at, source, destination, data in capture.datagrams():
-                write(data, nanoseconds(at), source, destination)
+                log_time = last if at is None else nanoseconds(at)
+                if not holds_log_time(log_time):
+                    untimely += 1
+                    continue
+                write(data, log_time, source, destination)
+                last = log_time
         finally:
-            skipped = capture.skipped
+            skipped = dict(capture.skipped)
+            if untimely:
+                skipped[_UNTIMELY] = untimely
             extra = {f"capture.skipped.{why}": str(n) for why, n in sorted(skipped.items())}
             if capture.damage:
                 extra["capture.damage"] = capture.damage
@@ -111,20 +126,23 @@ def capture_to_mcap(capture: Capture, codec: Codec, output: Path) -> tuple[int, 
         + (f" ({reasons})" if reasons else "")
         + f"; {output}: {plural(messages, 'message')} on {plural(len(stats.messages), 'channel')}"
         + f", {plural(failed, 'drop')}"
-        + _unkept(stats.unkept, codec.root)
+        + _unkept(stats.unkept, stats.unkept_unlisted, codec.root)
     )
     if capture.damage:
         click.echo(summary, err=True)
         raise Fatal(one_line(capture.damage))
-    return failed, summary
+    return failed + untimely, summary
 
 
-def _unkept(unkept: Mapping[int, int], root: str) -> str:
-    """The summary's words for fields beside the payloads that the recording could not keep."""
+def _unkept(unkept: Mapping[int, int], unlisted: int, root: str) -> str:
+    """The summary's words for fields beside the payloads that the recording could not keep:
+    by number, and those of the numbers past the ones listed together."""
     if not unkept:
         return ""
-    fields = ", ".join(f"{number} ({count})" for number, count in sorted(unkept.items()))
-    return f"; not recorded: fields {root} does not know beside the payload: {fields}"
+    fields = [f"{number} ({count})" for number, count in sorted(unkept.items())]
+    if unlisted:
+        fields.append(f"other numbers ({unlisted})")
+    return f"; not recorded: fields {root} does not know beside the payload: {', '.join(fields)}"
 
 
 # -- record --------------------------------------------------------------------------------------
@@ -271,8 +289,9 @@ class _Recording:
         extra = {"received": str(self.received)}
         if kernel is not None:
             extra["dropped_by_kernel"] = str(kernel)
-        unkept = self.dispatcher.stats().unkept  # the writer sees payloads only
-        extra.update({f"unkept.{number}": str(n) for number, n in sorted(unkept.items())})
+        stats = self.dispatcher.stats()  # the writer sees payloads only
+        unkept, unlisted = stats.unkept, stats.unkept_unlisted
+        extra.update(unkept_summary(unkept, unlisted))
         if self._failure is not None:
             raise self._failure
         written, size = self._writer.close(extra)
@@ -286,6 +305,8 @@ class _Recording:
         }
         if unkept:  # fields beside the payloads, unknown to the schema, which no channel holds
             self.summary["unkept"] = {str(number): n for number, n in sorted(unkept.items())}
+        if unlisted:  # fields of the numbers past those listed
+            self.summary["unkept_unlisted"] = unlisted
 
     def _guarded(self, step: Callable[[], None]) -> None:
         """Run a hand-over; a writer that failed stops the recording with its error."""
@@ -394,11 +415,14 @@ def replay(
       erc-codec replay run.mcap 127.0.0.1:5000 --speed 2
     FILE is an MCAP file (record's, or decode --pcap --mcap's), a pcap or
     pcapng capture (every UDP datagram in it, needs the pcap extra), or
-    decode's JSON lines (with --pcap's "time"; a line without one is sent
-    right after the one before). Each payload is re-encoded in --mode (the
-    fleet's strip by default), a capture's with all its envelope carried
-    (metadata, fields the schema does not know); a datagram that did not
-    decode is sent as received only with --drops. The last line on stderr
+    decode's JSON lines (with --pcap's "time"; a line without one, like a
+    pcapng Simple Packet Block, is sent right after the one before). Each
+    payload is re-encoded in --mode (the fleet's strip by default), a
+    capture's with all its envelope carried (metadata, fields the schema
+    does not know); a datagram that did not decode is sent as received only
+    with --drops. An MCAP file is read as erc_codec.read_mcap reads it: a
+    channel that is not protobuf, a schema that does not load or a message
+    that does not parse with it stops the replay there, with its error. The last line on stderr
     says what was sent (by kind), how late the latest send ran
     ("latest_ms"), and what was skipped: "drops" (without --drops),
     "drops_without_bytes" (JSON lines keep none), "other_kinds" (--kind),
@@ -409,7 +433,8 @@ def replay(
 
     \b
     Exit status: 0 sent; 1 the file ends in damage after what was sent, or
-    a line or message in it is not valid; 2 usage error, unreadable file,
+    a line or message in it is not valid (or not readable, as above); 2
+    usage error, unreadable file,
     a schema that does not load, or a missing extra.
     """
     host, port = parse_address(target)
@@ -577,15 +602,18 @@ def _from_mcap(
 
 
 def _from_capture(capture: Capture, codec: Codec) -> Iterator[_Entry]:
+    """A capture's datagrams; one without a time (a pcapng Simple Packet Block's) is sent right
+    after the one before."""
     with capture:
         decode = codec.decode
         for datagram in capture.datagrams():
+            at = None if datagram.time is None else nanoseconds(datagram.time)
             try:
                 decoded = decode(datagram.data)
             except CodecError:
-                yield _Entry(nanoseconds(datagram.time), None, None, datagram.data)
+                yield _Entry(at, None, None, datagram.data)
                 continue
-            yield _Entry(nanoseconds(datagram.time), decoded.kind, decoded.message, b"", decoded)
+            yield _Entry(at, decoded.kind, decoded.message, b"", decoded)
         if capture.damage:
             raise CodecError(capture.damage)
 
