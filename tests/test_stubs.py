@@ -328,3 +328,107 @@ def test_names_like_what_the_stub_uses_shadow_nothing(tmp_path: Path, mypy_cache
     assert "class TypedCodec(_erc_codec.Codec):" in stub  # the message so named gave way
     assert "class TypedCodec_(_message.Message):" in stub
     assert "    None:" not in stub  # an enum value named like a keyword cannot be an attribute
+
+
+RESERVED = """\
+syntax = "proto3";
+
+// Fields, oneof members, enum values and a message named like what Python reserves (__*__) or
+// keeps as a keyword, and enum values named like int's attributes.
+enum Reserved { __init__ = 0; __class__ = 1; to_bytes = 2; real = 3; PLAIN = 4; }
+message Dunder {
+  int32 __init__ = 1;
+  int32 __slots__ = 2;
+  int32 __class__ = 3;
+  int32 __getattr__ = 4;
+  int32 __eq__ = 5;
+  int32 None = 6;
+  int32 __private = 7;
+  int32 plain = 8;
+  Reserved reserved = 9;
+}
+message __doc__ { int32 plain = 1; }
+message Env {
+  oneof payload {
+    Dunder dunder = 1;
+    Dunder __init__ = 2;
+    Dunder __slots__ = 3;
+    Dunder __class__ = 4;
+    Dunder __getattr__ = 5;
+    __doc__ doc = 6;
+  }
+}
+"""
+
+RESERVED_SCRIPT = """\
+from pathlib import Path
+from typing import TYPE_CHECKING, cast
+
+import erc_codec
+
+if TYPE_CHECKING:
+    from erc_messages import Reserved, TypedCodec
+
+codec = cast("TypedCodec", erc_codec.Codec.from_path(Path("tree"), root="Env"))
+Dunder = codec.message_class("__init__")
+names = ("__init__", "__slots__", "__class__", "__getattr__", "__eq__", "None")
+d = Dunder(**dict.fromkeys(names, 1), plain=2, __private=3, reserved="to_bytes")
+for name in names:
+    setattr(d, name, names.index(name) + 1)
+env = codec.message_class("Env")()
+getattr(env, "__class__").CopyFrom(d)
+numbers: list[int] = [getattr(d, name) for name in names]
+numbers += [d.plain, d.__private, d.reserved, getattr(env, "__class__").plain]
+numbers.append(codec.message_class("doc")(plain=9).plain)
+print(numbers, env.WhichOneof("payload"), codec.message_class("__slots__") is Dunder)
+if TYPE_CHECKING:
+    shades: int = Reserved.PLAIN + Reserved.real + Reserved.to_bytes
+    wrong_text: str = codec.message_class("__getattr__")().plain
+    codec.message_class("__doc__")(plain="nine")
+    Dunder(__init__=1)
+"""
+
+
+def test_names_python_reserves_are_left_out_and_reached_by_getattr(
+    tmp_path: Path, mypy_cache: Path
+) -> None:
+    """Fields and oneof members named ``__init__``, ``__slots__``, ``__class__``,
+    ``__getattr__`` or ``__eq__``, enum values so named, a message named ``__doc__`` and enum
+    values named like int's ``to_bytes`` and ``real``: the stub passes mypy --strict, leaves the
+    reserved names out (a comment says which) and the script reaches them by getattr."""
+    tree = tmp_path / "tree"
+    tree.mkdir()
+    (tree / "reserved.proto").write_text(RESERVED)
+    out = tmp_path / "stubs"
+    written = subprocess.run(
+        [sys.executable, "-m", "erc_codec", "stubs", str(out), "--proto", "tree", "--root", "Env"],
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd=tmp_path,
+    )
+    assert written.returncode == 0, written.stderr
+    (tmp_path / "tool.py").write_text(RESERVED_SCRIPT)
+    done = mypy(Path("tool.py"), out, tmp_path, mypy_cache)
+    # the errors are the three the script makes, each typed through the right class
+    assert done.stdout.splitlines() == [
+        'tool.py:23: error: Incompatible types in assignment (expression has type "int", '
+        'variable has type "str")  [assignment]',
+        'tool.py:24: error: Argument "plain" to "Message__doc__" has incompatible type "str"; '
+        'expected "int | None"  [arg-type]',
+        'tool.py:25: error: Unexpected keyword argument "__init__" for "Dunder"  [call-arg]',
+        'tool.py:25: note: "Dunder" defined in "erc_messages"',
+        "Found 3 errors in 1 file (checked 1 source file)",
+    ]
+    ran = subprocess.run(
+        [sys.executable, "tool.py"], capture_output=True, text=True, check=False, cwd=tmp_path
+    )
+    assert ran.returncode == 0, ran.stderr
+    assert ran.stdout == "[1, 2, 3, 4, 5, 6, 2, 3, 2, 2, 9] __class__ True\n"
+    stub = (out / "erc_messages.pyi").read_text()
+    left_out = "    # Left out (a keyword, or a name Python reserves)"
+    fields = f"{left_out}, getattr reaches them: __init__, __slots__, __class__, __getattr__"
+    assert f"{fields}, __eq__, None\n" in stub
+    assert f"{fields}\n" in stub  # Env's members
+    assert f"class Reserved(_builtins.int):\n{left_out}: __init__, __class__\n" in stub
+    assert "class Message__doc__(_message.Message):" in stub

@@ -13,6 +13,16 @@ enum (an ``int`` subclass with its values by name) and ``TypedCodec``, a ``Codec
 The module exists for mypy only: nothing imports it at run time. (mypy-protobuf writes stubs for
 the ``_pb2`` modules protoc generates; erc_codec's classes come from a descriptor pool, never from
 such modules, so those stubs would type no class a codec hands out.)
+
+A field or enum value named like a Python keyword (``from``, ``None``) or like a name Python
+reserves for itself, any that begins and ends with two underscores (``__init__``, ``__slots__``,
+``__class__``, ``__getattr__``, ``__eq__``), is left out of the stub. As an attribute it would be
+a syntax error, or redefine what ``object``, ``int`` or protobuf's ``Message`` means by that name
+(the constructor, the slots, attribute look-up, equality). A comment in its class names each one
+left out. ``getattr(message, name)`` reaches such a field, and a constructor takes it through
+``**``. A field named like a method of ``Message`` (``Clear``), or an enum value like one of
+``int`` (``to_bytes``), stays, the override mypy would refuse silenced. A message or enum named
+like a reserved name (``__doc__``) is the class ``Message__doc__`` or ``Enum__doc__``.
 """
 
 import functools
@@ -56,8 +66,24 @@ _MODULES = {
 _MESSAGE_NAMES = frozenset(
     {name for name in dir(Message) if not name.startswith("_")} | {"Extensions"}
 )
+# What ``int`` has: an enum value so named replaces it on the enum's class, which mypy calls an
+# incompatible override where it is a method (``to_bytes``). ``is_integer`` is Python 3.12's.
+_INT_NAMES = frozenset({name for name in dir(int) if not name.startswith("_")} | {"is_integer"})
 _CODEC = "TypedCodec"  # the documented name: a message so named gives way
 _Described = Descriptor | EnumDescriptor
+
+
+def _reserved(name: str) -> bool:
+    """Whether ``name`` cannot be an attribute in the stub: a keyword, or a name Python reserves
+    (``__*__``)."""
+    return keyword.iskeyword(name) or name[:2] == name[-2:] == "__"
+
+
+def _left_out(names: list[str], reach: str = "") -> list[str]:
+    """The comment naming a class's fields or values that have no attribute in the stub."""
+    if not names:
+        return []
+    return [f"    # Left out (a keyword, or a name Python reserves){reach}: {', '.join(names)}"]
 
 
 class _Names:
@@ -68,7 +94,9 @@ class _Names:
     modules go by aliases no class body uses, and a class whose name some class body uses is
     referred to by such an alias of it. Each message and enum class is named by its full name
     (``Outer.Ping`` as ``Outer_Ping``); where two would meet, or meet ``TypedCodec`` or a
-    keyword, the one nested deeper (else later in name order) takes a trailing ``_``."""
+    keyword, the one nested deeper (else later in name order) takes a trailing ``_``. A name
+    Python reserves (``__init__``) is prefixed with ``Message`` or ``Enum`` first, as no
+    trailing ``_`` makes it another."""
 
     def __init__(self, described: list[_Described]) -> None:
         self.members = {"message_class"}  # what class bodies define
@@ -80,7 +108,10 @@ class _Names:
         self.classes: dict[str, str] = {}  # full name -> class name
         taken = {_CODEC}
         for descriptor in sorted(described, key=lambda d: (d.full_name.count("."), d.full_name)):
-            name = self._free(descriptor.full_name.replace(".", "_"), taken)
+            name = descriptor.full_name.replace(".", "_")
+            if _reserved(name):
+                name = ("Message" if isinstance(descriptor, Descriptor) else "Enum") + name
+            name = self._free(name, taken)
             self.classes[descriptor.full_name] = name
             taken.add(name)
         taken |= self.members
@@ -148,7 +179,9 @@ def _field(field: FieldDescriptor, names: _Names) -> tuple[str, str]:
 def _message(descriptor: Descriptor, names: _Names) -> list[str]:
     base = names.of("_message", "Message")
     lines = [f"class {names.classes[descriptor.full_name]}({base}):"]
-    fields = [f for f in descriptor.fields if not keyword.iskeyword(f.name)]
+    fields = [f for f in descriptor.fields if not _reserved(f.name)]
+    left_out = [f.name for f in descriptor.fields if _reserved(f.name)]
+    lines += _left_out(left_out, ", getattr reaches them")
     for field in fields:
         line = f"    {field.name}: {_field(field, names)[0]}"
         if field.name in _MESSAGE_NAMES:  # the field is what protobuf's class has by that name
@@ -167,8 +200,13 @@ def _enum(descriptor: EnumDescriptor, names: _Names) -> list[str]:
     integer = names.of("_builtins", "int")
     lines = [f"class {names.classes[descriptor.full_name]}({integer}):"]
     annotation = f"{names.of('_typing', 'ClassVar')}[{integer}]"
-    values = [value for value in descriptor.values if not keyword.iskeyword(value.name)]
-    lines += [f"    {value.name}: {annotation}" for value in values]
+    values = [value.name for value in descriptor.values if not _reserved(value.name)]
+    lines += _left_out([value.name for value in descriptor.values if _reserved(value.name)])
+    for value in values:
+        line = f"    {value}: {annotation}"
+        if value in _INT_NAMES:  # the value is what int has by that name
+            line += "  # type: ignore[assignment, unused-ignore]"
+        lines.append(line)
     return lines if values else [*lines, "    pass"]
 
 
