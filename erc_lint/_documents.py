@@ -2,6 +2,7 @@
 
 import inspect
 import json
+import os
 import re
 from importlib.metadata import version
 from xml.sax.saxutils import quoteattr
@@ -157,8 +158,13 @@ def _text(text: str) -> str:
 
 
 def _uri(path: str) -> str:
-    """A relative URI reference for a path (spaces, ``%`` and a name's bytes that are not
-    UTF-8 percent-escaped, ``/`` kept): the URI of the file as it is named on disk."""
+    """The URI reference (RFC 3986) of the file ``path`` names, relative as ``path`` is: each
+    byte of the name but ``/``, letters, digits and ``-._~`` percent-encoded (``\\`` as ``%5C``,
+    a space as ``%20``, ``%`` as ``%25``), a name's characters as their UTF-8 bytes and its bytes
+    that are not UTF-8 as themselves. Only where the system separates folders with another
+    character (Windows' ``\\``) is that written ``/``: elsewhere it is part of a name."""
     from urllib.parse import quote
 
-    return quote(path.replace("\\", "/").encode("utf-8", "surrogateescape"), safe="/")
+    if os.sep != "/":
+        path = path.replace(os.sep, "/")
+    return quote(path.encode("utf-8", "surrogateescape"), safe="/")

@@ -7,6 +7,7 @@ import os
 import re
 import subprocess
 import sys
+import urllib.parse
 from pathlib import Path
 
 import jsonschema  # type: ignore[import-untyped]
@@ -292,6 +293,37 @@ def test_a_file_name_that_is_not_utf8_keeps_every_document_valid(
         )
         path = found["path"] if output == "json" else found["location"]["path"]
         assert path == "new/b\\xff\x01.proto"
+
+
+def test_sarif_names_a_file_by_the_uri_of_its_exact_name(tmp_path: Path) -> None:
+    """A backslash, a space, ``%`` and a non-ASCII letter in a file name are percent-encoded in
+    SARIF's URIs (RFC 3986), a backslash never read as a folder separator: decoded, each URI is
+    the file's path, relative to the folder erc-lint ran in (``OLD``'s for what NEW lacks)."""
+    changed, gone = "back\\slash 100% \u00fc.proto", "gone\\file.proto"
+    tree(
+        tmp_path / "old",
+        {changed: "message A { float x = 1; }\n", gone: "message G { float x = 1; }\n"},
+    )
+    tree(tmp_path / "new", {changed: "message A { string x = 1; }\n"})
+    done = erc_lint_cli("old", "new", "--format", "sarif", cwd=tmp_path)
+    assert done.returncode == 1, done.stderr
+    document = json.loads(done.stdout)
+    schema = json.loads((FORMATS / "sarif-2.1.0-rtm.5.json").read_text())
+    jsonschema.Draft4Validator(schema).validate(document)
+    results = {result["ruleId"]: result for result in document["runs"][0]["results"]}
+    changed_at = results["FIELD_TYPE_CHANGED"]["locations"][0]["physicalLocation"]
+    assert changed_at["artifactLocation"] == {"uri": "new/back%5Cslash%20100%25%20%C3%BC.proto"}
+    gone_at = results["MESSAGE_DELETED"]["locations"][0]["physicalLocation"]
+    assert gone_at["artifactLocation"] == {"uri": "old/gone%5Cfile.proto", "uriBaseId": "OLD"}
+    related = results["MESSAGE_DELETED"]["relatedLocations"][0]["physicalLocation"]
+    assert related["artifactLocation"] == gone_at["artifactLocation"]
+    # What RFC 3986 allows in a relative reference's path, and the files' names decoded.
+    allowed = re.compile(r"(?:[A-Za-z0-9._~!$&'()*+,;=:@/-]|%[0-9A-F]{2})+")
+    for where, name in ((changed_at, f"new/{changed}"), (gone_at, f"old/{gone}")):
+        uri = where["artifactLocation"]["uri"]
+        assert allowed.fullmatch(uri)
+        assert urllib.parse.unquote(uri) == name
+        assert (tmp_path / name).is_file()
 
 
 def test_a_closed_standard_output_is_one_line_and_exit_2(pair: Path) -> None:
