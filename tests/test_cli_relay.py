@@ -1,5 +1,6 @@
 """erc-codec relay: its configuration checked key by key, and a live relay over 127.0.0.1."""
 
+import ipaddress
 import json
 import os
 import re
@@ -17,6 +18,7 @@ from pathlib import Path
 import pytest
 
 import erc_codec
+from erc_codec.cli._local import canonical, is_local, receives
 
 CODEC = erc_codec.Codec.default()
 
@@ -108,6 +110,34 @@ FAILSAFE = '[[failsafes]]\nkind = "drive_motor"\nto = ["base"]\nrate = 10\ntimeo
                 "127.0.0.1:9", "[::ffff:127.0.0.1]:9"
             ),
             r"destinations.base.address: the relay listens there itself",
+        ),
+        (
+            GOOD + '[sources]\nground = "127.0.0.1:0"\n',
+            "sources.ground: port 0 is no sender",
+        ),
+        (
+            GOOD + '[sources]\nground = "0.0.0.0:7"\n',
+            "sources.ground: 0.0.0.0 means every local address, no sender",
+        ),
+        (
+            GOOD.replace('rover = "0"', 'rover = "5000"') + '[sources]\nme = "127.0.0.1:5000"\n',
+            r"sources.me: the relay listens there itself \(\[listen\] rover\)",
+        ),
+        (
+            GOOD.replace("127.0.0.1:9", "[::1]:9"),
+            "destinations.base.address: an IPv6 address, and via = 'rover' is an IPv4 socket",
+        ),
+        (
+            GOOD.replace('rover = "0"', 'rover = "[::1]:0"'),
+            "destinations.base.address: an IPv4 address, and via = 'rover' is an IPv6 socket",
+        ),
+        (
+            GOOD.replace('to = ["base"]', 'to = ["board"]'),
+            r"routes\[0\].to: no destination 'board' \(destinations: base\)",
+        ),
+        (
+            GOOD + FAILSAFE.replace('to = ["base"]', 'to = ["board"]'),
+            r"failsafes\[0\].to: no destination 'board'",
         ),
         (GOOD + FAILSAFE + "message = 5\n", r"failsafes\[0\].message must be a table"),
         (
@@ -572,3 +602,75 @@ def test_failsafe_events_are_counted_not_kept(tmp_path: Path) -> None:
     stats = session.router.stats()
     assert stats.engaged["drive_motor"] == stats.released["drive_motor"] + 1 == 20_000
     assert grown < 50_000, grown
+
+
+def test_a_dual_stack_listener_brakes_an_ipv4_board(tmp_path: Path) -> None:
+    """Listening on [::], the relay sends to an IPv4 destination as its IPv4-mapped address."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as board:
+        board.bind(("127.0.0.1", 0))
+        board.settimeout(10)
+        config = braking_config(tmp_path, board, 'status = "none"')
+        config.write_text(config.read_text().replace('rover = "0"', 'rover = "[::]:0"'))
+        relay = run_relay(config)
+        try:
+            assert relay.stderr is not None
+            port = int(relay.stderr.readline().rsplit(":", 1)[1])
+            gap = drive_and_go_quiet(port, board, commands=3)
+            assert gap < TIMEOUT + 1 / RATE + 0.25, gap
+            assert brakes_for(board, 0.5) >= RATE // 4
+        finally:
+            relay.send_signal(signal.SIGTERM)
+            _, errors = relay.communicate(timeout=10)
+    counters = json.loads(errors.rsplit("counters: ", 1)[1])
+    assert counters["routes"]["board"]["forwarded"] == 3
+    assert (counters["errors"], counters["listen"]["rover"]["send_errors"]) == ({}, 0)
+
+
+def test_lines_still_queued_at_the_end_are_counted(tmp_path: Path) -> None:
+    """A stdout pipe of one page that nobody reads until the relay has stopped: the counters
+    say every status line it wrote, and every other one as dropped, the queued ones too."""
+    import fcntl
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as board:
+        board.bind(("127.0.0.1", 0))
+        config = braking_config(tmp_path, board, 'status = "json"\ninterval = 0.01')
+        relay = run_relay(config)
+        assert relay.stdout is not None
+        assert relay.stderr is not None
+        fcntl.fcntl(relay.stdout, 1031, 4096)  # F_SETPIPE_SZ: a page, some six status lines
+        relay.stderr.readline()
+        time.sleep(1.0)  # some hundred status lines, a few of which fit
+        relay.send_signal(signal.SIGTERM)
+        errors = relay.stderr.read()
+        relay.wait(10)
+        lines = relay.stdout.read().splitlines()
+        relay.stdout.close()
+        relay.stderr.close()
+    output = json.loads(errors.rsplit("counters: ", 1)[1])["output"]["stdout"]
+    assert output["written"] == len(lines) > 0
+    assert output["dropped"] > 0
+    assert output["closed"] is None
+
+
+def own_link_local() -> str | None:
+    """One of this host's link-local IPv6 addresses with its interface (``fe80::1%eth0``)."""
+    try:
+        table = Path("/proc/net/if_inet6").read_text().splitlines()
+    except OSError:
+        return None
+    for row in table:
+        digits, _, _, scope, _, name = row.split()
+        if scope == "20":  # link scope
+            return f"{ipaddress.IPv6Address(int(digits, 16))}%{name}"
+    return None
+
+
+def test_a_link_local_address_of_this_host_is_its_own_whether_scoped_by_name_or_index() -> None:
+    assert canonical("fe80::1%lo") == canonical("fe80::1%1") == "fe80::1%1"
+    assert canonical("::ffff:127.0.0.1") == "127.0.0.1"
+    assert all(map(is_local, ("127.0.0.1", "::ffff:127.0.0.1", "::")))
+    assert not is_local("192.0.2.1")  # a documentation address, nobody's
+    link_local = own_link_local()
+    if link_local is not None:  # bound with its scope's index: bind refuses it as text
+        assert is_local(link_local)
+        assert receives(("::", 5000, 0, 0), (link_local, 5000, 0, 0))

@@ -11,6 +11,7 @@ a write holds no lock that the interpreter's shutdown would wait for.
 
 import os
 import queue
+import select
 import sys
 import threading
 import time
@@ -100,9 +101,14 @@ class LineStream:
 
 
 def _write_all(fd: int, data: bytes) -> None:
+    """Write all of ``data``; on a descriptor another process made non-blocking, wait until it
+    takes more, as a blocking one would."""
     view = memoryview(data)
     while view:
-        view = view[os.write(fd, view) :]
+        try:
+            view = view[os.write(fd, view) :]
+        except BlockingIOError:
+            select.select([], [fd], [])
 
 
 def flush_standard_streams() -> None:

@@ -4,23 +4,27 @@ One address has several spellings: ``::ffff:127.0.0.1`` is ``127.0.0.1`` (an IPv
 address, which is how a dual-stack socket names an IPv4 peer), and a socket bound to a wildcard
 (``0.0.0.0``, ``::``) receives on every address of the host, loopback and interfaces alike.
 Whether an address is the host's own is asked of the kernel, with no list of interfaces: a UDP
-socket binds to it (port 0, closed at once) only if it is. A host with ``ip_nonlocal_bind`` set,
-or a socket option such as ``IP_FREEBIND``, binds to any address; the check then errs towards
-refusing.
+socket binds to it (port 0, closed at once) only if it is. A host that binds any address
+(``ip_nonlocal_bind`` set) would make every address its own; there, only loopback addresses
+count, which a documentation address that binds all the same tells.
 """
 
+import contextlib
+import functools
 import ipaddress
 import socket
 from typing import Any
 
-__all__ = ["canonical", "is_local", "receives", "spellings"]
+__all__ = ["WILDCARDS", "canonical", "is_local", "receives", "spellings"]
 
-_WILDCARDS = ("0.0.0.0", "::")
+WILDCARDS = ("0.0.0.0", "::")  # a host that means every local address
+_NOWHERE = ("192.0.2.1", "2001:db8::1")  # documentation addresses (RFC 5737, RFC 3849)
 
 
 def canonical(host: str) -> str:
     """``host`` (a numeric IP address) in one spelling: an IPv4-mapped IPv6 address as its IPv4
-    address, any other in its compressed form; a scope (``%eth0``) is kept."""
+    address, any other in its compressed form; a scope is kept as its interface's index
+    (``%eth0`` and ``%4`` are one scope)."""
     address, percent, scope = host.partition("%")
     try:
         parsed = ipaddress.ip_address(address)
@@ -28,6 +32,9 @@ def canonical(host: str) -> str:
         return host
     if isinstance(parsed, ipaddress.IPv6Address) and parsed.ipv4_mapped is not None:
         return str(parsed.ipv4_mapped)
+    if scope and not scope.isdigit():
+        with contextlib.suppress(OSError):  # no such interface: the name stays
+            scope = str(socket.if_nametoindex(scope))
     return str(parsed) + percent + scope
 
 
@@ -39,17 +46,33 @@ def spellings(host: str) -> tuple[str, ...]:
 
 
 def is_local(host: str) -> bool:
-    """Whether ``host`` (a numeric IP address) is one of this host's, or a wildcard."""
+    """Whether ``host`` (a numeric IP address, with a scope where it has one) is one of this
+    host's, or a wildcard."""
     host = canonical(host)
-    if host in _WILDCARDS:
+    if host in WILDCARDS:
         return True
+    if _binds_anything():
+        return ipaddress.ip_address(host.partition("%")[0]).is_loopback
+    return _binds(host)
+
+
+def _binds(host: str) -> bool:
+    """Whether a UDP socket binds to ``host`` (the socket address from getaddrinfo, which
+    carries a scope as its index: bind refuses ``fe80::1%eth0`` as text)."""
     family = socket.AF_INET6 if ":" in host else socket.AF_INET
     try:
+        found = socket.getaddrinfo(host, 0, family, socket.SOCK_DGRAM, 0, socket.AI_NUMERICHOST)
         with socket.socket(family, socket.SOCK_DGRAM) as probe:
-            probe.bind((host, 0))
+            probe.bind(found[0][4])
     except OSError:
         return False
     return True
+
+
+@functools.cache
+def _binds_anything() -> bool:
+    """Whether this host binds addresses it does not have (``ip_nonlocal_bind``)."""
+    return any(_binds(host) for host in _NOWHERE)
 
 
 def receives(bound: tuple[Any, ...], destination: tuple[Any, ...]) -> bool:

@@ -30,7 +30,7 @@ import click
 
 from .._codec import Codec
 from .._errors import CodecError
-from .._router import FailsafeEvent, Router
+from .._router import FailsafeEvent, Outgoing, Router
 from .._transport import UdpEndpoint, open_udp
 from ._lines import LineStream, flush_standard_streams
 from ._local import receives
@@ -41,7 +41,7 @@ __all__ = ["relay"]
 
 _LATENCIES = 10_000  # latency samples kept for the percentiles
 _SENDERS = 256  # senders on one of the relay's own ports whose verdict (itself or not) is kept
-_DRAIN = 2.0  # seconds a slow reader gets, at the end, for the lines still queued
+_DRAIN = 2.0  # seconds slow readers get, at the end, for the lines still queued (both streams)
 
 
 @click.command()
@@ -66,6 +66,7 @@ def relay(config: Path, tree: str | None, root: str | None) -> None:
         stderr.write(f"relay: {name} closed ({reason}): routing and braking go on without it")
 
     stdout = LineStream(1, "stdout", on_closed=closed)
+    finished: _Relay | None = None  # the relay that ran and stopped, whose counters are due
     try:
         try:
             session = _Relay(codec, settings, stdout, stderr)
@@ -75,10 +76,14 @@ def relay(config: Path, tree: str | None, root: str | None) -> None:
             stderr.write(f"{config}: warning: {warning}")
         with contextlib.suppress(KeyboardInterrupt):
             asyncio.run(session.run())
-        stderr.write(f"counters: {json.dumps(session.metrics())}")
+        finished = session
     finally:
-        stdout.close(_DRAIN)
-        stderr.close(_DRAIN)
+        # stdout drained first, so the counters say what it finally wrote and dropped.
+        deadline = time.monotonic() + _DRAIN
+        stdout.close(_DRAIN / 2)
+        if finished is not None:
+            stderr.write(f"counters: {json.dumps(finished.metrics())}")
+        stderr.close(max(0.0, deadline - time.monotonic()))
 
 
 class _Relay:
@@ -190,7 +195,7 @@ class _Relay:
 
     def _heard(self, listener: str) -> Any:
         sources, route, clock = self.config.sources, self.router.route, time.monotonic
-        send, latencies = self._send, self.latencies
+        deliver, latencies = self._deliver, self.latencies
 
         def heard(data: bytes, sender: Any) -> None:
             start = time.perf_counter()
@@ -199,11 +204,11 @@ class _Relay:
                 return
             source = sources.get(sender[:2], listener) if sources else listener
             try:
-                for outgoing in route(data, source, clock()):
-                    send(outgoing.destination, outgoing.data)
+                outgoing = route(data, source, clock())
             except Exception as error:  # a bug's, not the datagram's: counted, never a traceback
                 self._count(error)
                 return
+            deliver(outgoing)
             latencies.append(time.perf_counter() - start)
 
         return heard
@@ -215,17 +220,24 @@ class _Relay:
         verdict = self._own.get(key)
         if verdict is None:
             verdict = any(receives(e.address, key) for e in self.endpoints.values())
-            if len(self._own) < _SENDERS:
-                self._own[key] = verdict
+            if len(self._own) >= _SENDERS:  # asked again later: a host's addresses may change
+                self._own.clear()
+            self._own[key] = verdict
         return verdict
 
     def _count(self, error: Exception) -> None:
         name = type(error).__name__
         self.errors[name] = self.errors.get(name, 0) + 1
 
-    def _send(self, name: str, data: bytes) -> None:
-        endpoint, address = self._targets[name]
-        endpoint.send_datagram(data, address)
+    def _deliver(self, outgoing: list[Outgoing]) -> None:
+        """Send each datagram; one that fails is counted and the rest still go."""
+        targets = self._targets
+        for destination, data in outgoing:
+            endpoint, address = targets[destination]
+            try:
+                endpoint.send_datagram(data, address)
+            except Exception as error:  # counted; no destination waits on another's failure
+                self._count(error)
 
     def _event(self, event: FailsafeEvent) -> None:
         """Said on stderr, counted by the router; not kept (a flapping brake is no memory)."""
@@ -235,13 +247,14 @@ class _Relay:
     async def _poll(self) -> None:
         import asyncio
 
-        poll, clock = self.router.poll, time.monotonic
+        poll, clock, deliver = self.router.poll, time.monotonic, self._deliver
         while True:
             try:
-                for outgoing in poll(clock()):
-                    self._send(outgoing.destination, outgoing.data)
+                outgoing = poll(clock())
             except Exception as error:  # counted; the next tick polls again
                 self._count(error)
+            else:
+                deliver(outgoing)
             await asyncio.sleep(TICK)
 
     async def _report(self) -> None:

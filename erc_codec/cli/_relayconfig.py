@@ -3,8 +3,10 @@
 Every key is checked: an unknown one, a bad address, an unknown kind or destination is a
 ``Fatal`` of one line naming the file and the key (exit 2). So is what could only misbehave: a
 destination the relay itself receives on, however it is spelled (it would forward to itself
-forever), a destination port 0 or a wildcard host, one name twice in a list, two ``[sources]``
-names for one address, failsafe timings out of their bounds, and a file over 1 MiB.
+forever), a destination or named sender at port 0, a wildcard host or the relay's own listener,
+a destination of the other family than the socket it is sent from (an IPv4 one from ``[::]`` is
+sent to as its IPv4-mapped address), one name twice in a list, two ``[sources]`` names for one
+address, failsafe timings out of their bounds, and a file over 1 MiB.
 """
 
 import sys
@@ -18,14 +20,13 @@ from .._checks import duration
 from .._codec import Codec
 from .._envelope import Mode
 from .._router import Failsafe, Route, failsafe_timing
-from ._local import canonical, receives, spellings
+from ._local import WILDCARDS, canonical, receives, spellings
 from ._shared import Fatal, one_line, parse_address, resolve
 
 __all__ = ["TICK", "Config", "Destination", "read_config"]
 
 TICK = 0.002  # seconds between two polls of the failsafes: they repeat at most 1 / TICK a second
 _INTERVALS = (0.01, 3600.0)  # seconds between two status reports (a hundred lines a second)
-_WILDCARDS = ("0.0.0.0", "::")  # a host that means every local address, no destination
 _LARGEST = 1 << 20  # bytes: a relay configuration is a page or two of TOML
 
 
@@ -90,10 +91,12 @@ class _Reader:
         destinations = self.destinations(document, listen)
         sources = self.sources(document, listen)
         senders = set(listen) | set(sources.values())
+        targets = set(destinations)
         routes = [
-            self.route(i, entry, senders) for i, entry in enumerate(_list(document, "routes"))
+            self.route(i, entry, senders, targets)
+            for i, entry in enumerate(_list(document, "routes"))
         ]
-        failsafes = self.failsafes(document, senders)
+        failsafes = self.failsafes(document, senders, targets)
         status = settings.get("status", "line")
         if status not in ("line", "json", "none"):
             raise ValueError(f"relay.status must be line, json or none, not {status!r}")
@@ -130,14 +133,10 @@ class _Reader:
             if "address" not in entry:
                 raise ValueError(f"{where}.address is missing")
             address = self.address(f"{where}.address", entry["address"])
-            if address[1] == 0:
-                raise ValueError(f"{where}.address: port 0 is no destination")
-            if canonical(address[0]) in _WILDCARDS:
-                raise ValueError(
-                    f"{where}.address: {address[0]} means every local address, no destination"
-                )
-            _not_listening(f"{where}.address", address, listen)
-            destinations[name] = Destination(address, cast(Mode, form), via)
+            _peer(f"{where}.address", address, listen, "destination")
+            destinations[name] = Destination(
+                _sendable(f"{where}.address", address, via, listen[via]), cast(Mode, form), via
+            )
         return destinations
 
     def sources(
@@ -150,7 +149,9 @@ class _Reader:
                     f"sources.{name}: {name!r} names a [listen] endpoint too: a route's sources "
                     "could not tell them apart"
                 )
-            host, port = self.address(f"sources.{name}", text)[:2]
+            address = self.address(f"sources.{name}", text)
+            _peer(f"sources.{name}", address, listen, "sender")
+            host, port = address[:2]
             named = sources.get((canonical(host), port))
             if named is not None:
                 raise ValueError(f"sources.{name}: {text!r} is sources.{named} already")
@@ -158,10 +159,12 @@ class _Reader:
                 sources[(spelling, port)] = name
         return sources
 
-    def failsafes(self, document: dict[str, Any], senders: set[str]) -> list[Failsafe]:
+    def failsafes(
+        self, document: dict[str, Any], senders: set[str], targets: set[str]
+    ) -> list[Failsafe]:
         failsafes: list[Failsafe] = []
         for i, entry in enumerate(_list(document, "failsafes")):
-            failsafe = self.failsafe(i, entry, senders)
+            failsafe = self.failsafe(i, entry, senders, targets)
             for j, other in enumerate(failsafes):
                 if other.kind == failsafe.kind:
                     raise ValueError(
@@ -180,20 +183,20 @@ class _Reader:
             raise ValueError(f"{where}: {error.format_message()}") from None
         return resolve(host, port)[1]
 
-    def route(self, index: int, entry: Any, senders: set[str]) -> Route:
+    def route(self, index: int, entry: Any, senders: set[str], targets: set[str]) -> Route:
         where = f"routes[{index}]"
         if not isinstance(entry, dict):
             raise ValueError(f"{where} must be a table")
         _only(entry, where, {"to", "kinds", "sources", "sender", "receiver"})
         return Route(
-            _names(entry, "to", where, required=True) or (),
+            _targets(entry, where, targets),
             _names(entry, "kinds", where),
             _senders(entry, where, senders),
             _text(entry, "sender", where),
             _text(entry, "receiver", where),
         )
 
-    def failsafe(self, index: int, entry: Any, senders: set[str]) -> Failsafe:
+    def failsafe(self, index: int, entry: Any, senders: set[str], targets: set[str]) -> Failsafe:
         where = f"failsafes[{index}]"
         if not isinstance(entry, dict):
             raise ValueError(f"{where} must be a table")
@@ -228,7 +231,7 @@ class _Reader:
         return Failsafe(
             kind,
             message,
-            _names(entry, "to", where, required=True) or (),
+            _targets(entry, where, targets),
             rate,
             timeout,
             _senders(entry, where, senders),
@@ -274,6 +277,18 @@ def _names(
     return tuple(value)
 
 
+def _targets(entry: dict[str, Any], where: str, targets: set[str]) -> tuple[str, ...]:
+    """``entry``'s ``to``: each a [destinations] name."""
+    names = _names(entry, "to", where, required=True) or ()
+    for name in names:
+        if name not in targets:
+            raise ValueError(
+                f"{where}.to: no destination {name!r} (destinations: "
+                f"{', '.join(sorted(targets)) or 'none'})"
+            )
+    return names
+
+
 def _senders(entry: dict[str, Any], where: str, senders: set[str]) -> tuple[str, ...] | None:
     """``entry``'s ``sources``: each a [listen] endpoint or a [sources] name."""
     names = _names(entry, "sources", where)
@@ -286,13 +301,36 @@ def _senders(entry: dict[str, Any], where: str, senders: set[str]) -> tuple[str,
     return names
 
 
-def _not_listening(
-    where: str, address: tuple[Any, ...], listen: dict[str, tuple[Any, ...]]
+def _peer(
+    where: str, address: tuple[Any, ...], listen: dict[str, tuple[Any, ...]], role: str
 ) -> None:
-    """Refuse a destination the relay itself receives on: it would forward to itself forever."""
+    """Refuse a peer (a destination, or a named sender) that cannot be one: at port 0, at a
+    wildcard host, or where the relay itself receives (sent there, a datagram would be forwarded
+    forever; sent from there, it is the relay's own and dropped)."""
+    if address[1] == 0:
+        raise ValueError(f"{where}: port 0 is no {role}")
+    if canonical(address[0]) in WILDCARDS:
+        raise ValueError(f"{where}: {address[0]} means every local address, no {role}")
     for name, bound in listen.items():
         if receives(bound, address):
             raise ValueError(f"{where}: the relay listens there itself ([listen] {name})")
+
+
+def _sendable(
+    where: str, address: tuple[Any, ...], via: str, bound: tuple[Any, ...]
+) -> tuple[Any, ...]:
+    """``address`` as the socket of [listen] ``via`` sends to it: an IPv4 address from a
+    dual-stack socket (bound to ``::``) as its IPv4-mapped IPv6 address; an address of the other
+    family from any other socket is refused, as no send could reach it."""
+    if (len(address) == 4) == (len(bound) == 4):
+        return address
+    if len(bound) == 4 and canonical(bound[0]) == "::":
+        return (f"::ffff:{address[0]}", address[1], 0, 0)
+    family, other = ("IPv4", "IPv6") if len(bound) == 2 else ("IPv6", "IPv4")
+    raise ValueError(
+        f"{where}: an {other} address, and via = {via!r} is an {family} socket: send it from "
+        f"a [listen] endpoint of its family{' or from [::]' if other == 'IPv4' else ''}"
+    )
 
 
 def _text(entry: dict[str, Any], key: str, where: str) -> str | None:
