@@ -54,7 +54,7 @@ FAILSAFE = '[[failsafes]]\nkind = "drive_motor"\nto = ["base"]\nrate = 10\ntimeo
         (GOOD.replace('form = "exact"', 'form = "raw"'), "destinations.base.form must be"),
         (GOOD.replace(', form = "exact"', ', via = "air"'), "destinations.base.via: no"),
         (GOOD.replace('to = ["base"]', 'to = ["nowhere"]'), "no destination 'nowhere'"),
-        (GOOD + 'kinds = ["drive"]\n', "drive is not a payload kind"),
+        (GOOD + 'kinds = ["drive"]\n', r"routes\[0\].kinds: 'drive' is not a payload kind"),
         (GOOD + 'receiver = "Mars"\n', "no member of PBEnvelope is sent"),
         (
             GOOD + '[[failsafes]]\nkind = "drive_motor"\nto = ["base"]\n',
@@ -124,6 +124,19 @@ FAILSAFE = '[[failsafes]]\nkind = "drive_motor"\nto = ["base"]\nrate = 10\ntimeo
             r"sources.me: the relay listens there itself \(\[listen\] rover\)",
         ),
         (
+            GOOD.replace('rover = "0"', 'rover = "5000"\nground = "127.0.0.1:5000"'),
+            "listen.ground: '127.0.0.1:5000' is where listen.rover listens",
+        ),
+        (
+            GOOD.replace('rover = "0"', 'rover = "0.0.0.0:5000"\nground = "127.0.0.1:5000"'),
+            "listen.ground: '127.0.0.1:5000' is where listen.rover listens",
+        ),
+        (GOOD + FAILSAFE.replace("rate = 10", "rate = 0"), r"from 0\.01 to 500"),
+        (
+            GOOD.replace('to = ["base"]', "to = []"),
+            r"routes\[0\].to = \[\] names nothing: name at least",
+        ),
+        (
             GOOD.replace("127.0.0.1:9", "[::1]:9"),
             "destinations.base.address: an IPv6 address, and via = 'rover' is an IPv4 socket",
         ),
@@ -145,7 +158,10 @@ FAILSAFE = '[[failsafes]]\nkind = "drive_motor"\nto = ["base"]\nrate = 10\ntimeo
             r"failsafes\[1\].kind: drive_motor has a failsafe already \(failsafes\[0\]\)",
         ),
         (GOOD + FAILSAFE.replace("timeout = 0.3\n", ""), r"failsafes\[0\].timeout is missing"),
-        (GOOD + FAILSAFE.replace("rate = 10", "rate = 1e9"), "at most 500 a second"),
+        (
+            GOOD + FAILSAFE.replace("rate = 10", "rate = 1e9"),
+            r"rate must be a number of Hz from 0\.01 to 500 \(the relay polls every 2 ms\)",
+        ),
         (GOOD + FAILSAFE.replace("rate = 10", "rate = 1e-300"), "rate must be a number of Hz"),
         (GOOD + FAILSAFE.replace('["base"]', '["logger"]'), "no destination 'logger'"),
         (
@@ -674,3 +690,6 @@ def test_a_link_local_address_of_this_host_is_its_own_whether_scoped_by_name_or_
     if link_local is not None:  # bound with its scope's index: bind refuses it as text
         assert is_local(link_local)
         assert receives(("::", 5000, 0, 0), (link_local, 5000, 0, 0))
+        host, _, scope = link_local.partition("%")  # as getaddrinfo gives it: the scope apart
+        assert receives(("::", 5000, 0, 0), (host, 5000, 0, socket.if_nametoindex(scope)))
+        assert not receives(("::", 5000, 0, 0), (host, 5000, 0, 0))  # no scope: not bindable

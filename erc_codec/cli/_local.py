@@ -82,9 +82,18 @@ def receives(bound: tuple[Any, ...], destination: tuple[Any, ...]) -> bool:
     as Linux makes it, any)."""
     if bound[1] != destination[1]:
         return False
-    listening, host = canonical(bound[0]), canonical(destination[0])
+    listening, host = canonical(_scoped(bound)), canonical(_scoped(destination))
     if listening == host:
         return True
     if listening == "::" or (listening == "0.0.0.0" and ":" not in host):
         return is_local(host)
     return False
+
+
+def _scoped(address: tuple[Any, ...]) -> str:
+    """The host of a socket address with its scope, which getaddrinfo gives apart (as the
+    address's fourth item) rather than in the text."""
+    host = str(address[0])
+    if len(address) == 4 and address[3] and "%" not in host:
+        return f"{host}%{address[3]}"
+    return host

@@ -9,7 +9,7 @@ While it runs it prints, every ``interval`` seconds, a status line on stderr (or
 failsafe datagrams; drops by reason; failsafe events; the latency the relay adds
 (from a datagram's read to its send, p50/p99/max over the last 10,000); per listening endpoint
 what the kernel dropped and the sends that failed; per output stream the lines written and
-dropped. SIGTERM and SIGINT end it, printing the same counters on stderr.
+dropped. SIGTERM, SIGINT and SIGHUP end it, printing the same counters on stderr.
 
 The failsafe's guarantee: nothing but the configuration decides when a brake datagram goes out.
 Output never waits for its reader (``LineStream``: a slow or stuck reader costs lines, counted,
@@ -39,6 +39,7 @@ from ._shared import Fatal, load, one_line, schema_options, shown
 
 __all__ = ["relay"]
 
+_STOPS = ("SIGINT", "SIGTERM", "SIGHUP")  # what ends a relay (SIGHUP: a terminal closed)
 _LATENCIES = 10_000  # latency samples kept for the percentiles
 _SENDERS = 256  # senders on one of the relay's own ports whose verdict (itself or not) is kept
 _DRAIN = 2.0  # seconds slow readers get, at the end, for the lines still queued (both streams)
@@ -52,8 +53,8 @@ def relay(config: Path, tree: str | None, root: str | None) -> None:
 
     Each datagram goes to the destinations whose routes take its kind, direction or source, in
     each destination's form (exact, strip or pad); failsafe messages go out while a watched kind
-    is silent. The addresses bound are printed on stderr first; SIGTERM or SIGINT print the
-    counters and end it.
+    is silent. The addresses bound are printed on stderr first; SIGTERM, SIGINT or SIGHUP print
+    the counters and end it.
     """
     import asyncio
 
@@ -131,8 +132,9 @@ class _Relay:
             if not stop.done():
                 stop.set_result(None)
 
-        for signum in (signal.SIGTERM, signal.SIGINT):
-            loop.add_signal_handler(signum, finish)
+        for name in _STOPS:
+            if hasattr(signal, name):
+                loop.add_signal_handler(getattr(signal, name), finish)
         try:
             for name, address in self.config.listen.items():
                 try:
@@ -291,4 +293,5 @@ def _line(metrics: dict[str, Any]) -> str:
     dropped = sum(metrics["dropped"].values()) + sum(metrics["errors"].values())
     latency = metrics["latency_us"]
     engaged = ",".join(metrics["engaged"]) or "-"
-    return f"relay: {routes} dropped={dropped} engaged={engaged} p99={latency['p99']}us"
+    p99 = "-" if latency["p99"] is None else f"{latency['p99']}us"  # nothing relayed yet
+    return f"relay: {routes} dropped={dropped} engaged={engaged} p99={p99}"

@@ -27,6 +27,7 @@ __all__ = ["TICK", "Config", "Destination", "read_config"]
 
 TICK = 0.002  # seconds between two polls of the failsafes: they repeat at most 1 / TICK a second
 _INTERVALS = (0.01, 3600.0)  # seconds between two status reports (a hundred lines a second)
+_SLOWEST = 0.01  # Hz: the slowest failsafe rate, as the Router allows it
 _LARGEST = 1 << 20  # bytes: a relay configuration is a page or two of TOML
 
 
@@ -82,10 +83,13 @@ class _Reader:
         _only(document, "", {"relay", "listen", "destinations", "sources", "routes", "failsafes"})
         settings = _table(document, "relay")
         _only(settings, "relay", {"debug", "status", "interval"})
-        listen = {
-            name: self.address(f"listen.{name}", text, default_host="127.0.0.1")
-            for name, text in _table(document, "listen").items()
-        }
+        listen: dict[str, tuple[Any, ...]] = {}
+        for name, text in _table(document, "listen").items():
+            address = self.address(f"listen.{name}", text, default_host="127.0.0.1")
+            for other, bound in listen.items():  # port 0: a free port, another each time
+                if address[1] and (receives(bound, address) or receives(address, bound)):
+                    raise ValueError(f"listen.{name}: {text!r} is where listen.{other} listens")
+            listen[name] = address
         if not listen:
             raise ValueError("[listen] names no endpoint: the relay needs at least one")
         destinations = self.destinations(document, listen)
@@ -179,9 +183,9 @@ class _Reader:
             raise ValueError(f'{where} must be a string "HOST:PORT", not {text!r}')
         try:
             host, port = parse_address(text, default_host)
-        except click.BadParameter as error:
+            return resolve(host, port)[1]
+        except click.ClickException as error:  # BadParameter, or Fatal: a name not resolved
             raise ValueError(f"{where}: {error.format_message()}") from None
-        return resolve(host, port)[1]
 
     def route(self, index: int, entry: Any, senders: set[str], targets: set[str]) -> Route:
         where = f"routes[{index}]"
@@ -190,11 +194,22 @@ class _Reader:
         _only(entry, where, {"to", "kinds", "sources", "sender", "receiver"})
         return Route(
             _targets(entry, where, targets),
-            _names(entry, "kinds", where),
+            self.kinds(entry, where),
             _senders(entry, where, senders),
             _text(entry, "sender", where),
             _text(entry, "receiver", where),
         )
+
+    def kinds(self, entry: dict[str, Any], where: str) -> tuple[str, ...] | None:
+        """``entry``'s ``kinds``: each a payload kind of the schema."""
+        names = _names(entry, "kinds", where)
+        known = set(self.codec.kinds().values())
+        for name in names or ():
+            if name not in known:
+                raise ValueError(
+                    f"{where}.kinds: {name!r} is not a payload kind of {self.codec.root}"
+                )
+        return names
 
     def failsafe(self, index: int, entry: Any, senders: set[str], targets: set[str]) -> Failsafe:
         where = f"failsafes[{index}]"
@@ -217,10 +232,11 @@ class _Reader:
         rate, timeout = entry.get("rate"), entry.get("timeout")
         if rate is None:
             raise ValueError(f"{where}.rate is missing (failsafe messages a second)")
-        if not isinstance(rate, bool) and isinstance(rate, (int, float)) and rate > 1 / TICK:
+        number = not isinstance(rate, bool) and isinstance(rate, (int, float))
+        if not number or not _SLOWEST <= rate <= 1 / TICK:
             raise ValueError(
-                f"{where}.rate: the relay polls every {TICK * 1000:g} ms, so at most "
-                f"{1 / TICK:g} a second, not {rate!r}"
+                f"{where}.rate must be a number of Hz from {_SLOWEST:g} to {1 / TICK:g} (the "
+                f"relay polls every {TICK * 1000:g} ms), not {rate!r}"
             )
         if timeout is None:
             raise ValueError(f"{where}.timeout is missing (seconds of silence before it engages)")
@@ -270,7 +286,8 @@ def _names(
     if not isinstance(value, list) or not all(isinstance(item, str) for item in value):
         raise ValueError(f"{where}.{key} must be a list of names, not {value!r}")
     if not value:  # a route or failsafe that could never take anything
-        raise ValueError(f"{where}.{key} = [] names nothing: leave it out or name at least one")
+        advice = "name at least one" if required else "leave it out or name at least one"
+        raise ValueError(f"{where}.{key} = [] names nothing: {advice}")
     twice = next((name for i, name in enumerate(value) if name in value[:i]), None)
     if twice is not None:
         raise ValueError(f"{where}.{key} names {twice!r} twice")
