@@ -21,7 +21,7 @@ from google.protobuf.descriptor import FieldDescriptor
 from google.protobuf.message import Message
 
 import erc_codec
-from erc_codec.schema import descriptor_of, enum_of
+from erc_schema import descriptor_of, enum_of
 
 _T = FieldDescriptor
 _TARGETS = {"decode exact": 1.25, "decode stripped": 2.0, "encode": 2.0}

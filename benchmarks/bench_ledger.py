@@ -32,10 +32,10 @@ from pathlib import Path
 
 from bench_lint import _envelope, _Field, _File, _plan, _render
 
-from erc_codec.schema import GitSpec, Repository
 from erc_lint._history import History
 from erc_lint._ledger import Ledger
 from erc_lint._loader import load_tree
+from erc_schema import GitSpec, Repository
 
 _FILES = 30
 _REVISIONS = (100, 250, 500)

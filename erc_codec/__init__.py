@@ -17,7 +17,9 @@ from typing import Any as _Any
 
 from google.protobuf.message import Message as _Message
 
-from ._errors import CodecError, DecodeError, EncodeError, SchemaError
+from erc_schema import CodecError, DecodeError, EncodeError, SchemaError
+
+from . import schema as schema  # the schema layer, as erc_codec.schema
 
 if _TYPE_CHECKING:
     from ._codec import Codec, Direction, Member, MessageCodec

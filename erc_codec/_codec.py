@@ -9,13 +9,13 @@ from typing import Any, NamedTuple
 
 from google.protobuf.message import Message
 
+from erc_schema import NANOPB_VERSIONS, Schema, SchemaError, Sizes, load_schema, message_of
+
 from ._contract import contract
 from ._discovery import SchemaSource, find_schema, load_source, packaged_tree, snapshot
 from ._envelope import Envelope, is_envelope
-from ._errors import SchemaError
 from ._plain import Plain
 from ._strict import refusal
-from .schema import NANOPB_VERSIONS, Schema, Sizes, load_schema, message_of
 
 __all__ = ["Codec", "Direction", "Member", "MessageCodec", "default_tree", "is_envelope"]
 

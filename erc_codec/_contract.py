@@ -55,9 +55,9 @@ from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from google.protobuf.descriptor_pb2 import FieldDescriptorProto
 from google.protobuf.message import Message
 
-from ._errors import EncodeError, SchemaError
+from erc_schema import EncodeError, SchemaError, Sizes, encode_varint, enum_of, message_of
+
 from ._paths import entry_path
-from .schema import Sizes, encode_varint, enum_of, message_of
 
 __all__ = ["Contract", "contract", "sender"]
 

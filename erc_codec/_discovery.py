@@ -25,13 +25,13 @@ from collections.abc import Callable, Hashable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple, TypeVar
 
-from ._errors import SchemaError
-from .schema import (
+from erc_schema import (
     NANOPB_VERSIONS,
     FileError,
     GitError,
     GitSpec,
     Repository,
+    SchemaError,
     TreeSource,
     file_exists,
     given_options_file,

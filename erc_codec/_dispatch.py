@@ -16,8 +16,9 @@ from typing import Any, NamedTuple, TypeVar
 from google.protobuf.message import DecodeError as ProtobufDecodeError
 from google.protobuf.message import Message
 
+from erc_schema import DecodeError, SchemaError, UnreadableKind
+
 from ._codec import Codec
-from ._errors import DecodeError, SchemaError, UnreadableKind
 from ._unknown import UnkeptFields
 
 __all__ = ["DispatchStats", "Dispatcher", "Drop"]

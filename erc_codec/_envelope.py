@@ -46,14 +46,12 @@ from google.protobuf.message import DecodeError as ProtobufDecodeError
 from google.protobuf.message import EncodeError as ProtobufEncodeError
 from google.protobuf.message import Message
 
-from ._contract import Contract, sender
-from ._errors import DecodeError, EncodeError, SchemaError, UnreadableKind
-from ._foreign import Foreign
-from ._forms import Forms, Mode, as_bytes, cut_short, strict_error
-from ._truncation import Table, cut_reason, presence_table
-from ._unknown import UnknownField, own_unknown_fields, unknown_fields
-from .schema import (
+from erc_schema import (
     LEN,
+    DecodeError,
+    EncodeError,
+    SchemaError,
+    UnreadableKind,
     WireError,
     descriptor_of,
     encode_varint,
@@ -61,6 +59,12 @@ from .schema import (
     next_field,
     varint_size,
 )
+
+from ._contract import Contract, sender
+from ._foreign import Foreign
+from ._forms import Forms, Mode, as_bytes, cut_short, strict_error
+from ._truncation import Table, cut_reason, presence_table
+from ._unknown import UnknownField, own_unknown_fields, unknown_fields
 
 __all__ = ["Decoded", "Envelope", "Mode", "is_envelope"]
 

@@ -12,8 +12,7 @@ from typing import Any
 
 from google.protobuf.message import Message
 
-from ._errors import EncodeError
-from .schema import descriptor_of
+from erc_schema import EncodeError, descriptor_of
 
 __all__ = ["Foreign"]
 

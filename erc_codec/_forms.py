@@ -26,10 +26,18 @@ from typing import Literal
 from google.protobuf.message import DecodeError as ProtobufDecodeError
 from google.protobuf.message import Message
 
-from ._errors import DecodeError, EncodeError
+from erc_schema import (
+    EGROUP,
+    SGROUP,
+    DecodeError,
+    EncodeError,
+    WireError,
+    descriptor_of,
+    next_field,
+)
+
 from ._truncation import Table, cut_reason, presence_table
 from ._unknown import UnknownField, unknown_fields
-from .schema import EGROUP, SGROUP, WireError, descriptor_of, next_field
 
 __all__ = ["Forms", "Mode", "as_bytes", "cut_short", "strict_error"]
 

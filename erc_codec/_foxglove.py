@@ -21,6 +21,8 @@ from typing import Any
 
 from google.protobuf.message import Message
 
+from erc_schema import descriptor_of
+
 from ._codec import Codec
 from ._dispatch import Drop
 from ._recording import (
@@ -33,7 +35,6 @@ from ._recording import (
     member_topic,
     require,
 )
-from .schema import descriptor_of
 
 __all__ = ["FoxgloveView"]
 

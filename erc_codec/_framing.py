@@ -84,8 +84,9 @@ from collections.abc import Callable
 from itertools import repeat
 from typing import TYPE_CHECKING, NamedTuple
 
+from erc_schema import DecodeError, EncodeError
+
 from ._checks import count as whole
-from ._errors import DecodeError, EncodeError
 
 if TYPE_CHECKING:
     from ._codec import Codec

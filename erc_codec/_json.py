@@ -41,9 +41,9 @@ from google.protobuf import json_format
 from google.protobuf.descriptor import Descriptor, EnumDescriptor, FieldDescriptor
 from google.protobuf.message import Message
 
-from ._errors import DecodeError, EncodeError
+from erc_schema import DecodeError, EncodeError, descriptor_of, enum_of, message_of
+
 from ._paths import entry_path, key_text
-from .schema import descriptor_of, enum_of, message_of
 
 __all__ = ["from_dict", "from_json", "load_json", "to_dict", "to_json"]
 

@@ -31,8 +31,9 @@ from typing import TYPE_CHECKING, Any, BinaryIO, Literal, NamedTuple
 from google.protobuf.message import DecodeError as ProtobufDecodeError
 from google.protobuf.message import Message
 
+from erc_schema import CodecError, DecodeError, descriptor_of
+
 from ._codec import Codec
-from ._errors import CodecError, DecodeError
 from ._origin import erc_codec_version, schema_origin
 from ._recording import (
     DROPS_TOPIC,
@@ -44,7 +45,6 @@ from ._recording import (
     require,
 )
 from ._unknown import UnkeptFields
-from .schema import descriptor_of
 
 if TYPE_CHECKING:
     from mcap.writer import Writer

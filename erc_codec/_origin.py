@@ -9,9 +9,10 @@ revision is ``""``.
 
 from pathlib import Path
 
+from erc_schema import descriptor_of
+
 from ._codec import Codec
 from ._recording import file_descriptor_set
-from .schema import descriptor_of
 
 __all__ = ["erc_codec_version", "git_revision", "schema_digest", "schema_origin"]
 

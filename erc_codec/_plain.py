@@ -24,12 +24,12 @@ from collections.abc import Callable
 from google.protobuf.descriptor import Descriptor
 from google.protobuf.message import Message
 
+from erc_schema import EncodeError, SchemaError, UnreadableKind, descriptor_of
+
 from ._contract import Contract
 from ._envelope import Decoded, Unsendable
-from ._errors import EncodeError, SchemaError, UnreadableKind
 from ._foreign import Foreign
 from ._forms import Forms, Mode, as_bytes, strict_error
-from .schema import descriptor_of
 
 __all__ = ["Plain"]
 

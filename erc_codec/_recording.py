@@ -21,7 +21,7 @@ from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from google.protobuf.descriptor import Descriptor
 from google.protobuf.message import Message
 
-from .schema import descriptor_of
+from erc_schema import descriptor_of
 
 __all__ = [
     "DROPS_TOPIC",

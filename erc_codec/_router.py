@@ -34,10 +34,11 @@ from typing import NamedTuple
 
 from google.protobuf.message import Message
 
+from erc_schema import DecodeError, EncodeError, SchemaError
+
 from ._checks import duration
 from ._codec import Codec
 from ._envelope import Mode
-from ._errors import DecodeError, EncodeError, SchemaError
 from ._watchdog import Liveness, Watchdog
 
 __all__ = [

@@ -38,7 +38,7 @@ from typing import Any
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from google.protobuf.message import Message
 
-from .schema import (
+from erc_schema import (
     I32,
     I64,
     LEN,

@@ -35,8 +35,7 @@ from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from google.protobuf.message import Message
 from google.protobuf.message_factory import GetMessageClass
 
-from ._paths import entry_path
-from .schema import (
+from erc_schema import (
     I32,
     I64,
     LEN,
@@ -48,6 +47,8 @@ from .schema import (
     next_field,
     read_varint,
 )
+
+from ._paths import entry_path
 
 __all__ = ["Chain", "Table", "cut_field", "cut_reason", "presence_table", "varint_cut"]
 

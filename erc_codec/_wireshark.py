@@ -15,10 +15,10 @@ from importlib import resources
 
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
 
+from erc_schema import SchemaError, descriptor_of, enum_of, message_of
+
 from ._codec import Codec
-from ._errors import SchemaError
 from ._origin import schema_origin
-from .schema import descriptor_of, enum_of, message_of
 
 __all__ = ["DEFAULT_PORTS", "wireshark_dissector"]
 

@@ -23,9 +23,9 @@ from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from google.protobuf.message import Message
 from hypothesis import strategies as st
 
+from erc_schema import PYTHON_INT_RANGE, SchemaError, Sizes, descriptor_of, enum_of, message_of
+
 from ._codec import Codec
-from ._errors import SchemaError
-from .schema import PYTHON_INT_RANGE, Sizes, descriptor_of, enum_of, message_of
 
 __all__ = ["messages"]
 

@@ -5,7 +5,7 @@ findings, sorted by location; ``check(tree)`` lints one tree on its own; ``erc-l
 command line around them (``erc_lint.cli``). Everything not re-exported here is private.
 
 One module per job, and data flows one way: ``_inputs`` (a folder, or a git revision read by the
-codec's schema layer, ``erc_codec.schema.open_tree``) → ``_loader`` (compiled files and load
+schema layer, ``erc_schema.open_tree``) → ``_loader`` (compiled files and load
 problems) → ``_model`` (one revision: its messages, enums, extensions, services, names, sizes;
 ``_features`` resolves what each element means on the wire) → ``_pairing`` (OLD and NEW paired)
 → ``rules/`` (one pair at a time, in categories; ``_suppressions`` reads the ``erc-lint:ignore``
@@ -14,7 +14,7 @@ GitLab Code Quality) → ``cli/``. ``_run`` is one lint run (and one ledger upda
 the accepted findings, ``_config`` reads ``[tool.erc-lint]``, ``_ledger`` and
 ``_history`` keep the number ledger, and ``_errors`` holds ``LintError``, the base of the
 linter's own failures to run (``GitError``, for a revision that cannot be read, is the schema
-layer's, an ``erc_codec.SchemaError``).
+layer's, an ``erc_schema.SchemaError``).
 """
 
 from ._config import Config

@@ -14,7 +14,7 @@ Lines starting with ``#`` are comments. A baseline over ``BASELINE_LIMIT`` is re
 from collections.abc import Iterable
 from pathlib import Path
 
-from erc_codec.schema import FileError, read_text
+from erc_schema import FileError, read_text
 
 from ._errors import LintError
 

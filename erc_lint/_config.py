@@ -16,10 +16,10 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, NamedTuple
 
-from erc_codec import SchemaError
-from erc_codec.schema import (
+from erc_schema import (
     NANOPB_VERSIONS,
     FileError,
+    SchemaError,
     file_exists,
     given_options_file,
     read_text,

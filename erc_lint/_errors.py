@@ -1,13 +1,13 @@
 """What stops the linter from running, as opposed to what it finds: ``LintError`` is the base of
 the linter's own failures (its configuration, its ledger), so a caller catches them with one
 ``except LintError``; a tree that cannot be read (a git revision among them: ``GitError``, the
-schema layer's) is an ``erc_codec.SchemaError``. The command line turns both into one line and
+schema layer's) is an ``erc_schema.SchemaError``. The command line turns both into one line and
 exit status 2.
 
 The findings of a run are never errors: a tree that breaks the wire is a result, not a failure.
 """
 
-from erc_codec.schema import GitError
+from erc_schema import GitError
 
 __all__ = ["ConfigError", "GitError", "LedgerError", "LintError"]
 

@@ -4,7 +4,7 @@ and named in a way that does not move with the lines (for baselines and CI dedup
 import re
 from typing import Literal, NamedTuple
 
-from erc_codec.schema import Location
+from erc_schema import Location
 
 __all__ = ["Finding", "Severity", "printable", "printable_finding", "stable_text"]
 

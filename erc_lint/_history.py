@@ -22,7 +22,7 @@ from pathlib import Path
 
 from google.protobuf import descriptor_pb2
 
-from erc_codec.schema import (
+from erc_schema import (
     Declaration,
     GitSpec,
     ProtocError,

@@ -1,6 +1,6 @@
 """What OLD, NEW or TREE name, opened for the linter, and findings named as the user named them.
 
-A tree is a folder or a git revision (``erc_codec.schema.open_tree``); a revision's scratch copy
+A tree is a folder or a git revision (``erc_schema.open_tree``); a revision's scratch copy
 holds its protos and options, and the configuration and ledger at its top. Findings about files
 of a git revision name them as the repository does (``GITDIR/PATH/file.proto``), so a CI
 annotation or an editor opens the same file a plain folder would have named.
@@ -12,7 +12,7 @@ from collections.abc import Iterator, Sequence
 from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 
-from erc_codec.schema import (
+from erc_schema import (
     GitSpec,
     Repository,
     TreeSource,

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NamedTuple
 
-from erc_codec.schema import FileError, read_file
+from erc_schema import FileError, read_file
 
 from ._config import LEDGER_LIMIT
 from ._errors import LedgerError

@@ -17,7 +17,7 @@ Guarantees:
   with their options of source retention kept (an extension range's ``declaration``s, which
   reserve extension numbers), for the model to resolve what each element means on the wire.
 
-Every ``.proto`` under the root is read through ``erc_codec.schema.read_text`` (a FIFO, a device
+Every ``.proto`` under the root is read through ``erc_schema.read_text`` (a FIFO, a device
 or a file over 16 MiB stops the run, naming it); symlinked folders are not entered.
 
 The loader reports what it met as ``LoadProblem`` records; the rules of the same names turn them
@@ -33,7 +33,7 @@ from typing import Literal, NamedTuple
 
 from google.protobuf import descriptor_pb2
 
-from erc_codec.schema import Location, ProtocError, compile_files, imports, proto_files, read_text
+from erc_schema import Location, ProtocError, compile_files, imports, proto_files, read_text
 
 __all__ = [
     "LoadProblem",

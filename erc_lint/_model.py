@@ -23,8 +23,7 @@ from typing import NamedTuple
 
 from google.protobuf import descriptor_pb2
 
-from erc_codec import SchemaError
-from erc_codec.schema import (
+from erc_schema import (
     NANOPB_VERSIONS,
     Declaration,
     Extension,
@@ -33,6 +32,7 @@ from erc_codec.schema import (
     Options,
     ResolvedOptions,
     Schema,
+    SchemaError,
     Sizes,
     SourceIndex,
     declarations,
@@ -44,7 +44,7 @@ from erc_codec.schema import (
     resolve_options,
     services,
 )
-from erc_codec.schema import Service as DeclaredService
+from erc_schema import Service as DeclaredService
 
 from ._features import Features, edition_of, file_features
 from ._loader import LoadedTree, LoadProblem, relative

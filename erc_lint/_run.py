@@ -6,7 +6,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
 
-from erc_codec.schema import (
+from erc_schema import (
     NANOPB_VERSIONS,
     GitSpec,
     Repository,

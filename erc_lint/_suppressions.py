@@ -18,7 +18,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import NamedTuple
 
-from erc_codec.schema import Location
+from erc_schema import Location
 
 from ._finding import Finding
 

@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 
 import erc_codec
 from erc_codec import Codec, Decoded, strategies
-from erc_codec.schema import LEN, encode_varint
+from erc_schema import LEN, encode_varint
 
 MAX = 262  # nanopb's PBEnvelope_size for the packaged schema: the widest payload, 255, + 7
 TIMEOUT_WIDTH = 7  # the metadata field `timeout = 30` at its widest: a two-byte tag + 5

@@ -10,10 +10,10 @@ from pathlib import Path
 
 from git_support import HEADER, Repo
 
-from erc_codec.schema import GitSpec, ProtocError, Repository, compile_files
 from erc_lint import Finding
 from erc_lint._history import History
 from erc_lint._ledger import Entry, Ledger
+from erc_schema import GitSpec, ProtocError, Repository, compile_files
 
 
 @functools.cache

@@ -21,7 +21,7 @@ from hypothesis import given, settings
 
 import erc_codec
 from erc_codec import Codec, DecodeError, EncodeError, MessageCodec, SchemaError, strategies
-from erc_codec.schema import Sizes, compile_files, load_schema, resolve_options
+from erc_schema import Sizes, compile_files, load_schema, resolve_options
 
 TREES = Path(__file__).resolve().parent / "any_trees"
 INCLUDE = TREES / "include"

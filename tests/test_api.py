@@ -34,28 +34,24 @@ def test_the_command_is_reached_by_a_public_path() -> None:
     module, _, name = scripts["erc-codec"].partition(":")
     assert not any(part.startswith("_") for part in module.split("."))
     assert getattr(erc_codec.cli, name) is erc_codec.cli.main
-    assert erc_codec.cli.__all__ == ["OneLineGroup", "generator_options", "main"]
-
-
-def test_importing_the_cli_package_leaves_the_commands_unloaded() -> None:
-    """erc-lint imports erc_codec.cli for its group; the commands load with ``main`` only."""
-    script = "import sys, erc_codec.cli; print('erc_codec.cli._decode' in sys.modules)"
-    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
-    assert done.stdout.strip() == "False"
+    assert erc_codec.cli.__all__ == ["main"]
 
 
 def test_the_schema_layer_loads_without_the_codec() -> None:
-    """``erc_codec.schema`` runs the package first; the package loads a name's module on the
-    name's first use, so the schema layer (all erc-lint takes of this package) costs itself and
-    the errors alone (bench_lint's ratio to buf)."""
-    script = (
-        "import sys, erc_codec.schema\n"
-        "print(sorted(m for m in sys.modules if m.startswith('erc_codec.')))"
-    )
+    """``erc_schema``, what erc-lint stands on, imports nothing of ``erc_codec``."""
+    script = "import sys, erc_schema, erc_schema.cli\nprint(sorted(sys.modules))"
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
     loaded = set(ast.literal_eval(done.stdout))
-    assert "erc_codec.schema._protoc" in loaded
-    assert {m for m in loaded if not m.startswith("erc_codec.schema")} == {"erc_codec._errors"}
+    assert "erc_schema._protoc" in loaded
+    assert {m for m in loaded if m.split(".")[0] == "erc_codec"} == set()
+
+
+def test_erc_codec_schema_is_the_schema_layer() -> None:
+    import erc_codec.schema
+    import erc_schema
+
+    assert erc_codec.schema.__all__ == erc_schema.__all__
+    assert all(getattr(erc_codec.schema, n) is getattr(erc_schema, n) for n in erc_schema.__all__)
 
 
 def test_a_name_loaded_on_first_use_is_its_modules_own() -> None:
@@ -94,13 +90,3 @@ def test_the_names_loaded_on_first_use_are_typed_from_their_own_modules() -> Non
     assert typed == table
     eager = {"CodecError", "DecodeError", "EncodeError", "SchemaError", "decode", "encode"}
     assert set(erc_codec.__all__) == set(table) | eager
-
-
-def test_the_cli_package_lists_its_own_names_main_among_them() -> None:
-    """``main`` loads on first use; ``dir`` shows it, and no import of the package's own."""
-    done = subprocess.run(
-        [sys.executable, "-c", "import erc_codec.cli as c; print(dir(c), callable(c.main))"],
-        capture_output=True,
-        text=True,
-    )
-    assert done.stdout == "['OneLineGroup', 'generator_options', 'main'] True\n", done.stderr

@@ -21,7 +21,7 @@ from test_mcap import metadata, read_back
 import erc_codec
 from erc_codec._recording import file_descriptor_set
 from erc_codec._unknown import MAX_UNKEPT_NUMBERS
-from erc_codec.schema import descriptor_of
+from erc_schema import descriptor_of
 
 SO_TIMESTAMPNS = getattr(socket, "SO_TIMESTAMPNS", 35)  # Linux's number, where Python lacks it
 

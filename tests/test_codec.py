@@ -26,7 +26,7 @@ from datagrams import (
 
 import erc_codec
 from erc_codec import Codec, Decoded, DecodeError, EncodeError
-from erc_codec.schema import Sizes
+from erc_schema import Sizes
 
 # -- the codec's public surface ----------------------------------------------------------------
 

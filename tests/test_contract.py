@@ -32,7 +32,7 @@ from hypothesis import strategies as st
 import erc_codec
 from erc_codec import Codec, EncodeError, strategies
 from erc_codec._contract import Contract, contract
-from erc_codec.schema import Sizes, descriptor_of, enum_of, message_of
+from erc_schema import Sizes, descriptor_of, enum_of, message_of
 
 CODEC = erc_codec.Codec.default()
 LIMITS = erc_codec.Codec.from_path(Path(__file__).parent / "contract_tree", root="LimitsEnvelope")

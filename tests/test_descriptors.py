@@ -1,4 +1,4 @@
-"""erc_codec.schema's walk over compiled files (``declarations``, ``SourceIndex``) and its reading
+"""erc_schema's walk over compiled files (``declarations``, ``SourceIndex``) and its reading
 of a file's text before it compiles (``declared_names``), against a file written here."""
 
 from pathlib import Path
@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 from google.protobuf import descriptor_pb2
 
-from erc_codec.schema import (
+from erc_schema import (
     Location,
     SourceIndex,
     compile_files,

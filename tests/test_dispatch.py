@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 import erc_codec
 from erc_codec import strategies
 from erc_codec._unknown import MAX_UNKEPT_NUMBERS
-from erc_codec.schema import descriptor_of, message_of
+from erc_schema import descriptor_of, message_of
 
 CODEC = erc_codec.Codec.default()
 GPS = CODEC.message_class("SensorBoardGPSInfo")

@@ -22,7 +22,7 @@ from google.protobuf.message import Message
 from recording_support import need
 
 import erc_codec
-from erc_codec.schema import descriptor_of
+from erc_schema import descriptor_of
 
 SUBPROTOCOL = "foxglove.sdk.v1"
 

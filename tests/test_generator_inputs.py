@@ -30,7 +30,7 @@ import erc_codec
 import erc_lint
 from erc_codec import Codec, SchemaError
 from erc_codec._discovery import ENVIRONMENT, SchemaSource, find_schema
-from erc_codec.schema import NANOPB_VERSIONS
+from erc_schema import NANOPB_VERSIONS
 
 # One file for every .proto, for -f FILE (no %s): App's and Reading's options in one place.
 ALL_OPTIONS = (

@@ -29,7 +29,7 @@ from hypothesis import strategies as st
 
 import erc_codec
 from erc_codec import strategies
-from erc_codec.schema import descriptor_of, enum_of, message_of
+from erc_schema import descriptor_of, enum_of, message_of
 
 pytestmark = pytest.mark.interop
 

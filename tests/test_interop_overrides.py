@@ -34,7 +34,7 @@ from test_interop_any import Peer, build_filter, c_name
 
 import erc_codec
 from erc_codec import strategies
-from erc_codec.schema import encode_varint
+from erc_schema import encode_varint
 
 pytestmark = pytest.mark.interop
 

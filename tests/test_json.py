@@ -27,7 +27,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from erc_codec import Codec, DecodeError, EncodeError, SchemaError, strategies
-from erc_codec.schema import descriptor_of, enum_of, message_of
+from erc_schema import descriptor_of, enum_of, message_of
 
 HERE = Path(__file__).resolve().parent
 CODEC = Codec.default()

@@ -9,9 +9,9 @@ from pathlib import Path
 from lint_support import SHAPES, protoc_edition, rules, tree
 
 import erc_lint
-from erc_codec.schema import Location, imports
 from erc_lint import Config
 from erc_lint._loader import LoadProblem, load_tree
+from erc_schema import Location, imports
 
 
 def test_imports_resolve_whatever_their_spelling(tmp_path: Path) -> None:
@@ -220,7 +220,7 @@ def test_editions_compile_up_to_what_the_bundled_protoc_supports(tmp_path: Path)
 
 
 def test_the_import_scan_matches_the_plain_keyword_pattern() -> None:
-    """erc_codec.schema's import scan spells its keyword ``i(?<!\\wi)mport\\b`` so that re can
+    """erc_schema's import scan spells its keyword ``i(?<!\\wi)mport\\b`` so that re can
     skip ahead to the characters a match starts with (bench_lint's ratio to buf): it finds what
     the plain pattern, with ``\\bimport\\b``, finds, at the start of a text, after word and other
     characters, in comments, strings and identifiers, whatever follows; and it stops at the last

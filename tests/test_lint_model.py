@@ -13,9 +13,9 @@ from google.protobuf.message import DecodeError
 from lint_support import READING, protoc_edition, tree
 
 import erc_lint
-from erc_codec.schema import Sizes, load_schema, options_class
 from erc_lint._loader import load_tree
 from erc_lint._model import Field, build
+from erc_schema import Sizes, load_schema, options_class
 
 
 @pytest.mark.parametrize(

@@ -12,12 +12,12 @@ from google.protobuf import descriptor_pool, message_factory
 from lint_support import READING, rules, tree
 
 import erc_lint
-from erc_codec.schema import compile_files
 from erc_lint import RULES, Config, Rule
 from erc_lint._loader import load_tree
 from erc_lint._model import build
 from erc_lint._pairing import WIRE_GROUPS, wire_compatible
 from erc_lint.rules._registry import PAIRS, Report
+from erc_schema import compile_files
 
 SECTIONS = ["## What it does", "## Why is this bad?", "## Example", "## Use instead"]
 
@@ -527,7 +527,7 @@ def test_sizes_from_the_revisions_resolved_options_are_sizes_own() -> None:
     sizes are those Sizes resolves for the root's files itself; a tree declaring a name twice
     is resolved again."""
     from erc_codec import SchemaError
-    from erc_codec.schema import Sizes, load_schema, resolve_options
+    from erc_schema import Sizes, load_schema, resolve_options
 
     compared = 0
     for folder in sorted(CASES.glob("**/new")) + sorted(CASES.glob("**/old")):
@@ -555,7 +555,7 @@ def test_resolved_options_say_when_two_files_declare_one_name(tmp_path: Path) ->
         for run in (["a.proto", "c.proto"], ["b.proto"])
         for f in compile_files(tmp_path, run).file
     }
-    from erc_codec.schema import resolve_options
+    from erc_schema import resolve_options
 
     assert resolve_options(tmp_path, [files["a.proto"], files["c.proto"]]).unique
     assert not resolve_options(tmp_path, list(files.values())).unique

@@ -29,7 +29,7 @@ from recording_support import (
 
 import erc_codec
 from erc_codec._unknown import MAX_UNKEPT_NUMBERS
-from erc_codec.schema import descriptor_of
+from erc_schema import descriptor_of
 
 T0 = 1_700_000_000_000_000_000
 GARBAGE = [

@@ -40,7 +40,7 @@ from conftest import PROTO
 from test_sizes import TREES
 
 import erc_codec
-from erc_codec.schema import (
+from erc_schema import (
     NANOPB_VERSIONS,
     Sizes,
     compile_files,

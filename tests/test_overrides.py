@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 import erc_codec
 from erc_codec import strategies
-from erc_codec.schema import Sizes, load_schema
+from erc_schema import Sizes, load_schema
 
 OVERRIDES = Path(__file__).parent / "any_trees" / "overrides"
 CODECS = {

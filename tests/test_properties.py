@@ -26,7 +26,7 @@ from hypothesis import strategies as st
 
 import erc_codec
 from erc_codec import Decoded
-from erc_codec.schema import SGROUP
+from erc_schema import SGROUP
 
 CODEC = erc_codec.Codec.default()
 ENVELOPE = CODEC.message_class("PBEnvelope")

@@ -27,7 +27,7 @@ from erc_codec.proton import (
     Value,
     parse_config,
 )
-from erc_codec.schema import compile_files, encode_varint, next_field
+from erc_schema import compile_files, encode_varint, next_field
 
 V2 = BundleCodec(TYPES_2_0)
 V1 = BundleCodec(TYPES_1_0, "1.0")

@@ -16,8 +16,8 @@ from google.protobuf.descriptor import Descriptor
 
 import erc_codec
 from erc_codec import Codec, Decoded, DecodeError, EncodeError, MessageCodec, SchemaError
-from erc_codec.schema import ProtocError, compile_files, options_class
-from erc_codec.schema._options import VOCABULARY, compile_vocabulary
+from erc_schema import ProtocError, compile_files, options_class
+from erc_schema._options import VOCABULARY, compile_vocabulary
 
 TREES = Path(__file__).resolve().parent / "schema_trees"
 ENVELOPE_PROTO = PROTO / "components" / "common" / "envelope.proto"

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from erc_codec.schema import FileError, compile_files
+from erc_schema import FileError, compile_files
 
 OK = 'syntax = "proto3";\nmessage Ok { int32 a = 1; }\n'
 

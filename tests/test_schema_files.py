@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from erc_codec import SchemaError
-from erc_codec.schema import SOURCE_LIMIT, FileError, load_schema, proto_files, read_file, read_text
+from erc_schema import SOURCE_LIMIT, FileError, load_schema, proto_files, read_file, read_text
 
 ENVELOPE = 'syntax = "proto3";\nmessage PBEnvelope { oneof payload { int32 a = 1; } }\n'
 DEVICES = [path for path in ("/dev/zero", "/dev/full", "/dev/null") if os.path.exists(path)]

@@ -12,9 +12,7 @@ from git_support import HEADER, Repo, loose, loose_commit
 from git_support import tree as git_tree
 
 from erc_codec import SchemaError
-from erc_codec.schema import (
-    MAX_DEPTH,
-    MAX_FILES,
+from erc_schema import (
     GitError,
     GitSpec,
     Repository,
@@ -22,6 +20,7 @@ from erc_codec.schema import (
     open_tree,
     parse_tree_spec,
 )
+from erc_schema._git import MAX_DEPTH, MAX_FILES
 
 PROTO = HEADER + "message A { int32 x = 1; }\n"
 
@@ -346,7 +345,7 @@ def test_the_files_of_a_revision_are_bounded_in_all(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """16 MiB a file, 256 MiB in all (here 1 KiB, to see the sum counted)."""
-    monkeypatch.setattr("erc_codec.schema._tree.TREE_LIMIT", 1024)
+    monkeypatch.setattr("erc_schema._tree.TREE_LIMIT", 1024)
     repo = Repo(tmp_path / "repo")
     entries = [("100644", f"{k}.proto", repo.blob(f"// {k}\n" + "/" * 300)) for k in range(4)]
     repo.branch("many", repo.tree(entries))
@@ -411,7 +410,7 @@ def test_a_revision_whose_paths_add_up_past_max_path_text_is_refused(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Few files, long shared folder names: 100,000 paths of 64 KiB each would be 6.5 GB."""
-    monkeypatch.setattr("erc_codec.schema._git.MAX_PATH_TEXT", 4096)
+    monkeypatch.setattr("erc_schema._git.MAX_PATH_TEXT", 4096)
     repo = Repo(tmp_path / "repo")
     inner = repo.tree([("100644", "x.proto", repo.blob(PROTO))])
     long = repo.tree([("40000", "n" * 200, inner)])
@@ -447,7 +446,7 @@ def test_symlinks_sharing_a_chain_are_resolved_once(
     minutes): each link's target is found once per folder, within MAX_LINK_STEPS in all."""
     repo = Repo(tmp_path / "repo")
     commit, z = chain_of_links(repo.root, 200, distinct=False)
-    monkeypatch.setattr("erc_codec.schema._git.MAX_LINK_STEPS", 2 * 40 * 1601)  # two walks
+    monkeypatch.setattr("erc_schema._git.MAX_LINK_STEPS", 2 * 40 * 1601)  # two walks
     with Repository(repo.root) as repository:
         found = repository.files(commit)
     assert found == {"a/z.proto": z} | {f"x{k:06}.proto": z for k in range(200)}
@@ -463,7 +462,7 @@ def test_symlinks_taking_more_than_max_link_steps_refuse_the_revision(
         assert repository.files(commit) == {"a/z.proto": z} | {
             f"x{k:06}.proto": z for k in range(20)
         }
-        monkeypatch.setattr("erc_codec.schema._git.MAX_LINK_STEPS", 50 * 1601)
+        monkeypatch.setattr("erc_schema._git.MAX_LINK_STEPS", 50 * 1601)
         with pytest.raises(
             GitError, match=r"repo: symlinks take more than 80050 steps to resolve: refused"
         ):

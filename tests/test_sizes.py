@@ -21,7 +21,7 @@ import pytest
 from conftest import PROTO
 
 import erc_codec
-from erc_codec.schema import Sizes, load_schema
+from erc_schema import Sizes, load_schema
 
 TREES_DIR = Path(__file__).resolve().parent / "size_trees"
 

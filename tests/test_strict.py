@@ -11,7 +11,7 @@ import pytest
 from test_interop import Peer, nanopb  # noqa: F401  (nanopb: the session's C peer, a fixture)
 
 import erc_codec
-from erc_codec.schema import encode_varint
+from erc_schema import encode_varint
 
 CODEC = erc_codec.Codec.default()
 TOO_LARGE = encode_varint(2**32 + 5)

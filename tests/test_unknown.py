@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 import erc_codec
 from erc_codec import Codec, DecodeError, EncodeError
-from erc_codec.schema import LEN, VARINT, WireError, encode_varint, next_field
+from erc_schema import LEN, VARINT, WireError, encode_varint, next_field
 
 # gps_info (12), its payload holding field 13 as a varint: a number SensorBoardGPSInfo lacks.
 UNKNOWN = bytes.fromhex("62026805")

@@ -1,8 +1,8 @@
-"""erc_codec.schema's wire primitives: varints and ``next_field``, against hand-written bytes."""
+"""erc_schema's wire primitives: varints and ``next_field``, against hand-written bytes."""
 
 import pytest
 
-from erc_codec.schema import (
+from erc_schema import (
     I32,
     I64,
     LEN,

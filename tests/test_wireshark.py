@@ -34,8 +34,8 @@ from hypothesis import strategies as st
 from recording_support import need_program, write_pcap
 
 import erc_codec
-from erc_codec.schema import descriptor_of, enum_of, message_of
 from erc_codec.strategies import messages
+from erc_schema import descriptor_of, enum_of, message_of
 
 TREE = REPO / "tests" / "wireshark_tree"
 _T = FieldDescriptor

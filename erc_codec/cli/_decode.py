@@ -5,8 +5,9 @@ from pathlib import Path
 
 import click
 
+from erc_schema import DecodeError
+
 from .._codec import Codec
-from .._errors import DecodeError
 from .._framing import Deframer
 from ._pcap import Capture
 from ._reading import Printer, check_usage, decode_input, input_options

@@ -5,8 +5,9 @@ from typing import cast
 
 import click
 
+from erc_schema import EncodeError
+
 from .._envelope import Mode
-from .._errors import EncodeError
 from .._framing import frame
 from ._shared import MODE, Fatal, envelope_from_json, load, one_line, schema_options
 

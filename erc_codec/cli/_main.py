@@ -2,9 +2,10 @@
 
 import click
 
+from erc_schema.cli import OneLineGroup
+
 from ._decode import decode
 from ._encode import encode
-from ._group import OneLineGroup
 from ._net import listen, send
 from ._proton import proton
 from ._record import record, replay

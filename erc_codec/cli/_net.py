@@ -21,10 +21,11 @@ from typing import TYPE_CHECKING, Any, TextIO, cast
 import click
 from google.protobuf.message import Message
 
+from erc_schema import EncodeError
+
 from .._codec import Codec
 from .._dispatch import Dispatcher, DispatchStats, Drop
 from .._envelope import Mode
-from .._errors import EncodeError
 from .._foxglove import FoxgloveView
 from .._transport import UdpEndpoint, UdpStats, open_udp
 from .._watchdog import Watchdog

@@ -22,7 +22,8 @@ from typing import Any, cast
 
 import click
 
-from .._errors import CodecError, DecodeError
+from erc_schema import CodecError, DecodeError
+
 from .._framing import Deframer
 from ..proton import BundleCodec, Value, load_config, split_udp_header
 from ._reading import Printer, decode_input, input_options

@@ -28,10 +28,11 @@ from google.protobuf import json_format
 from google.protobuf.message import DecodeError as ProtobufDecodeError
 from google.protobuf.message import Message
 
+from erc_schema import CodecError, EncodeError
+
 from .._codec import Codec
 from .._dispatch import Dispatcher, Drop
 from .._envelope import Decoded, Mode
-from .._errors import CodecError, EncodeError
 from .._mcap import McapWriter, holds_log_time, recorded_payloads, unkept_summary
 from .._recording import nanoseconds
 from .._transport import UdpEndpoint, open_udp

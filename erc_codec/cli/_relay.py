@@ -28,8 +28,9 @@ from typing import Any
 
 import click
 
+from erc_schema import CodecError
+
 from .._codec import Codec
-from .._errors import CodecError
 from .._router import FailsafeEvent, Outgoing, Router
 from .._transport import UdpEndpoint, open_udp
 from ._lines import LineStream, flush_standard_streams

@@ -4,10 +4,10 @@ import json
 
 import click
 
+from erc_schema import CodecError, TreeSource, load_schema
+
 from .._codec import Codec
 from .._discovery import DEFAULT_OPTIONS_FILE, ENVIRONMENT, load_source
-from .._errors import CodecError
-from ..schema import TreeSource, load_schema
 from ._shared import Fatal, one_line, schema_options, source, text_or_json
 
 __all__ = ["schema"]

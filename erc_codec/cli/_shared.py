@@ -11,12 +11,13 @@ from typing import Any, TypeVar, cast
 import click
 from google.protobuf.message import Message
 
+from erc_schema import CodecError, EncodeError
+from erc_schema.cli import generator_options
+
 from .._codec import Codec
 from .._discovery import SchemaSource, find_schema
-from .._errors import CodecError, EncodeError
 from .._json import load_json
 from .._json import to_dict as _to_dict
-from ._generator import generator_options
 
 __all__ = [
     "FINITE",

@@ -34,8 +34,9 @@ from google.protobuf.descriptor import Descriptor, EnumDescriptor, FieldDescript
 from google.protobuf.descriptor_pb2 import EnumDescriptorProto
 from google.protobuf.message import Message
 
+from erc_schema import declarations
+
 from .._codec import Codec
-from ..schema import declarations
 from ._shared import Fatal, load, schema_options
 
 __all__ = ["render_stubs", "stubs"]

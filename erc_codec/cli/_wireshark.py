@@ -2,7 +2,8 @@
 
 import click
 
-from .._errors import SchemaError
+from erc_schema import SchemaError
+
 from .._wireshark import DEFAULT_PORTS, wireshark_dissector
 from ._shared import Fatal, load, one_line, schema_options
 

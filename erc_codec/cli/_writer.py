@@ -24,8 +24,9 @@ from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
 
+from erc_schema import CodecError
+
 from .._codec import Codec
-from .._errors import CodecError
 from .._mcap import McapWriter, RecordingStats
 from .._recording import require
 from ._shared import Fatal

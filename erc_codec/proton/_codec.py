@@ -46,19 +46,21 @@ import struct
 from collections.abc import Mapping
 from typing import NamedTuple
 
-from .._errors import DecodeError, EncodeError
-from ..schema import (
+from erc_schema import (
     I32,
     I64,
     LEN,
     VARINT,
     WIRE_TYPE_NAMES,
+    DecodeError,
+    EncodeError,
     FieldSpan,
     WireError,
     encode_varint,
     next_field,
     read_varint,
 )
+
 from ._config import BundleConfig, Config, ProtonConfigError, SignalConfig
 from ._types import TYPES, Value, Version, check, element_of, field_number, is_list, needs_capacity
 

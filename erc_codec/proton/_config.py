@@ -29,7 +29,8 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any, Literal, NamedTuple, Protocol, TypeVar, cast
 
-from .._errors import CodecError
+from erc_schema import CodecError
+
 from ._types import TYPES, SignalType, Value, check, is_list, needs_capacity, zero
 
 __all__ = [

@@ -43,8 +43,9 @@ import math
 from collections.abc import Callable
 from typing import NamedTuple, TypeVar
 
+from erc_schema import DecodeError
+
 from .._checks import duration
-from .._errors import DecodeError
 from .._watchdog import Liveness, Watchdog
 from ._codec import SCRATCH_BUFFER_SIZE, Bundle, BundleCodec
 from ._config import BundleConfig, Config

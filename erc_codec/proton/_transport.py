@@ -21,8 +21,9 @@ import time
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any, NamedTuple, cast
 
+from erc_schema import DecodeError
+
 from .._checks import duration
-from .._errors import DecodeError
 from .._framing import Deframer, frame
 from ._node import Node, Sent
 from ._udp_header import split_udp_header

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import click
 
-from erc_codec.schema import read_file
+from erc_schema import read_file
 
 from .._config import LEDGER_LIMIT
 from .._run import LedgerUpdate, update_ledger

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import click
 
-from erc_codec.cli import OneLineGroup
+from erc_schema.cli import OneLineGroup
 
 from .._suggest import did_you_mean
 from ._diff import baseline, check, diff

@@ -10,9 +10,8 @@ from typing import Any, TypeVar
 
 import click
 
-from erc_codec import CodecError
-from erc_codec.cli import generator_options
-from erc_codec.schema import file_exists
+from erc_schema import CodecError, file_exists
+from erc_schema.cli import generator_options
 
 from .._baseline import BASELINE, read_baseline
 from .._config import Config, find_config, read_config

@@ -31,7 +31,7 @@ the tree, loads anything or computes a size: it asks the model. Its docstring is
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any, NamedTuple, Protocol, TypeVar
 
-from erc_codec.schema import Location
+from erc_schema import Location
 
 from .._config import Config
 from .._errors import ConfigError

@@ -4,7 +4,7 @@ deletions, none)."""
 
 from typing import Any
 
-from erc_codec.schema import Location
+from erc_schema import Location
 
 from .._model import Message
 from .._pairing import Change, Paired

@@ -13,7 +13,7 @@ import weakref
 
 from google.protobuf import descriptor_pb2
 
-from erc_codec.schema import Options, options_class
+from erc_schema import Options, options_class
 
 from .._model import Field, Message, Revision, allocation
 from .._pairing import Change, FieldPair, Paired, wire_compatible

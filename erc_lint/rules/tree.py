@@ -4,7 +4,7 @@ every piece of damage by a key: a key OLD reports too is old damage (a warning),
 
 from typing import TYPE_CHECKING
 
-from erc_codec.schema import Location
+from erc_schema import Location
 
 from .._model import Definition, Enum, EnumValue, Field, Message, Revision
 from .._pairing import Change, wire_compatible

@@ -38,8 +38,8 @@ from collections.abc import Sequence
 from google.protobuf import descriptor_pb2
 from google.protobuf.descriptor import Descriptor, FieldDescriptor, OneofDescriptor
 
-from .._errors import SchemaError
 from ._descriptors import declarations, extensions
+from ._errors import SchemaError
 from ._names import nanopb_finds
 from ._options import Options, ResolvedOptions, resolve_options
 from ._schema import Schema, enum_of, message_of

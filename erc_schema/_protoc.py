@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING
 import grpc_tools
 from google.protobuf import descriptor_pb2
 
-from .._errors import SchemaError
+from ._errors import SchemaError
 from ._files import FileError, has_control, read_text, shown
 from ._text import imports as imported
 

@@ -1,8 +1,13 @@
-"""The schema layer: a proto tree as protoc, nanopb's generator and the wire see it.
+"""erc_schema: a proto tree as protoc, nanopb's generator and the wire see it.
 
-Both packages build on it, and so may users: ``erc_codec`` loads a schema, sizes it and checks
-messages against it; ``erc_lint`` compiles trees file by file, locates what it reports and asks for
-sizes and nanopb limits. Nothing here encodes envelopes or talks to a network.
+The foundation of both packages, and usable on its own: ``erc_codec`` loads a schema, sizes it and
+checks messages against it; ``erc_lint`` compiles trees file by file, locates what it reports and
+asks for sizes and nanopb limits. Nothing here encodes envelopes or talks to a network, and
+nothing here imports either package.
+
+- the errors both packages raise: ``CodecError`` and its subclasses ``SchemaError``,
+  ``EncodeError``, ``DecodeError`` (with a ``reason``) and ``UnreadableKind``; and, in
+  ``erc_schema.cli``, the one-line click group both command lines are made of;
 
 - a tree as commands name it: ``open_tree`` (a folder, or a git revision in buf's spelling,
   ``GITDIR#ref=REF[,subdir=PATH]``, read from the repository's objects into a scratch folder:
@@ -40,8 +45,9 @@ from ._descriptors import (
     extensions,
     services,
 )
+from ._errors import CodecError, DecodeError, EncodeError, SchemaError, UnreadableKind
 from ._files import SOURCE_LIMIT, FileError, file_exists, proto_files, read_file, read_text
-from ._git import MAX_DEPTH, MAX_FILES, MAX_LINK_STEPS, MAX_PATH_TEXT, GitError, Repository
+from ._git import GitError, Repository
 from ._names import nanopb_finds, nanopb_name
 from ._options import (
     Options,
@@ -56,7 +62,7 @@ from ._protoc import ProtocError, compile_files
 from ._schema import Schema, descriptor_of, enum_of, load_schema, message_of
 from ._sizes import NANOPB_VERSIONS, PYTHON_INT_RANGE, Sizes
 from ._text import declared_names, imports
-from ._tree import TREE_LIMIT, GitSpec, TreeSource, open_tree, parse_tree_spec
+from ._tree import GitSpec, TreeSource, open_tree, parse_tree_spec
 from ._wire import (
     EGROUP,
     I32,
@@ -79,19 +85,17 @@ __all__ = [
     "I32",
     "I64",
     "LEN",
-    "MAX_DEPTH",
     "MAX_FIELD_NUMBER",
-    "MAX_FILES",
-    "MAX_LINK_STEPS",
-    "MAX_PATH_TEXT",
     "NANOPB_VERSIONS",
     "PYTHON_INT_RANGE",
     "SGROUP",
     "SOURCE_LIMIT",
-    "TREE_LIMIT",
     "VARINT",
     "WIRE_TYPE_NAMES",
+    "CodecError",
     "Declaration",
+    "DecodeError",
+    "EncodeError",
     "Extension",
     "FieldSpan",
     "FileError",
@@ -103,10 +107,12 @@ __all__ = [
     "Repository",
     "ResolvedOptions",
     "Schema",
+    "SchemaError",
     "Service",
     "Sizes",
     "SourceIndex",
     "TreeSource",
+    "UnreadableKind",
     "WireError",
     "compile_files",
     "declarations",

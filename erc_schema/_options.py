@@ -29,8 +29,8 @@ from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from google.protobuf.message import DecodeError as ProtobufDecodeError
 from google.protobuf.message import Message
 
-from .._errors import SchemaError
 from ._descriptors import declarations, extensions
+from ._errors import SchemaError
 from ._files import file_exists, read_text
 from ._names import nanopb_name
 from ._protoc import FALLBACK_INCLUDE, compile_files

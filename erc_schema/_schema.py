@@ -18,8 +18,8 @@ from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from google.protobuf.descriptor import Descriptor, EnumDescriptor, FieldDescriptor
 from google.protobuf.message import Message
 
-from .._errors import SchemaError
 from ._descriptors import Location, SourceIndex, declarations
+from ._errors import SchemaError
 from ._files import FileError, proto_files, read_text
 from ._options import is_nanopb_vocabulary
 from ._protoc import ProtocError, compile_files

@@ -19,7 +19,7 @@ import re
 import stat
 from pathlib import Path
 
-from .._errors import SchemaError
+from ._errors import SchemaError
 
 __all__ = [
     "SOURCE_LIMIT",

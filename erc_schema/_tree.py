@@ -21,7 +21,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import NamedTuple
 
-from .._errors import SchemaError
+from ._errors import SchemaError
 from ._files import SOURCE_LIMIT, size_text
 from ._git import GitError, Repository
 

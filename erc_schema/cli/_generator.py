@@ -16,8 +16,8 @@ from typing import Any, TypeVar
 
 import click
 
+from .. import NANOPB_VERSIONS, given_options_file, resolve_options
 from .._errors import SchemaError
-from ..schema import NANOPB_VERSIONS, given_options_file, resolve_options
 
 __all__ = ["generator_options"]
 

@@ -36,7 +36,7 @@ from collections.abc import Collection, Generator
 from pathlib import Path
 from typing import IO, TYPE_CHECKING
 
-from .._errors import SchemaError
+from ._errors import SchemaError
 from ._files import SOURCE_LIMIT, has_control, size_text
 
 if TYPE_CHECKING:
