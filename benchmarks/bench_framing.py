@@ -54,7 +54,7 @@ def main() -> int:
 
 def measure(payloads: list[bytes], rounds: int) -> tuple[float, float]:
     """Seconds per pass: the CRC alone, and deframing the framed stream."""
-    stream = b"".join(erc_codec.frame(payload) for payload in payloads)
+    stream = b"".join(erc_codec.runtime.frame(payload) for payload in payloads)
     chunks = [stream[start : start + 4096] for start in range(0, len(stream), 4096)]
     crc = binascii.crc_hqx
 
@@ -63,7 +63,7 @@ def measure(payloads: list[bytes], rounds: int) -> tuple[float, float]:
             crc(payload, 0xFFFF)
 
     def deframe() -> None:
-        deframer = erc_codec.Deframer(max_length=255)
+        deframer = erc_codec.runtime.Deframer(max_length=255)
         total = 0
         for chunk in chunks:
             total += len(deframer.feed(chunk))
@@ -79,7 +79,7 @@ def measure(payloads: list[bytes], rounds: int) -> tuple[float, float]:
 def adversarial(size: int) -> dict[str, bytes]:
     """Plain garbage and the bad-input campaign's streams, about ``size`` bytes each."""
     rng = random.Random(20261201)
-    frames = (erc_codec.frame(rng.randbytes(60)) for _ in range(size // 70))
+    frames = (erc_codec.runtime.frame(rng.randbytes(60)) for _ in range(size // 70))
     return {
         "garbage": rng.randbytes(size).replace(b"P", b"Q"),
         "PR ff ff, repeated": b"PR\xff\xff" * (size // 4),
@@ -114,7 +114,7 @@ def per_mb(stream: bytes, max_length: int) -> float:
     chunks = [stream[start : start + 4096] for start in range(0, len(stream), 4096)]
 
     def deframe() -> None:
-        deframer = erc_codec.Deframer(max_length=max_length)
+        deframer = erc_codec.runtime.Deframer(max_length=max_length)
         for chunk in chunks:
             deframer.feed(chunk)
 

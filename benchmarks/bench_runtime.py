@@ -31,7 +31,7 @@ def main() -> int:
     full, zero_ended = corpus(codec, random.Random(20261122))
     exact = [m.SerializeToString() for m in full + zero_ended]
     stripped = [data.rstrip(b"\0") for data in exact]
-    dispatcher = erc_codec.Dispatcher(codec)
+    dispatcher = erc_codec.runtime.Dispatcher(codec)
     for kind in codec.kinds().values():
         dispatcher.register(kind, lambda message: None)
     decode, feed = codec.decode, dispatcher.feed

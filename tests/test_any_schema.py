@@ -1086,8 +1086,8 @@ def test_a_dispatcher_counts_a_member_nobody_can_read_and_handles_the_others() -
     """Its datagrams end in the "unsupported" counter (not an exception out of feed), and a
     handler for it is refused, saying why."""
     codec = Codec.from_path(UNSENDABLE, "Env")
-    drops: list[erc_codec.Drop] = []
-    dispatcher = erc_codec.Dispatcher(codec, on_drop=drops.append)
+    drops: list[erc_codec.runtime.Drop] = []
+    dispatcher = erc_codec.runtime.Dispatcher(codec, on_drop=drops.append)
     handled: list[Any] = []
     dispatcher.register("fine", handled.append)
     with pytest.raises(SchemaError, match=_COUNTS):

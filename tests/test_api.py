@@ -5,23 +5,47 @@ import ast
 import re
 import subprocess
 import sys
-from pathlib import Path
 
 from conftest import REPO
 
 import erc_codec
 import erc_codec.cli
 
+ROOMS = (erc_codec, erc_codec.codec, erc_codec.runtime, erc_codec.transport, erc_codec.capture)
+
 
 def test_every_public_name_is_there_and_nothing_else_is_public() -> None:
-    assert all(hasattr(erc_codec, name) for name in erc_codec.__all__)
-    public = {name for name in vars(erc_codec) if not name.startswith("_")}
-    assert public - set(erc_codec.__all__) <= {"schema", "strategies", "proton", "cli"}
+    for room in ROOMS:
+        assert all(hasattr(room, name) for name in room.__all__), room.__name__
+        public = {name for name in vars(room) if not name.startswith("_")}
+        modules = {name for name in public if type(getattr(room, name)) is type(erc_codec)}
+        assert public - modules == set(room.__all__), room.__name__
+    rooms = {"schema", "codec", "runtime", "transport", "capture", "strategies", "proton", "cli"}
+    assert {n for n in vars(erc_codec) if type(getattr(erc_codec, n)) is type(erc_codec)} <= rooms
+
+
+def test_each_name_is_its_own_modules_and_the_face_the_codec_rooms() -> None:
+    """A room's names are the objects its modules define; the top level re-exports the codec
+    room's and the errors, nothing else."""
+    for room in ROOMS:
+        for name in room.__all__:
+            value = getattr(room, name)
+            home = getattr(value, "__module__", "")
+            if home.startswith("erc_codec."):
+                assert vars(sys.modules[home])[name] is value, f"{room.__name__}.{name}"
+    codec_names = set(erc_codec.codec.__all__)
+    errors = {"CodecError", "DecodeError", "EncodeError", "SchemaError"}
+    assert set(erc_codec.__all__) == codec_names | errors | {"encode", "decode"}
 
 
 def test_every_public_name_is_in_the_readme() -> None:
     readme = (REPO / "README.md").read_text()
-    missing = [name for name in erc_codec.__all__ if not re.search(rf"\b{name}\b", readme)]
+    missing = [
+        f"{room.__name__}.{name}"
+        for room in ROOMS
+        for name in room.__all__
+        if not re.search(rf"\b{name}\b", readme)
+    ]
     assert missing == []
 
 
@@ -52,41 +76,3 @@ def test_erc_codec_schema_is_the_schema_layer() -> None:
 
     assert erc_codec.schema.__all__ == erc_schema.__all__
     assert all(getattr(erc_codec.schema, n) is getattr(erc_schema, n) for n in erc_schema.__all__)
-
-
-def test_a_name_loaded_on_first_use_is_its_modules_own() -> None:
-    """A name reached through the package (``from erc_codec import *``, an attribute) is the
-    object its module defines, and ``dir`` lists it before its first use."""
-    script = (
-        "import sys, erc_codec\n"
-        "listed = set(dir(erc_codec))\n"
-        "from erc_codec import *\n"
-        "def own(n, x):  # a class or function of a module of ours is that module's\n"
-        "    home = getattr(x, '__module__', '')\n"
-        "    return not home.startswith('erc_codec.') or vars(sys.modules[home])[n] is x\n"
-        "ok = [n for n in erc_codec.__all__\n"
-        "      if getattr(erc_codec, n) is globals()[n] and own(n, globals()[n])]\n"
-        "print(sorted(set(erc_codec.__all__) - set(ok)), sorted(set(erc_codec.__all__) - listed))"
-    )
-    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
-    assert done.stdout.split() == ["[]", "[]"], done.stderr
-
-
-def test_the_names_loaded_on_first_use_are_typed_from_their_own_modules() -> None:
-    """The table of name -> module the package loads from and the ``TYPE_CHECKING`` imports that
-    type checkers read say the same, and with the names imported at once make ``__all__``."""
-    source = (Path(erc_codec.__file__).parent / "__init__.py").read_text()
-    typed: dict[str, str] = {}
-    table: dict[str, str] = {}
-    for node in ast.parse(source).body:
-        if isinstance(node, ast.If) and ast.unparse(node.test) == "_TYPE_CHECKING":
-            for item in node.body:
-                assert isinstance(item, ast.ImportFrom)
-                assert item.level == 1
-                assert item.module
-                typed.update((alias.name, item.module) for alias in item.names)
-        if isinstance(node, ast.Assign) and ast.unparse(node.targets[0]) == "_LAZY":
-            table = ast.literal_eval(node.value)
-    assert typed == table
-    eager = {"CodecError", "DecodeError", "EncodeError", "SchemaError", "decode", "encode"}
-    assert set(erc_codec.__all__) == set(table) | eager

@@ -110,6 +110,64 @@ def test_the_schema_layer_stands_on_its_own() -> None:
     ] == []
 
 
+# Each room and the rooms it may import: only ones below it. erc_codec itself (its __init__, the
+# face) re-exports the codec room; the command lines are the top.
+_CORE = {"erc_schema", "erc_codec.schema", "erc_codec.codec"}
+BELOW = {
+    "erc_schema": set(),
+    "erc_codec.schema": {"erc_schema"},
+    "erc_codec.codec": {"erc_schema"},
+    "erc_codec.runtime": _CORE,
+    "erc_codec.strategies": _CORE,
+    "erc_codec.transport": _CORE | {"erc_codec.runtime"},
+    "erc_codec.capture": _CORE | {"erc_codec.runtime"},
+    "erc_codec.proton": _CORE | {"erc_codec.runtime"},
+    "erc_codec": _CORE | {"erc_codec.runtime", "erc_codec.transport", "erc_codec.capture"},
+    "erc_codec.cli": {
+        *_CORE,
+        *("erc_codec.runtime", "erc_codec.transport", "erc_codec.capture", "erc_codec.proton"),
+    },
+    "erc_codec.__main__": {"erc_codec.cli"},
+    "erc_lint": {"erc_schema"},
+}
+
+
+def room(module: str) -> str:
+    """The room a module belongs to: the longest room name that is it or a package above it."""
+    if module == "erc_codec":
+        return module
+    found = [r for r in BELOW if r != "erc_codec" and (module == r or module.startswith(r + "."))]
+    return max(found, key=len)
+
+
+def test_every_module_is_in_a_room() -> None:
+    assert [m for m in MODULES if m != "erc_codec" and room(m) == "erc_codec"] == []
+
+
+def test_a_room_imports_only_the_rooms_below_it() -> None:
+    graph = edges()
+    upward = [
+        f"{name} -> {dest}"
+        for name in MODULES
+        for dest in graph[name]
+        if room(dest) != room(name) and room(dest) not in BELOW[room(name)]
+    ]
+    assert upward == []
+
+
+def test_proton_uses_only_the_public_names_of_the_other_rooms() -> None:
+    reaching = [
+        f"{MODULES[name].relative_to(REPO)}:{line}: {target}"
+        for name in MODULES
+        if room(name) == "erc_codec.proton"
+        for line, target, _ in imports(name)
+        if target.startswith("erc_")
+        and room(target) != "erc_codec.proton"
+        and any(part.startswith("_") for part in target.split("."))
+    ]
+    assert reaching == []
+
+
 def test_the_core_never_imports_the_command_line() -> None:
     shell = (".cli", ".__main__")
     core = [n for n in MODULES if n.startswith("erc_codec") and not any(s in n for s in shell)]
@@ -166,7 +224,10 @@ def test_no_import_cycles() -> None:
 
 def test_the_cycle_finder_finds_cycles() -> None:
     """The check above proves something only if it can fail."""
-    graph = {"erc_codec._codec": {"erc_codec._envelope"}, "erc_codec._envelope": set()}
+    graph = {
+        "erc_codec.codec._codec": {"erc_codec.codec._envelope"},
+        "erc_codec.codec._envelope": set(),
+    }
     assert cycles(graph) == []
-    graph["erc_codec._envelope"].add("erc_codec._codec")
-    assert cycles(graph) == [["erc_codec._codec", "erc_codec._envelope"]]
+    graph["erc_codec.codec._envelope"].add("erc_codec.codec._codec")
+    assert cycles(graph) == [["erc_codec.codec._codec", "erc_codec.codec._envelope"]]

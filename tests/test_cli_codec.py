@@ -126,7 +126,7 @@ def test_frame_and_framed_round_trip(codec: erc_codec.Codec) -> None:
     for (kind, document), done in zip(PAYLOADS, encoded, strict=True):
         assert done.code == 0, done.err
         datagram = codec.encode(payload(codec, kind, document))
-        assert bytes.fromhex(done.out) == erc_codec.frame(datagram)
+        assert bytes.fromhex(done.out) == erc_codec.runtime.frame(datagram)
         frames.append(bytes.fromhex(done.out))
     stream = b"noise" + frames[0] + frames[1] + b"\x00\x13" + frames[2] + b"PR\x05"
     for done in (
@@ -143,7 +143,7 @@ def test_frame_and_framed_round_trip(codec: erc_codec.Codec) -> None:
 
 
 def test_a_framed_payload_that_does_not_decode_is_reported() -> None:
-    stream = erc_codec.frame(bytes.fromhex("b20100")) + erc_codec.frame(b"\x22")
+    stream = erc_codec.runtime.frame(bytes.fromhex("b20100")) + erc_codec.runtime.frame(b"\x22")
     done = run("decode", "--framed", "--raw", stdin=stream)
     assert done.code == 1
     first, second = records(done.out)

@@ -14,7 +14,7 @@ from datagrams import beside
 from test_cli_net import start_listener
 
 import erc_codec
-from erc_codec._unknown import MAX_UNKEPT_NUMBERS
+from erc_codec.codec._unknown import MAX_UNKEPT_NUMBERS
 
 
 def codec_datagram(kind: str) -> bytes:

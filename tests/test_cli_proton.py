@@ -91,7 +91,9 @@ def test_stdin_lines_go_on_after_one_that_does_not_decode() -> None:
 
 
 def test_framed_serial_stream_and_raw_stdin() -> None:
-    stream = b"\x00noise" + erc_codec.frame(BEAT) + erc_codec.frame(COMMAND) + b"PR\x05"
+    stream = (
+        b"\x00noise" + erc_codec.runtime.frame(BEAT) + erc_codec.runtime.frame(COMMAND) + b"PR\x05"
+    )
     done = run("proton", "decode", *CONFIG, "--framed", "--raw", stdin=stream)
     assert done.code == 0, done.err
     assert [r["bundle"] for r in records(done.out)] == ["heartbeat", "command"]
@@ -106,11 +108,11 @@ def test_framed_serial_stream_and_raw_stdin() -> None:
 def test_a_frame_the_stream_cuts_off_is_reported_as_erc_codec_decode_reports_it() -> None:
     """The Deframer's flush() counts it; the exit status is erc-codec decode --framed's: the
     summary shows it, every complete message decoded is 0 (both helps say so)."""
-    stream = erc_codec.frame(BEAT) + erc_codec.frame(COMMAND)[:-3]
+    stream = erc_codec.runtime.frame(BEAT) + erc_codec.runtime.frame(COMMAND)[:-3]
     done = run("proton", "decode", *CONFIG, "--framed", "--raw", stdin=stream)
     assert [r["bundle"] for r in records(done.out)] == ["heartbeat"]
     assert done.err == (
-        f"1 frame, 0 undecodable, {len(erc_codec.frame(COMMAND)) - 3} bytes left in an "
+        f"1 frame, 0 undecodable, {len(erc_codec.runtime.frame(COMMAND)) - 3} bytes left in an "
         "unfinished frame\n"
     )
     main = run("decode", "--framed", "--raw", stdin=stream)

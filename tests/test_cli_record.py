@@ -19,8 +19,8 @@ from recording_support import enhanced, frame, interface, need, section, simple,
 from test_mcap import metadata, read_back
 
 import erc_codec
-from erc_codec._recording import file_descriptor_set
-from erc_codec._unknown import MAX_UNKEPT_NUMBERS
+from erc_codec.capture._recording import file_descriptor_set
+from erc_codec.codec._unknown import MAX_UNKEPT_NUMBERS
 from erc_schema import descriptor_of
 
 SO_TIMESTAMPNS = getattr(socket, "SO_TIMESTAMPNS", 35)  # Linux's number, where Python lacks it
@@ -400,7 +400,7 @@ def test_replay_a_recording_in_the_form_asked(
     need("mcap")
     sent = fleet(codec)
     recording = tmp_path / "run.mcap"
-    with erc_codec.McapWriter(recording, codec) as writer:
+    with erc_codec.capture.McapWriter(recording, codec) as writer:
         for number, data in enumerate(sent):
             writer.write(data, 1_700_000_000_000_000_000 + number * 1_000_000)
     result = finished(
@@ -418,7 +418,7 @@ def test_replay_sends_an_empty_datagram_recorded_as_a_drop(
 ) -> None:
     need("mcap")
     recording = tmp_path / "run.mcap"
-    with erc_codec.McapWriter(recording, codec) as writer:
+    with erc_codec.capture.McapWriter(recording, codec) as writer:
         writer.write(b"", 1_700_000_000_000_000_000)  # an empty UDP payload is a datagram too
     result = finished(replay(recording, catcher, "--drops", "--as-fast-as-possible"))
     assert [data for _, data in catcher.take(1)] == [b""]
@@ -430,7 +430,7 @@ def test_replay_of_a_damaged_recording_is_a_read_error_not_a_send_error(
 ) -> None:
     need("mcap")
     recording = tmp_path / "run.mcap"
-    with erc_codec.McapWriter(recording, codec) as writer:
+    with erc_codec.capture.McapWriter(recording, codec) as writer:
         for number, data in enumerate(fleet(codec)):
             writer.write(data, 1_700_000_000_000_000_000 + number)
     whole = recording.read_bytes()
@@ -479,7 +479,7 @@ def test_replay_refuses_a_recording_read_mcap_refuses(
         foreign.add_message(channel, 1_700_000_000_000_000_000, data, 1_700_000_000_000_000_000)
         foreign.finish()
     with pytest.raises(erc_codec.CodecError) as refused:
-        list(erc_codec.read_mcap(recording))
+        list(erc_codec.capture.read_mcap(recording))
     assert str(refused.value).startswith(f"{recording} is not a readable MCAP recording: {why}")
     process = replay(recording, catcher, "--as-fast-as-possible")
     _, err = process.communicate(timeout=60)
@@ -494,7 +494,7 @@ def test_replay_only_the_kinds_asked(
 ) -> None:
     need("mcap")
     recording = tmp_path / "run.mcap"
-    with erc_codec.McapWriter(recording, codec) as writer:
+    with erc_codec.capture.McapWriter(recording, codec) as writer:
         for number, data in enumerate(fleet(codec)):
             writer.write(data, 1_700_000_000_000_000_000 + number)
     result = finished(replay(recording, catcher, "--kind", "gps_info", "--kind", "drive_motor"))
@@ -589,7 +589,7 @@ def test_a_recording_replayed_into_record_records_the_same(
     need("mcap")
     sent = fleet(codec)
     first = tmp_path / "field.mcap"
-    with erc_codec.McapWriter(first, codec) as writer:
+    with erc_codec.capture.McapWriter(first, codec) as writer:
         for number, data in enumerate(sent):
             writer.write(data, 1_700_000_000_000_000_000 + number * 40_000_000)  # 40 ms apart
     second = tmp_path / "bench.mcap"
@@ -604,9 +604,12 @@ def test_a_recording_replayed_into_record_records_the_same(
     _, err = recorder.communicate(timeout=60)
     assert recorder.returncode == 0, err
     assert summary(err, "recorded: ")["dropped_by_kernel"] == 0
-    before, after = list(erc_codec.read_mcap(first)), list(erc_codec.read_mcap(second))
+    before, after = (
+        list(erc_codec.capture.read_mcap(first)),
+        list(erc_codec.capture.read_mcap(second)),
+    )
 
-    def content(recorded: erc_codec.Recorded) -> tuple[Any, ...]:
+    def content(recorded: erc_codec.capture.Recorded) -> tuple[Any, ...]:
         if recorded.kind is None:  # a drop: the same bytes and reason, from another sender
             drop: Any = recorded.message
             return None, drop.reason, drop.data

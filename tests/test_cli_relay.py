@@ -291,7 +291,7 @@ def test_the_readmes_rover_configuration_is_valid() -> None:
         ("192.168.1.20", 6000): "jetson",
         ("::ffff:192.168.1.20", 6000): "jetson",
     }
-    erc_codec.Router(
+    erc_codec.runtime.Router(
         CODEC,
         {name: destination.form for name, destination in config.destinations.items()},
         config.routes,

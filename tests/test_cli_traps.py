@@ -116,7 +116,7 @@ def test_framed_reports_rejected_frames_and_exits_1_if_nothing_decoded(
     codec: erc_codec.Codec,
 ) -> None:
     """A bad CRC printed nothing and exited 0."""
-    good = erc_codec.frame(codec.encode(codec.message_class("gps_info")(satellites=3)))
+    good = erc_codec.runtime.frame(codec.encode(codec.message_class("gps_info")(satellites=3)))
     bad = good[:-1] + bytes([good[-1] ^ 0xFF])
     done = run("decode", "--framed", bad.hex())
     assert (done.code, done.out) == (1, "")
@@ -172,7 +172,7 @@ def test_kind_counts_what_it_leaves_out(codec: erc_codec.Codec) -> None:
     assert lines.code == 0, lines.err
     assert [r["kind"] for r in records(lines.out)] == ["ph_info"]
     assert lines.err == "2 datagrams of other kinds not shown\n"
-    framed = (erc_codec.frame(gps) + erc_codec.frame(ph)).hex()
+    framed = (erc_codec.runtime.frame(gps) + erc_codec.runtime.frame(ph)).hex()
     stream = run("decode", "--framed", "--kind", "ph_info", framed)
     assert [r["kind"] for r in records(stream.out)] == ["ph_info"]
     assert stream.err == "2 frames, 0 undecodable, 1 datagram of other kinds not shown\n"

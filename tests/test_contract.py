@@ -31,7 +31,7 @@ from hypothesis import strategies as st
 
 import erc_codec
 from erc_codec import Codec, EncodeError, strategies
-from erc_codec._contract import Contract, contract
+from erc_codec.codec._contract import Contract, contract
 from erc_schema import Sizes, descriptor_of, enum_of, message_of
 
 CODEC = erc_codec.Codec.default()

@@ -9,7 +9,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import erc_codec
-from erc_codec import DetectionAssembler, DetectionFrame, DetectionLoss, Rejected
+from erc_codec.runtime import DetectionAssembler, DetectionFrame, DetectionLoss, Rejected
 
 CODEC = erc_codec.Codec.default()
 Detected = CODEC.message_class("BasestationDetectedObject")
@@ -166,20 +166,3 @@ def test_a_clock_reading_that_is_not_finite_is_refused_and_changes_nothing(bad: 
     assert assembler.pending() == 1  # frame 2 was not started, frame 1 not dropped
     assert assembler.poll(1.0) == [DetectionLoss(1, 1, 2, "timeout")]  # and the timeout still works
     assert lost == [DetectionLoss(1, 1, 2, "timeout")]
-
-
-@pytest.mark.parametrize(
-    ("old", "new"),
-    [
-        ("Frame", DetectionFrame),
-        ("FrameAssembler", DetectionAssembler),
-        ("FrameLoss", DetectionLoss),
-    ],
-)
-def test_the_old_names_still_work_for_a_release_and_say_so(old: str, new: type) -> None:
-    with pytest.warns(
-        DeprecationWarning, match=rf"erc_codec\.{old} is deprecated: use erc_codec\.{new.__name__}"
-    ):
-        assert getattr(erc_codec, old) is new
-    with pytest.raises(AttributeError, match="no attribute 'NoSuchName'"):
-        erc_codec.NoSuchName  # noqa: B018

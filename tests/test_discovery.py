@@ -14,7 +14,7 @@ from conftest import PROTO
 from git_support import Repo
 
 import erc_codec
-from erc_codec._discovery import ENVIRONMENT, SchemaSource, find_schema, packaged_tree
+from erc_codec.codec._discovery import ENVIRONMENT, SchemaSource, find_schema, packaged_tree
 
 
 def run(

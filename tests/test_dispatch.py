@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 import erc_codec
 from erc_codec import strategies
-from erc_codec._unknown import MAX_UNKEPT_NUMBERS
+from erc_codec.codec._unknown import MAX_UNKEPT_NUMBERS
 from erc_schema import descriptor_of, message_of
 
 CODEC = erc_codec.Codec.default()
@@ -21,7 +21,7 @@ IMU = CODEC.message_class("SensorBoardIMUInfo")
 
 def test_handlers_get_their_payloads() -> None:
     seen: list[Message] = []
-    dispatcher = erc_codec.Dispatcher(CODEC)
+    dispatcher = erc_codec.runtime.Dispatcher(CODEC)
     dispatcher.register("gps_info", seen.append)
 
     @dispatcher.on("imu_info")
@@ -39,7 +39,7 @@ def test_handlers_get_their_payloads() -> None:
 def test_fields_beside_the_payload_are_counted_not_lost_without_a_word() -> None:
     """A handler takes the payload; an unknown field on the envelope has nowhere to go."""
     seen: list[Message] = []
-    dispatcher = erc_codec.Dispatcher(CODEC)
+    dispatcher = erc_codec.runtime.Dispatcher(CODEC)
     dispatcher.register("gps_info", seen.append)
     assert dispatcher.feed(h("62 00 a0 01 01"))  # field 20 as a varint, beside gps_info
     assert dispatcher.feed(h("a0 01 01 62 00 c2 02 02 01 ff a0 01 02"))  # 20 twice, and 40
@@ -52,7 +52,7 @@ def test_fields_beside_the_payload_are_counted_not_lost_without_a_word() -> None
 def test_the_unkept_table_stops_at_its_bound_and_counts_the_fields_past_it() -> None:
     """A sender of ever new field numbers beside the payload: the table lists the first numbers
     to come, no more, and counts every field of the others, once per datagram and number."""
-    dispatcher = erc_codec.Dispatcher(CODEC)
+    dispatcher = erc_codec.runtime.Dispatcher(CODEC)
     dispatcher.register("gps_info", lambda message: None)
     numbers = list(range(1000, 1000 + MAX_UNKEPT_NUMBERS + 100))
     rounds = [numbers[start : start + 50] for start in range(0, len(numbers), 50)]
@@ -66,12 +66,12 @@ def test_the_unkept_table_stops_at_its_bound_and_counts_the_fields_past_it() -> 
 
 def test_unknown_kinds_cannot_be_registered() -> None:
     with pytest.raises(erc_codec.SchemaError, match="'gps' is not a payload kind of PBEnvelope"):
-        erc_codec.Dispatcher(CODEC).register("gps", print)
+        erc_codec.runtime.Dispatcher(CODEC).register("gps", print)
 
 
 def test_every_drop_is_counted_and_reported() -> None:
-    drops: list[erc_codec.Drop] = []
-    dispatcher = erc_codec.Dispatcher(CODEC, on_drop=drops.append)
+    drops: list[erc_codec.runtime.Drop] = []
+    dispatcher = erc_codec.runtime.Dispatcher(CODEC, on_drop=drops.append)
 
     def broken(message: Message) -> None:
         raise RuntimeError("handler bug")
@@ -105,7 +105,7 @@ def test_a_failing_handler_does_not_stop_later_datagrams() -> None:
         if len(calls) == 1:
             raise ValueError("first one fails")
 
-    dispatcher = erc_codec.Dispatcher(CODEC)
+    dispatcher = erc_codec.runtime.Dispatcher(CODEC)
     dispatcher.register("gps_info", flaky)
     assert not dispatcher.feed(CODEC.encode(GPS(latitude=1)))
     assert dispatcher.feed(CODEC.encode(GPS(latitude=2)))
@@ -113,7 +113,7 @@ def test_a_failing_handler_does_not_stop_later_datagrams() -> None:
 
 
 def test_stats_are_snapshots() -> None:
-    dispatcher = erc_codec.Dispatcher(CODEC)
+    dispatcher = erc_codec.runtime.Dispatcher(CODEC)
     snapshot = dispatcher.stats()
     dispatcher.feed(b"")
     assert snapshot.undecodable == {}
@@ -137,8 +137,8 @@ def datagrams(draw: st.DrawFn) -> tuple[str | None, bytes]:
 def test_every_datagram_lands_in_exactly_one_counter(
     fed: list[tuple[str | None, bytes]], registered: set[str]
 ) -> None:
-    drops: list[erc_codec.Drop] = []
-    dispatcher = erc_codec.Dispatcher(CODEC, on_drop=drops.append)
+    drops: list[erc_codec.runtime.Drop] = []
+    dispatcher = erc_codec.runtime.Dispatcher(CODEC, on_drop=drops.append)
     for kind in registered:
         dispatcher.register(kind, lambda message: None)
     handled = sum(dispatcher.feed(data) for _, data in fed)
@@ -205,7 +205,7 @@ def test_handlers_get_exactly_what_decode_gives(fed: list[bytes]) -> None:
     def recorder(kind: str) -> Callable[[Message], None]:
         return lambda message: seen.append((kind, message.SerializeToString()))
 
-    dispatcher = erc_codec.Dispatcher(CODEC, on_drop=lambda drop: seen.append(drop.reason))
+    dispatcher = erc_codec.runtime.Dispatcher(CODEC, on_drop=lambda drop: seen.append(drop.reason))
     for kind in KINDS:
         dispatcher.register(kind, recorder(kind))
     for data in fed:
@@ -223,7 +223,7 @@ def test_a_length_byte_that_continues_is_not_a_one_byte_length() -> None:
     # 0x85 equals the bytes after it, but as a varint it continues into the next byte.
     data = bytes([1 << 3 | 2, 0x85]) + unknown_field(0x85)
     assert outcome(data) == "corrupt"
-    dispatcher = erc_codec.Dispatcher(CODEC)
+    dispatcher = erc_codec.runtime.Dispatcher(CODEC)
     dispatcher.register(KINDS[0], lambda message: None)
     assert not dispatcher.feed(data)
     assert dispatcher.stats().undecodable == {"corrupt": 1}
@@ -235,7 +235,7 @@ def test_a_datagram_over_the_envelopes_size_is_dropped_however_it_looks(tmp_path
         "message Env { oneof payload { Ping ping = 1; } }\n"
     )
     codec = erc_codec.Codec.from_path(tmp_path, root="Env")
-    dispatcher = erc_codec.Dispatcher(codec)
+    dispatcher = erc_codec.runtime.Dispatcher(codec)
     dispatcher.register("ping", lambda message: None)
     exact = bytes([1 << 3 | 2, 40]) + unknown_field(40)  # exact in form, but Env_size is 8
     # Stripped in form: a 10-byte payload whose last 8 bytes (zeros) are not sent.

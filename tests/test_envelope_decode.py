@@ -348,7 +348,7 @@ def test_a_cut_datagram_is_not_taken_for_a_stripped_one(
     assert named in str(caught.value)
     assert str(caught.value).startswith(f"datagram of {len(h(data))} bytes was cut short: ")
     assert receiver.peek(h(data)) is None
-    dispatcher = erc_codec.Dispatcher(receiver)
+    dispatcher = erc_codec.runtime.Dispatcher(receiver)
     assert not dispatcher.feed(h(data))
     assert dispatcher.stats().undecodable == {"truncated": 1}
 

@@ -145,5 +145,5 @@ def test_metadata_may_be_named_like_encodes_own_parameters(tmp_path: Path) -> No
     data = other.encode(ping, "exact", mode=3, message=-1)
     assert data == h("12 02 08 01 a0 01 03 a8 01 01")
     assert dict(other.decode(data).metadata) == {"mode": 3, "message": -1}
-    router = erc_codec.Router(other, {"x": "strip"}, [erc_codec.Route(("x",))])
-    assert router.route(data, "anyone", 0.0) == [erc_codec.Outgoing("x", data)]
+    router = erc_codec.runtime.Router(other, {"x": "strip"}, [erc_codec.runtime.Route(("x",))])
+    assert router.route(data, "anyone", 0.0) == [erc_codec.runtime.Outgoing("x", data)]

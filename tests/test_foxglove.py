@@ -82,7 +82,7 @@ class Client:
 def test_the_view_serves_every_kind_the_fix_drops_and_rates(codec: erc_codec.Codec) -> None:
     need("foxglove")
     websockets = need("websockets")
-    view = erc_codec.FoxgloveView(codec, port=0, interval=0.1)
+    view = erc_codec.capture.FoxgloveView(codec, port=0, interval=0.1)
     assert view.address[0] == "127.0.0.1"  # bound to loopback unless told otherwise
     gps = codec.message_class("SensorBoardGPSInfo")(
         latitude=52.2389,
@@ -93,7 +93,7 @@ def test_the_view_serves_every_kind_the_fix_drops_and_rates(codec: erc_codec.Cod
     )
     lost = codec.message_class("SensorBoardGPSInfo")(latitude=1.0, fix_quality=0)  # NO_FIX
     error = erc_codec.DecodeError("payload number 22 is not a member", "unknown_member")
-    drop = erc_codec.Drop("unknown_member", None, bytes.fromhex("b20100"), error)
+    drop = erc_codec.runtime.Drop("unknown_member", None, bytes.fromhex("b20100"), error)
 
     def poke() -> None:
         view.message("gps_info", lost, log_time=1)
@@ -159,7 +159,7 @@ def test_a_fix_whose_time_a_timestamp_cannot_hold_is_shown_at_its_arrival(
 ) -> None:
     need("foxglove")
     websockets = need("websockets")
-    view = erc_codec.FoxgloveView(codec, port=0)
+    view = erc_codec.capture.FoxgloveView(codec, port=0)
     gps = codec.message_class("SensorBoardGPSInfo")(
         latitude=45.0, longitude=7.0, fix_quality=1, utc_timestamp=2**62
     )

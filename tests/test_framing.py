@@ -21,8 +21,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import erc_codec
-from erc_codec import Deframer, DeframerStats, frame
-from erc_codec._framing import crc16
+from erc_codec.runtime import Deframer, DeframerStats, frame
+from erc_codec.runtime._framing import crc16
 
 MAX = 64
 STOP = bytes.fromhex("5052 0300 820100 97aa")  # the rover's STOP command, framed

@@ -29,7 +29,7 @@ from test_any_schema import INCLUDE, generator_sizes
 import erc_codec
 import erc_lint
 from erc_codec import Codec, SchemaError
-from erc_codec._discovery import ENVIRONMENT, SchemaSource, find_schema
+from erc_codec.codec._discovery import ENVIRONMENT, SchemaSource, find_schema
 from erc_schema import NANOPB_VERSIONS
 
 # One file for every .proto, for -f FILE (no %s): App's and Reading's options in one place.

@@ -38,7 +38,7 @@ SCRIPT = textwrap.dedent(
     sys.path[:] = [entry for entry in sys.path if entry not in hidden]
 
     import erc_codec
-    from erc_codec._codec import default_tree
+    from erc_codec.codec._codec import default_tree
 
     codec = erc_codec.Codec.default()
     progress = codec.message_class("DrivingBoardMotorPeriodicProgress")

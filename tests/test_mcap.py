@@ -28,7 +28,7 @@ from recording_support import (
 )
 
 import erc_codec
-from erc_codec._unknown import MAX_UNKEPT_NUMBERS
+from erc_codec.codec._unknown import MAX_UNKEPT_NUMBERS
 from erc_schema import descriptor_of
 
 T0 = 1_700_000_000_000_000_000
@@ -72,7 +72,7 @@ def test_every_kind_in_every_form_reads_back_exactly(
         (kind, payload, mode) for kind, payload in random_payloads(codec, 7, 3) for mode in MODES
     ]
     path = tmp_path / "run.mcap"
-    with erc_codec.McapWriter(path, codec, source="test") as writer:
+    with erc_codec.capture.McapWriter(path, codec, source="test") as writer:
         for number, (kind, payload, mode) in enumerate(sent):
             data = codec.encode(payload, mode)
             assert writer.write(data, T0 + number, f"10.0.0.{number % 3}:7") == kind
@@ -105,12 +105,12 @@ def test_read_mcap_yields_kinds_messages_and_drops(codec: erc_codec.Codec, tmp_p
     need("mcap")
     gps = codec.message_class("SensorBoardGPSInfo")(latitude=52.2389, satellites=9)
     path = tmp_path / "run.mcap"
-    with erc_codec.McapWriter(path, codec) as writer:
+    with erc_codec.capture.McapWriter(path, codec) as writer:
         writer.write(codec.encode(gps), T0)
         writer.write(bytes.fromhex("b20100"), T0 + 5, "10.0.0.9:7")
         writer.message("gps_info", gps, T0 + 9)
-    recorded = list(erc_codec.read_mcap(path))
-    assert all(isinstance(r, erc_codec.Recorded) for r in recorded)
+    recorded = list(erc_codec.capture.read_mcap(path))
+    assert all(isinstance(r, erc_codec.capture.Recorded) for r in recorded)
     first, drop, last = recorded
     fix, dropped = cast(Any, first.message), cast(Any, drop.message)
     assert (first.log_time, first.kind) == (T0, "gps_info")
@@ -126,7 +126,7 @@ def test_each_schema_is_its_payloads_file_and_imports_dependencies_first(
 ) -> None:
     need("mcap")
     path = tmp_path / "run.mcap"
-    with erc_codec.McapWriter(path, codec) as writer:
+    with erc_codec.capture.McapWriter(path, codec) as writer:
         for kind, payload in random_payloads(codec, 3, 1):
             writer.message(kind, payload, T0)
     reader = need("mcap.reader")
@@ -150,7 +150,7 @@ def test_the_file_says_where_its_schema_came_from_and_what_it_holds(
     need("mcap")
     path = tmp_path / "run.mcap"
     gps = codec.message_class("SensorBoardGPSInfo")()
-    with erc_codec.McapWriter(path, codec, source="udp 127.0.0.1:5000") as writer:
+    with erc_codec.capture.McapWriter(path, codec, source="udp 127.0.0.1:5000") as writer:
         writer.message("gps_info", gps, T0, "10.0.0.2:7")
         writer.message("gps_info", gps, T0, "10.0.0.2:7")
         writer.message("gps_info", gps, T0, "10.0.0.3:7")
@@ -193,7 +193,7 @@ def test_the_schema_revision_is_the_trees_commit_dirty_for_a_change_inside_it(
 
     def revision() -> str:
         path.unlink(missing_ok=True)
-        with erc_codec.McapWriter(path, codec):
+        with erc_codec.capture.McapWriter(path, codec):
             pass
         return metadata(path)["erc-codec"]["schema_revision"]
 
@@ -218,7 +218,7 @@ def test_a_damaged_file_is_caught(codec: erc_codec.Codec, tmp_path: Path) -> Non
     reader = need("mcap.reader")
     path = tmp_path / "run.mcap"
     payloads = [payload for _, payload in random_payloads(codec, 5, 20)]
-    with erc_codec.McapWriter(path, codec, chunk_size=1024, compression="none") as writer:
+    with erc_codec.capture.McapWriter(path, codec, chunk_size=1024, compression="none") as writer:
         for number, payload in enumerate(payloads):
             writer.write(codec.encode(payload), T0 + number)
     whole = path.read_bytes()
@@ -228,7 +228,7 @@ def test_a_damaged_file_is_caught(codec: erc_codec.Codec, tmp_path: Path) -> Non
     damaged[chunk.chunk_start_offset + chunk.chunk_length - 3] ^= 0x01  # inside its records
     path.write_bytes(damaged)
     with pytest.raises(erc_codec.CodecError, match="is not a readable MCAP recording"):
-        list(erc_codec.read_mcap(path))
+        list(erc_codec.capture.read_mcap(path))
     # A byte outside every chunk (a message index): only the data section's CRC sees it.
     damaged = bytearray(whole)
     offset = min(chunk.message_index_offsets.values())
@@ -244,7 +244,7 @@ def test_the_output_must_be_seekable(codec: erc_codec.Codec) -> None:
     assert pipe.stdin is not None
     try:
         with pytest.raises(erc_codec.CodecError, match="seekable file, not a pipe"):
-            erc_codec.McapWriter(cast(BinaryIO, pipe.stdin), codec)
+            erc_codec.capture.McapWriter(cast(BinaryIO, pipe.stdin), codec)
     finally:
         pipe.stdin.close()
         pipe.wait()
@@ -335,13 +335,13 @@ def test_a_capture_time_mcap_cannot_hold_is_a_counted_skip(
     written = [(m.message.log_time, m.decoded_message.satellites) for m in read_back(out)]
     assert written == [(0, 0), (T0, 2), (T0, 3), (T0 + 10**9, 5)]
     assert metadata(out)["erc-codec.summary"]["capture.skipped.time outside MCAP's range"] == "2"
-    with erc_codec.McapWriter(io.BytesIO(), codec) as writer:
+    with erc_codec.capture.McapWriter(io.BytesIO(), codec) as writer:
         for log_time in (-1, 1 << 64):
             with pytest.raises(erc_codec.CodecError, match=f"log time {log_time} ns is outside"):
                 writer.write(codec.encode(gps()), log_time)
             with pytest.raises(erc_codec.CodecError, match="is outside what MCAP holds"):
                 writer.drop(b"", log_time, "empty")
-    assert writer.stats() == erc_codec.RecordingStats({}, {})  # nothing written
+    assert writer.stats() == erc_codec.capture.RecordingStats({}, {})  # nothing written
 
 
 def test_without_the_mcap_extra_one_line_names_it(tmp_path: Path) -> None:
@@ -391,13 +391,14 @@ def test_random_damage_is_a_codec_error_or_a_correct_read(
 ) -> None:
     need("mcap")
     path = tmp_path / "run.mcap"
-    with erc_codec.McapWriter(path, codec, chunk_size=512) as writer:
+    with erc_codec.capture.McapWriter(path, codec, chunk_size=512) as writer:
         for number, (_, payload) in enumerate(random_payloads(codec, 7, 2)):
             writer.write(codec.encode(payload), T0 + number)
         writer.write(bytes.fromhex("6205ff"), T0 + 99)  # a drop
     whole = path.read_bytes()
     expected = [
-        (r.log_time, r.kind, r.message.SerializeToString()) for r in erc_codec.read_mcap(path)
+        (r.log_time, r.kind, r.message.SerializeToString())
+        for r in erc_codec.capture.read_mcap(path)
     ]
     rng = random.Random(20)
     damaged = [whole[:cut] for cut in sorted(rng.sample(range(len(whole)), 40))]
@@ -411,7 +412,7 @@ def test_random_damage_is_a_codec_error_or_a_correct_read(
         try:
             read = [
                 (r.log_time, r.kind, r.message.SerializeToString())
-                for r in erc_codec.read_mcap(path)
+                for r in erc_codec.capture.read_mcap(path)
             ]
         except erc_codec.CodecError as error:  # anything else fails the test
             errors.append(str(error))
@@ -428,7 +429,7 @@ def test_only_the_recordings_channels_are_read(codec: erc_codec.Codec, tmp_path:
     reader, writer_module = need("mcap.reader"), need("mcap.writer")
     recording, mixed = tmp_path / "run.mcap", tmp_path / "mixed.mcap"
     gps = codec.message_class("SensorBoardGPSInfo")(satellites=5)
-    with erc_codec.McapWriter(recording, codec) as writer:
+    with erc_codec.capture.McapWriter(recording, codec) as writer:
         writer.write(codec.encode(gps), T0)
         writer.write(bytes.fromhex("6205ff"), T0 + 2)
     with recording.open("rb") as source, mixed.open("wb") as file:
@@ -450,7 +451,7 @@ def test_only_the_recordings_channels_are_read(codec: erc_codec.Codec, tmp_path:
                 )
             copy.add_message(channels[channel.id], message.log_time, message.data, message.log_time)
         copy.finish()
-    read = list(erc_codec.read_mcap(mixed))
+    read = list(erc_codec.capture.read_mcap(mixed))
     assert [(r.log_time, r.kind) for r in read] == [(T0, "gps_info"), (T0 + 2, None)]
     assert read[0].message.SerializeToString() == gps.SerializeToString()
 
@@ -510,7 +511,7 @@ def test_fields_beside_the_payload_that_a_channel_cannot_hold_are_counted(
     assert [m.message.data for m in read_back(out)] == [b""] * 3  # the payloads, all of them
     summary = metadata(out)["erc-codec.summary"]
     assert (summary["unkept.20"], summary["unkept.40"]) == ("2", "1")
-    with erc_codec.McapWriter(io.BytesIO(), codec) as writer:
+    with erc_codec.capture.McapWriter(io.BytesIO(), codec) as writer:
         assert writer.write(beside[1], T0) == "gps_info"
         writer.write(bytes.fromhex("62026805"), T0)  # the payload's own: kept on its channel
         assert writer.stats().unkept == {20: 1, 40: 1}
@@ -527,7 +528,7 @@ def test_the_unkept_table_stops_at_its_bound_and_counts_the_fields_past_it(
     numbers = list(range(1000, 1000 + MAX_UNKEPT_NUMBERS + 100))
     rounds = [numbers[start : start + 50] for start in range(0, len(numbers), 50)]
     datagrams = [beside(numbers_of_one) for numbers_of_one in rounds * 2]
-    with erc_codec.McapWriter(io.BytesIO(), codec) as writer:
+    with erc_codec.capture.McapWriter(io.BytesIO(), codec) as writer:
         for number, data in enumerate(datagrams):
             assert writer.write(data, T0 + number) == "gps_info"
         writer.unkept([numbers[-1], numbers[-1]])  # a number given twice counts once

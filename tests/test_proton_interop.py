@@ -371,14 +371,14 @@ def test_bundles_byte_for_byte_with_protonc(
 
 
 def _frames_agree(peers: tuple[Peer, ...], payload: bytes) -> None:
-    ours = erc_codec.frame(payload)
+    ours = erc_codec.runtime.frame(payload)
     for peer in peers:
         # One request at a time: two long ones in a row would fill both pipes (a deadlock).
         (framed,) = peer.ask([f"F {payload.hex() or '-'}"])
         (unframed,) = peer.ask([f"U {ours.hex()}"])
         assert framed == f"OK {ours.hex()}"  # Proton's helpers frame as erc_codec does
         assert unframed == f"OK {payload.hex() or '-'}"  # and accept erc_codec's frame
-        deframer = erc_codec.Deframer(max_length=0xFFFF)
+        deframer = erc_codec.runtime.Deframer(max_length=0xFFFF)
         stream = bytes.fromhex(framed[3:])
         assert deframer.feed(stream[:3]) + deframer.feed(stream[3:]) == [payload]
 
@@ -398,11 +398,11 @@ def test_the_longest_frames_too(core: Peer, protonc: Peer, length: int) -> None:
 
 
 def test_a_bad_crc_is_refused_by_both(core: Peer, protonc: Peer) -> None:
-    broken = bytearray(erc_codec.frame(b"\x0a\x00"))
+    broken = bytearray(erc_codec.runtime.frame(b"\x0a\x00"))
     broken[-1] ^= 0x01
     assert core.ask([f"U {broken.hex()}"]) == [f"ERR {11}"]  # PROTON_CRC16_ERROR
     assert protonc.ask([f"U {broken.hex()}"]) == ["ERR crc"]
-    assert erc_codec.Deframer(max_length=16).feed(bytes(broken)) == []
+    assert erc_codec.runtime.Deframer(max_length=16).feed(bytes(broken)) == []
 
 
 # -- what erc_codec refuses, Proton's C libraries refuse or misread -----------------------------

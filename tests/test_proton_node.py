@@ -9,7 +9,6 @@ import pytest
 from proton_values import TYPES_1_0, TYPES_2_0
 
 import erc_codec
-from erc_codec import Liveness
 from erc_codec.proton import (
     Bundle,
     BundleCodec,
@@ -19,6 +18,7 @@ from erc_codec.proton import (
     Sent,
     parse_config,
 )
+from erc_codec.runtime import Liveness
 
 PERIODIC = parse_config(
     """\

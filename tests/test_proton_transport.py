@@ -11,7 +11,6 @@ import pytest
 from proton_values import TYPES_2_0
 
 import erc_codec
-from erc_codec import Liveness
 from erc_codec.proton import (
     Bundle,
     BundleCodec,
@@ -23,6 +22,7 @@ from erc_codec.proton import (
     run_proton_serial,
     split_udp_header,
 )
+from erc_codec.runtime import Liveness
 
 CODEC = BundleCodec(TYPES_2_0)
 COMMAND = CODEC.encode("command", {"set_speed": 1.25, "set_name": "go", "set_mask": b""})
@@ -170,11 +170,13 @@ def test_a_node_on_a_serial_stream() -> None:
         reader, writer = await asyncio.open_connection(sock=our_side)
         board_reader, board_writer = await asyncio.open_connection(sock=board_side)
         link = asyncio.get_running_loop().create_task(run_proton_serial(mcu, reader, writer))
-        board_writer.write(b"noise" + erc_codec.frame(COMMAND)[:5])  # in two pieces
+        board_writer.write(b"noise" + erc_codec.runtime.frame(COMMAND)[:5])  # in two pieces
         await board_writer.drain()
-        board_writer.write(erc_codec.frame(COMMAND)[5:] + erc_codec.frame(b"\x0a\x00"))
+        board_writer.write(
+            erc_codec.runtime.frame(COMMAND)[5:] + erc_codec.runtime.frame(b"\x0a\x00")
+        )
         await board_writer.drain()
-        deframer = erc_codec.Deframer(max_length=0xFFFF)
+        deframer = erc_codec.runtime.Deframer(max_length=0xFFFF)
         heard: set[str] = set()
 
         async def hear_all() -> None:
@@ -221,7 +223,7 @@ def test_a_serial_link_that_cannot_go_on_raises_what_stopped_it() -> None:
             for stream in {writer, writing, board_writer}:
                 stream.close()
 
-    framed = erc_codec.frame(COMMAND)
+    framed = erc_codec.runtime.frame(COMMAND)
     broken = Node(TYPES_2_0, "mcu")
 
     @broken.on("command")
@@ -236,7 +238,7 @@ def test_a_serial_link_that_cannot_go_on_raises_what_stopped_it() -> None:
     with pytest.raises(ConnectionError):
         asyncio.run(link(Node(TYPES_2_0, "mcu"), b"", time_passing(), gone=True))
     noisy = Node(TYPES_2_0, "pc", on_peer=lambda peer, state: 1 / 0)
-    heartbeat = erc_codec.frame(CODEC.encode("heartbeat", {"beat": 1}))
+    heartbeat = erc_codec.runtime.frame(CODEC.encode("heartbeat", {"beat": 1}))
     with pytest.raises(ZeroDivisionError):
         asyncio.run(link(noisy, heartbeat))
 

@@ -5,15 +5,8 @@ from typing import Any
 import pytest
 from datagrams import MAX, h
 
-from erc_codec import (
-    Codec,
-    Failsafe,
-    FailsafeEvent,
-    Outgoing,
-    Route,
-    Router,
-    SchemaError,
-)
+from erc_codec import Codec, SchemaError
+from erc_codec.runtime import Failsafe, FailsafeEvent, Outgoing, Route, Router
 
 FORMS: dict[str, Any] = {"base": "exact", "jetson": "strip", "logger": "pad", "board": "exact"}
 

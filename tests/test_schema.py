@@ -69,7 +69,7 @@ def test_default_codec_is_shared_and_rooted_at_pbenvelope(codec: Codec) -> None:
 
 def test_default_codec_loads_the_packaged_tree(codec: Codec) -> None:
     """In a checkout the packaged tree is the repository's proto/ folder."""
-    from erc_codec._codec import default_tree
+    from erc_codec.codec._codec import default_tree
 
     tree = default_tree()
     assert (tree / "components" / "common" / "envelope.proto").is_file()

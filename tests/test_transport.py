@@ -31,12 +31,12 @@ async def until(condition: "asyncio.Future[object] | object", seconds: float = 1
 
 
 def test_udp_endpoints_talk_over_loopback() -> None:
-    async def scenario() -> tuple[list[Message], erc_codec.DispatchStats, tuple[str, int]]:
+    async def scenario() -> tuple[list[Message], erc_codec.runtime.DispatchStats, tuple[str, int]]:
         got: list[Message] = []
-        receiver = erc_codec.Dispatcher(CODEC)
+        receiver = erc_codec.runtime.Dispatcher(CODEC)
         receiver.register("gps_info", got.append)
-        listening = await erc_codec.open_udp(receiver)
-        sender = await erc_codec.open_udp(erc_codec.Dispatcher(CODEC))
+        listening = await erc_codec.transport.open_udp(receiver)
+        sender = await erc_codec.transport.open_udp(erc_codec.runtime.Dispatcher(CODEC))
         fix = GPS(latitude=52.2389, satellites=9)
         sender.send(fix, listening.address)
         sender.send(MOTOR(), listening.address, mode="pad")  # decodes, no handler
@@ -60,15 +60,15 @@ def test_udp_endpoints_talk_over_loopback() -> None:
 def test_the_watchdog_engages_when_a_stream_stops() -> None:
     async def scenario() -> list[str]:
         events: list[str] = []
-        watchdog = erc_codec.Watchdog(
+        watchdog = erc_codec.runtime.Watchdog(
             on_timeout=lambda kind: events.append(f"timeout {kind}"),
             on_recover=lambda kind: events.append(f"recover {kind}"),
         )
         watchdog.watch("drive_motor", period=0.02, timeout=0.3)  # ample for a busy CI
-        listening = await erc_codec.open_udp(
-            erc_codec.Dispatcher(CODEC), watchdog=watchdog, poll_interval=0.01
+        listening = await erc_codec.transport.open_udp(
+            erc_codec.runtime.Dispatcher(CODEC), watchdog=watchdog, poll_interval=0.01
         )
-        sender = await erc_codec.open_udp(erc_codec.Dispatcher(CODEC))
+        sender = await erc_codec.transport.open_udp(erc_codec.runtime.Dispatcher(CODEC))
         for _ in range(5):
             sender.send(MOTOR(distance_to_go=1.0), listening.address)
             await asyncio.sleep(0.02)
@@ -93,12 +93,16 @@ def test_open_udp_watches_a_kind_by_the_timeout_its_sender_advertises() -> None:
 
     async def scenario() -> tuple[list[str], dict[str, float]]:
         events: list[str] = []
-        watchdog = erc_codec.Watchdog(on_timeout=lambda kind: events.append(f"timeout {kind}"))
+        watchdog = erc_codec.runtime.Watchdog(
+            on_timeout=lambda kind: events.append(f"timeout {kind}")
+        )
         arrivals: dict[str, float] = {}
-        dispatcher = erc_codec.Dispatcher(CODEC)
+        dispatcher = erc_codec.runtime.Dispatcher(CODEC)
         dispatcher.on_arrival = lambda kind, timeout: arrivals.setdefault(kind, timeout or 0.0)
-        listening = await erc_codec.open_udp(dispatcher, watchdog=watchdog, poll_interval=0.01)
-        sender = await erc_codec.open_udp(erc_codec.Dispatcher(CODEC))
+        listening = await erc_codec.transport.open_udp(
+            dispatcher, watchdog=watchdog, poll_interval=0.01
+        )
+        sender = await erc_codec.transport.open_udp(erc_codec.runtime.Dispatcher(CODEC))
         advertising = CODEC.encode(MOTOR(distance_to_go=1.0), timeout=300)
         sender.send_datagram(advertising, listening.address)
         sender.send(GPS(latitude=1.0), listening.address)
@@ -113,18 +117,18 @@ def test_open_udp_watches_a_kind_by_the_timeout_its_sender_advertises() -> None:
 
 
 def test_a_serial_stream_is_deframed_and_dispatched() -> None:
-    async def scenario() -> tuple[list[Message], erc_codec.DeframerStats]:
+    async def scenario() -> tuple[list[Message], erc_codec.runtime.DeframerStats]:
         got: list[Message] = []
-        dispatcher = erc_codec.Dispatcher(CODEC)
+        dispatcher = erc_codec.runtime.Dispatcher(CODEC)
         dispatcher.register("gps_info", got.append)
         ours, theirs = socket.socketpair()
         reader, writer = await asyncio.open_connection(sock=ours)
-        stream = b"\x00noise" + erc_codec.frame(CODEC.encode(GPS(latitude=1.0)))
-        stream += erc_codec.frame(CODEC.encode(GPS(latitude=2.0)))
+        stream = b"\x00noise" + erc_codec.runtime.frame(CODEC.encode(GPS(latitude=1.0)))
+        stream += erc_codec.runtime.frame(CODEC.encode(GPS(latitude=2.0)))
         for i in range(0, len(stream), 5):  # arrives in pieces
             theirs.sendall(stream[i : i + 5])
         theirs.close()
-        deframer = await erc_codec.read_serial(reader, dispatcher)
+        deframer = await erc_codec.transport.read_serial(reader, dispatcher)
         writer.close()
         await writer.wait_closed()
         return got, deframer.stats()
@@ -149,18 +153,18 @@ def test_a_watchdog_poll_that_fails_closes_the_endpoint_and_wait_closed_raises_i
     async def scenario(
         clock: Callable[[], float], failing: bool
     ) -> tuple[BaseException | None, bool, bool]:
-        watchdog = erc_codec.Watchdog(on_timeout=on_timeout if failing else None)
+        watchdog = erc_codec.runtime.Watchdog(on_timeout=on_timeout if failing else None)
         watchdog.watch("drive_motor", period=0.001)
         watchdog.seen("drive_motor", 0.0)
-        endpoint = await erc_codec.open_udp(
-            erc_codec.Dispatcher(CODEC), watchdog=watchdog, poll_interval=0.001, clock=clock
+        endpoint = await erc_codec.transport.open_udp(
+            erc_codec.runtime.Dispatcher(CODEC), watchdog=watchdog, poll_interval=0.001, clock=clock
         )
         failure = None
         try:
             await asyncio.wait_for(endpoint.wait_closed(), 10)
         except (ValueError, RuntimeError) as error:
             failure = error
-        reopened = await erc_codec.open_udp(erc_codec.Dispatcher(CODEC))
+        reopened = await erc_codec.transport.open_udp(erc_codec.runtime.Dispatcher(CODEC))
         reopened.close()
         await reopened.wait_closed()  # a close() is no failure
         return failure, endpoint.closed, reopened.closed
@@ -176,14 +180,14 @@ def test_a_watchdog_poll_that_fails_closes_the_endpoint_and_wait_closed_raises_i
 
 
 def test_a_frame_cut_off_by_the_end_of_the_stream_is_counted() -> None:
-    async def scenario() -> tuple[erc_codec.DeframerStats, int]:
-        dispatcher = erc_codec.Dispatcher(CODEC)
+    async def scenario() -> tuple[erc_codec.runtime.DeframerStats, int]:
+        dispatcher = erc_codec.runtime.Dispatcher(CODEC)
         ours, theirs = socket.socketpair()
         reader, writer = await asyncio.open_connection(sock=ours)
-        whole = erc_codec.frame(CODEC.encode(GPS(latitude=1.0)))
+        whole = erc_codec.runtime.frame(CODEC.encode(GPS(latitude=1.0)))
         theirs.sendall(whole + whole[:-3])  # the second frame loses its last three bytes
         theirs.close()
-        deframer = await erc_codec.read_serial(reader, dispatcher)
+        deframer = await erc_codec.transport.read_serial(reader, dispatcher)
         writer.close()
         await writer.wait_closed()
         assert dispatcher.stats().unhandled == {"gps_info": 1}
@@ -209,7 +213,7 @@ def flood(address: tuple[str, int], count: int) -> None:
             raw.sendto(data, address)
 
 
-def accounted(stats: "erc_codec.UdpStats") -> int:
+def accounted(stats: "erc_codec.transport.UdpStats") -> int:
     """The datagrams an endpoint read or knows the kernel dropped."""
     assert stats.kernel_dropped is not None, "Linux tells the drops"
     return stats.received + stats.kernel_dropped
@@ -217,9 +221,11 @@ def accounted(stats: "erc_codec.UdpStats") -> int:
 
 @pytest.mark.skipif(sys.platform != "linux", reason="the kernel's drop count is Linux's")
 def test_every_datagram_is_received_or_counted_as_dropped_by_the_kernel() -> None:
-    async def scenario() -> "list[erc_codec.UdpStats]":
-        dispatcher = erc_codec.Dispatcher(CODEC)
-        endpoint = await erc_codec.open_udp(dispatcher, receive_buffer=1)  # the least there is
+    async def scenario() -> "list[erc_codec.transport.UdpStats]":
+        dispatcher = erc_codec.runtime.Dispatcher(CODEC)
+        endpoint = await erc_codec.transport.open_udp(
+            dispatcher, receive_buffer=1
+        )  # the least there is
         seen = []
         sent = 0
         for count in (2000, 2000, 1):  # the last one, queued after drops, carries their count
@@ -247,8 +253,10 @@ def test_every_datagram_is_received_or_counted_as_dropped_by_the_kernel() -> Non
 @pytest.mark.skipif(sys.platform != "linux", reason="the buffer granted is Linux's arithmetic")
 def test_the_receive_buffer_asked_for_is_granted_up_to_the_systems_cap() -> None:
     async def scenario() -> tuple[int, int]:
-        default = await erc_codec.open_udp(erc_codec.Dispatcher(CODEC))
-        small = await erc_codec.open_udp(erc_codec.Dispatcher(CODEC), receive_buffer=100_000)
+        default = await erc_codec.transport.open_udp(erc_codec.runtime.Dispatcher(CODEC))
+        small = await erc_codec.transport.open_udp(
+            erc_codec.runtime.Dispatcher(CODEC), receive_buffer=100_000
+        )
         granted = default.stats().receive_buffer, small.stats().receive_buffer
         default.close()
         small.close()
@@ -261,9 +269,9 @@ def test_the_receive_buffer_asked_for_is_granted_up_to_the_systems_cap() -> None
 
 
 def test_what_is_still_queued_at_close_is_counted_as_unread() -> None:
-    async def scenario() -> "erc_codec.UdpStats":
-        dispatcher = erc_codec.Dispatcher(CODEC)
-        endpoint = await erc_codec.open_udp(dispatcher)
+    async def scenario() -> "erc_codec.transport.UdpStats":
+        dispatcher = erc_codec.runtime.Dispatcher(CODEC)
+        endpoint = await erc_codec.transport.open_udp(dispatcher)
         flood(endpoint.address, 100)
         endpoint.close()  # before the loop ran the reader
         assert dispatcher.stats().unhandled == {}
@@ -274,16 +282,18 @@ def test_what_is_still_queued_at_close_is_counted_as_unread() -> None:
 
 
 def test_an_endpoint_closed_by_its_listener_reads_no_further() -> None:
-    async def scenario() -> "tuple[list[bytes], erc_codec.UdpStats]":
+    async def scenario() -> "tuple[list[bytes], erc_codec.transport.UdpStats]":
         heard: list[bytes] = []
-        endpoint: erc_codec.UdpEndpoint
+        endpoint: erc_codec.transport.UdpEndpoint
 
         def on_datagram(data: bytes, sender: object) -> None:
             heard.append(data)
             if len(heard) == 3:
                 endpoint.close()
 
-        endpoint = await erc_codec.open_udp(erc_codec.Dispatcher(CODEC), on_datagram=on_datagram)
+        endpoint = await erc_codec.transport.open_udp(
+            erc_codec.runtime.Dispatcher(CODEC), on_datagram=on_datagram
+        )
         flood(endpoint.address, 10)
         await until(lambda: len(heard) >= 3)
         await asyncio.sleep(0.05)
@@ -297,8 +307,10 @@ def test_an_endpoint_closed_by_its_listener_reads_no_further() -> None:
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -1.0, 0.0])
 def test_the_poll_interval_is_positive_finite_seconds(bad: float) -> None:
     async def scenario() -> None:
-        watchdog = erc_codec.Watchdog()
-        await erc_codec.open_udp(erc_codec.Dispatcher(CODEC), watchdog=watchdog, poll_interval=bad)
+        watchdog = erc_codec.runtime.Watchdog()
+        await erc_codec.transport.open_udp(
+            erc_codec.runtime.Dispatcher(CODEC), watchdog=watchdog, poll_interval=bad
+        )
 
     with pytest.raises(ValueError, match=r"^poll_interval must be a positive, finite number"):
         asyncio.run(scenario())
@@ -307,7 +319,7 @@ def test_the_poll_interval_is_positive_finite_seconds(bad: float) -> None:
 @pytest.mark.parametrize("bad", [0, -1, 1 << 31, 4.0, math.inf])
 def test_the_receive_buffer_is_a_whole_number_of_bytes_a_socket_takes(bad: float) -> None:
     async def scenario() -> None:
-        await erc_codec.open_udp(erc_codec.Dispatcher(CODEC), receive_buffer=bad)  # type: ignore[arg-type]
+        await erc_codec.transport.open_udp(erc_codec.runtime.Dispatcher(CODEC), receive_buffer=bad)  # type: ignore[arg-type]
 
     with pytest.raises(ValueError, match=r"^receive_buffer must be"):
         asyncio.run(scenario())
@@ -320,7 +332,8 @@ def test_the_serial_chunk_is_a_whole_number_of_bytes(bad: float) -> None:
         theirs.close()  # the stream has ended: a chunk of -1 (read to the end) would not hang
         reader, writer = await asyncio.open_connection(sock=ours)
         try:
-            await erc_codec.read_serial(reader, erc_codec.Dispatcher(CODEC), chunk=bad)  # type: ignore[arg-type]
+            dispatcher = erc_codec.runtime.Dispatcher(CODEC)
+            await erc_codec.transport.read_serial(reader, dispatcher, chunk=bad)  # type: ignore[arg-type]
         finally:
             writer.close()
             await writer.wait_closed()
@@ -343,12 +356,12 @@ def test_importing_a_package_does_not_import_asyncio(package: str) -> None:
 
 
 def test_an_endpoint_without_a_dispatcher_hears_and_sends_bytes_as_they_are() -> None:
-    async def scenario() -> tuple[list[tuple[bytes, Any]], erc_codec.UdpStats]:
+    async def scenario() -> tuple[list[tuple[bytes, Any]], erc_codec.transport.UdpStats]:
         heard: list[tuple[bytes, Any]] = []
-        relay = await erc_codec.open_udp(
+        relay = await erc_codec.transport.open_udp(
             None, on_datagram=lambda data, sender: heard.append((data, sender))
         )
-        other = await erc_codec.open_udp(None)
+        other = await erc_codec.transport.open_udp(None)
         for data in (b"\x4a", bytes(300), b"not protobuf"):  # bytes, judged by no one here
             other.send_datagram(data, relay.address)
         await until(lambda: len(heard) == 3)

@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from erc_codec import Liveness, Watchdog
+from erc_codec.runtime import Liveness, Watchdog
 
 
 def recorder() -> tuple[Watchdog, list[tuple[str, str]]]:

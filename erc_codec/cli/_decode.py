@@ -7,8 +7,8 @@ import click
 
 from erc_schema import DecodeError
 
-from .._codec import Codec
-from .._framing import Deframer
+from ..codec import Codec
+from ..runtime import Deframer
 from ._pcap import Capture
 from ._reading import Printer, check_usage, decode_input, input_options
 from ._record import capture_to_mcap

@@ -7,8 +7,8 @@ import click
 
 from erc_schema import EncodeError
 
-from .._envelope import Mode
-from .._framing import frame
+from ..codec import Mode
+from ..runtime import frame
 from ._shared import MODE, Fatal, envelope_from_json, load, one_line, schema_options
 
 __all__ = ["encode"]

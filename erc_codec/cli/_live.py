@@ -2,8 +2,8 @@
 
 import click
 
-from .._codec import Codec
-from .._foxglove import FoxgloveView
+from ..capture import FoxgloveView
+from ..codec import Codec
 from ._shared import Fatal
 
 __all__ = ["foxglove_view"]

@@ -23,12 +23,10 @@ from google.protobuf.message import Message
 
 from erc_schema import EncodeError
 
-from .._codec import Codec
-from .._dispatch import Dispatcher, DispatchStats, Drop
-from .._envelope import Mode
-from .._foxglove import FoxgloveView
-from .._transport import UdpEndpoint, UdpStats, open_udp
-from .._watchdog import Watchdog
+from ..capture import FoxgloveView
+from ..codec import Codec, Mode
+from ..runtime import Dispatcher, DispatchStats, Drop, Watchdog
+from ..transport import UdpEndpoint, UdpStats, open_udp
 from ._live import foxglove_view
 from ._shared import (
     FINITE,

@@ -24,8 +24,8 @@ import click
 
 from erc_schema import CodecError, DecodeError
 
-from .._framing import Deframer
 from ..proton import BundleCodec, Value, load_config, split_udp_header
+from ..runtime import Deframer
 from ._reading import Printer, decode_input, input_options
 from ._shared import FINITE, Fatal, emit, one_line, parse_address, resolve, shown
 

@@ -16,7 +16,7 @@ from typing import Any, TypeVar
 
 import click
 
-from .._framing import Deframer
+from ..runtime import Deframer
 from ._input import LINE_LIMIT, hex_lines, read_stdin
 from ._pcap import Capture
 from ._shared import Fatal, emit, one_line, plural, unhex

@@ -30,12 +30,11 @@ from google.protobuf.message import Message
 
 from erc_schema import CodecError, EncodeError
 
-from .._codec import Codec
-from .._dispatch import Dispatcher, Drop
-from .._envelope import Decoded, Mode
-from .._mcap import McapWriter, holds_log_time, recorded_payloads, unkept_summary
-from .._recording import nanoseconds
-from .._transport import UdpEndpoint, open_udp
+from ..capture._mcap import McapWriter, holds_log_time, recorded_payloads, unkept_summary
+from ..capture._recording import nanoseconds
+from ..codec import Codec, Decoded, Mode
+from ..runtime import Dispatcher, Drop
+from ..transport import UdpEndpoint, open_udp
 from ._pcap import Capture
 from ._shared import (
     MODE,

@@ -30,9 +30,9 @@ import click
 
 from erc_schema import CodecError
 
-from .._codec import Codec
-from .._router import FailsafeEvent, Outgoing, Router
-from .._transport import UdpEndpoint, open_udp
+from ..codec import Codec
+from ..runtime import FailsafeEvent, Outgoing, Router
+from ..transport import UdpEndpoint, open_udp
 from ._lines import LineStream, flush_standard_streams
 from ._local import receives
 from ._relayconfig import TICK, Config, read_config

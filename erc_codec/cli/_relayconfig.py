@@ -16,10 +16,9 @@ from typing import Any, NamedTuple, cast
 import click
 from google.protobuf import json_format
 
-from .._checks import duration
-from .._codec import Codec
-from .._envelope import Mode
-from .._router import Failsafe, Route, failsafe_timing
+from ..codec import Codec, Mode
+from ..runtime._router import Failsafe, Route, failsafe_timing
+from ..runtime.checks import duration
 from ._local import WILDCARDS, canonical, receives, spellings
 from ._shared import Fatal, one_line, parse_address, resolve
 

@@ -6,8 +6,8 @@ import click
 
 from erc_schema import CodecError, TreeSource, load_schema
 
-from .._codec import Codec
-from .._discovery import DEFAULT_OPTIONS_FILE, ENVIRONMENT, load_source
+from ..codec import Codec
+from ..codec._discovery import DEFAULT_OPTIONS_FILE, ENVIRONMENT, load_source
 from ._shared import Fatal, one_line, schema_options, source, text_or_json
 
 __all__ = ["schema"]

@@ -14,10 +14,10 @@ from google.protobuf.message import Message
 from erc_schema import CodecError, EncodeError
 from erc_schema.cli import generator_options
 
-from .._codec import Codec
-from .._discovery import SchemaSource, find_schema
-from .._json import load_json
-from .._json import to_dict as _to_dict
+from ..codec import Codec
+from ..codec._discovery import SchemaSource, find_schema
+from ..codec._json import load_json
+from ..codec._json import to_dict as _to_dict
 
 __all__ = [
     "FINITE",

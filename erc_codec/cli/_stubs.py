@@ -36,7 +36,7 @@ from google.protobuf.message import Message
 
 from erc_schema import declarations
 
-from .._codec import Codec
+from ..codec import Codec
 from ._shared import Fatal, load, schema_options
 
 __all__ = ["render_stubs", "stubs"]

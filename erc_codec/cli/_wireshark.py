@@ -4,7 +4,7 @@ import click
 
 from erc_schema import SchemaError
 
-from .._wireshark import DEFAULT_PORTS, wireshark_dissector
+from ..capture._wireshark import DEFAULT_PORTS, wireshark_dissector
 from ._shared import Fatal, load, one_line, schema_options
 
 __all__ = ["wireshark"]

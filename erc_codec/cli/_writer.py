@@ -26,9 +26,9 @@ from typing import Any
 
 from erc_schema import CodecError
 
-from .._codec import Codec
-from .._mcap import McapWriter, RecordingStats
-from .._recording import require
+from ..capture import McapWriter, RecordingStats
+from ..capture._recording import require
+from ..codec import Codec
 from ._shared import Fatal
 
 __all__ = ["WriterProcess"]

@@ -45,8 +45,8 @@ from typing import NamedTuple, TypeVar
 
 from erc_schema import DecodeError
 
-from .._checks import duration
-from .._watchdog import Liveness, Watchdog
+from ..runtime import Liveness, Watchdog
+from ..runtime.checks import duration
 from ._codec import SCRATCH_BUFFER_SIZE, Bundle, BundleCodec
 from ._config import BundleConfig, Config
 from ._types import Value, Version

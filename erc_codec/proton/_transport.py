@@ -23,8 +23,8 @@ from typing import TYPE_CHECKING, Any, NamedTuple, cast
 
 from erc_schema import DecodeError
 
-from .._checks import duration
-from .._framing import Deframer, frame
+from ..runtime import Deframer, frame
+from ..runtime.checks import duration
 from ._node import Node, Sent
 from ._udp_header import split_udp_header
 

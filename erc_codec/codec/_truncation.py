@@ -48,7 +48,7 @@ from erc_schema import (
     read_varint,
 )
 
-from ._paths import entry_path
+from ._fieldpaths import entry_path
 
 __all__ = ["Chain", "Table", "cut_field", "cut_reason", "presence_table", "varint_cut"]
 

@@ -79,10 +79,11 @@ def packaged_tree() -> Path:
     """The packaged proto tree: ``erc_codec/proto`` in a wheel, ``proto/`` in a checkout."""
     from importlib import resources
 
-    packaged = Path(str(resources.files("erc_codec"))) / "proto"
+    package = Path(str(resources.files("erc_codec")))
+    packaged = package / "proto"
     if packaged.is_dir():
         return packaged
-    return Path(__file__).resolve().parent.parent / "proto"
+    return package.parent / "proto"
 
 
 def find_schema(

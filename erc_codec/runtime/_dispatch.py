@@ -18,8 +18,8 @@ from google.protobuf.message import Message
 
 from erc_schema import DecodeError, SchemaError, UnreadableKind
 
-from ._codec import Codec
-from ._unknown import UnkeptFields
+from ..codec import Codec
+from ..codec._unknown import UnkeptFields
 
 __all__ = ["DispatchStats", "Dispatcher", "Drop"]
 

@@ -33,7 +33,8 @@ from google.protobuf.message import Message
 
 from erc_schema import CodecError, DecodeError, descriptor_of
 
-from ._codec import Codec
+from ..codec import Codec
+from ..codec._unknown import UnkeptFields
 from ._origin import erc_codec_version, schema_origin
 from ._recording import (
     DROPS_TOPIC,
@@ -44,7 +45,6 @@ from ._recording import (
     member_topic,
     require,
 )
-from ._unknown import UnkeptFields
 
 if TYPE_CHECKING:
     from mcap.writer import Writer

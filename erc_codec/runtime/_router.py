@@ -36,10 +36,9 @@ from google.protobuf.message import Message
 
 from erc_schema import DecodeError, EncodeError, SchemaError
 
-from ._checks import duration
-from ._codec import Codec
-from ._envelope import Mode
+from ..codec import Codec, Mode
 from ._watchdog import Liveness, Watchdog
+from .checks import duration
 
 __all__ = [
     "Failsafe",

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from erc_schema import descriptor_of
 
-from ._codec import Codec
+from ..codec import Codec
 from ._recording import file_descriptor_set
 
 __all__ = ["erc_codec_version", "git_revision", "schema_digest", "schema_origin"]

@@ -20,7 +20,7 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
-from ._checks import count, duration, instant
+from .checks import count, duration, instant
 
 __all__ = ["AssemblerStats", "DetectionAssembler", "DetectionFrame", "DetectionLoss", "Rejected"]
 

@@ -57,7 +57,7 @@ from google.protobuf.message import Message
 
 from erc_schema import EncodeError, SchemaError, Sizes, encode_varint, enum_of, message_of
 
-from ._paths import entry_path
+from ._fieldpaths import entry_path
 
 __all__ = ["Contract", "contract", "sender"]
 

@@ -29,7 +29,7 @@ import math
 from collections import deque
 from collections.abc import Callable
 
-from ._checks import duration, instant
+from .checks import duration, instant
 
 __all__ = ["Liveness", "Watchdog"]
 

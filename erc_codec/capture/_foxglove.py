@@ -23,8 +23,8 @@ from google.protobuf.message import Message
 
 from erc_schema import descriptor_of
 
-from ._codec import Codec
-from ._dispatch import Drop
+from ..codec import Codec
+from ..runtime import Drop
 from ._recording import (
     DROPS_TOPIC,
     FIX_TOPIC,

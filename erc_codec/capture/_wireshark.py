@@ -17,7 +17,7 @@ from google.protobuf.descriptor import Descriptor, FieldDescriptor
 
 from erc_schema import SchemaError, descriptor_of, enum_of, message_of
 
-from ._codec import Codec
+from ..codec import Codec
 from ._origin import schema_origin
 
 __all__ = ["DEFAULT_PORTS", "wireshark_dissector"]
@@ -83,7 +83,7 @@ def wireshark_dissector(codec: Codec | None = None, ports: Iterable[int] = DEFAU
         "    messages = {\n" + "\n".join(message_tables) + "\n    },\n"
         "}\n"
     )
-    runtime = resources.files("erc_codec").joinpath("_dissector.lua").read_text("utf-8")
+    runtime = resources.files("erc_codec.capture").joinpath("_dissector.lua").read_text("utf-8")
     return header + schema + "\n" + runtime
 
 

@@ -21,16 +21,14 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 from google.protobuf.message import Message
 
-from ._checks import count, duration
-from ._dispatch import Dispatcher
-from ._envelope import Mode
-from ._framing import Deframer
-from ._watchdog import Watchdog
+from ..codec import Mode
+from ..runtime import Deframer, Dispatcher, Watchdog
+from ..runtime.checks import count, duration
 
 if TYPE_CHECKING:
     import asyncio
 
-    from ._udp import UdpSocket
+    from ._socket import UdpSocket
 
 __all__ = ["UdpEndpoint", "UdpStats", "open_udp", "read_serial"]
 
@@ -100,7 +98,7 @@ class UdpEndpoint:
         import asyncio
         import socket
 
-        from ._udp import UdpSocket  # socket and selectors: loaded in a loop, not by erc_codec
+        from ._socket import UdpSocket  # socket and selectors: loaded in a loop, not by erc_codec
 
         count("receive_buffer", receive_buffer)
         if receive_buffer > _LARGEST_BUFFER:

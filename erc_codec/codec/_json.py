@@ -43,7 +43,7 @@ from google.protobuf.message import Message
 
 from erc_schema import DecodeError, EncodeError, descriptor_of, enum_of, message_of
 
-from ._paths import entry_path, key_text
+from ._fieldpaths import entry_path, key_text
 
 __all__ = ["from_dict", "from_json", "load_json", "to_dict", "to_json"]
 

@@ -86,10 +86,10 @@ from typing import TYPE_CHECKING, NamedTuple
 
 from erc_schema import DecodeError, EncodeError
 
-from ._checks import count as whole
+from .checks import count as whole
 
 if TYPE_CHECKING:
-    from ._codec import Codec
+    from ..codec import Codec
 
 __all__ = ["Deframer", "DeframerStats", "crc16", "frame"]
 
@@ -142,7 +142,7 @@ class Deframer:
                 DeprecationWarning,
                 stacklevel=2,
             )
-            from ._codec import Codec
+            from ..codec import Codec
 
             max_length = Codec.default().max_size(Codec.default().root)
         length = whole("max_length", max_length, minimum=0)  # not 2.5, not True
