@@ -9,7 +9,7 @@ alternately, the best of several repeats counting:
   (the same dict, keys aside: ours are in .proto order);
 - ``to_json`` against ``json.dumps`` of that dict (one line, as the command line prints it);
 - ``from_dict`` against ``ParseDict`` of the same dict (ours range-checks every value first).
-Target: to_dict ≤ 0.5x MessageToDict, for issue 23's ``erc-codec listen`` keeping up with 20,000
+Target: to_dict ≤ 0.5x MessageToDict, for ``erc-codec listen`` keeping up with 20,000
 datagrams a second in JSON mode (50 µs a datagram for everything; MessageToDict alone takes more).
 The other rows are printed to be watched, with no target. Exit status 1 when the target is missed.
 """

@@ -35,7 +35,8 @@ __all__ = [
 
 Container = TypeVar("Container", Message, Enum)
 
-# Scalar types that share a wire encoding (wire-facts §6); string → bytes is checked apart.
+# Scalar types that share a wire encoding (protobuf's encoding guide: int32, uint32, int64,
+# uint64 and bool are one varint); string → bytes is checked apart.
 WIRE_GROUPS = [
     {"int32", "int64", "uint32", "uint64", "bool"},
     {"sint32", "sint64"},

@@ -145,7 +145,7 @@ def assert_all_forms(codec: Codec, payload: Message) -> bytes:
 
 # -- the hard cases ----------------------------------------------------------------------------
 
-# The hard cases of wire-facts section 2: encodings that end in 0x00 (so stripping removes
+# The hard cases of stripping: encodings that end in 0x00 (so stripping removes
 # bytes a naive "parse what came" receiver needs) and encodings that must not be touched.
 # (id, builder, member, exact, stripped)
 Build = Callable[[Codec], Message]

@@ -111,7 +111,7 @@ def test_several_metadata_fields_before_and_after_the_payload(tmp_path: Path) ->
 
 def test_a_message_beside_the_oneof_makes_a_plain_root(tmp_path: Path) -> None:
     """A message with more than single scalars beside its oneof is no envelope: it loads as a
-    plain root (issue 16), sent as itself, with no kinds and no metadata."""
+    plain root, sent as itself, with no kinds and no metadata."""
     tree = write(tmp_path, OTHER.replace("sint32 skew = 21;", "Ping extra = 30;"))
     codec = Codec.from_path(tree, "Env")
     assert isinstance(codec, erc_codec.MessageCodec)

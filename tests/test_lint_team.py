@@ -1,4 +1,4 @@
-"""The team-repository scenarios of issue 18, each a scripted git history: a typo in a subdir,
+"""The team-repository scenarios, each a scripted git history: a typo in a subdir,
 a leftover file whose names collide, a message type renamed with an identical body, two
 same-named messages in one revision, and an OLD that does not compile."""
 

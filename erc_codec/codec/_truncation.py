@@ -1,7 +1,7 @@
 """Telling a stripped datagram from a cut one: which restored zeros a sender could have written.
 
 A stripped datagram lost the zeros at the end of its encoding, and they all belong to the last
-field at every level of nesting (wire-facts.md, sections 2 and 7): the last top-level field, and
+field at every level of nesting (protobuf writes a message's fields in number order): the last top-level field, and
 when that is a submessage, its last field, and so on down. Restoring them is right only when some
 encoder could have written the result, and two results no encoder writes:
 

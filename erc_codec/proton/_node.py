@@ -23,11 +23,11 @@ bundle this node does not consume, is a ``DecodeError`` and changes nothing. The
 its own copies of list values: what ``get`` returns, and a received ``Bundle``'s lists, are the
 caller's to change.
 
-Heartbeats, as the seed describes them: a bundle with id 0 and one uint32 signal. A node producing
+Heartbeats, as the rover's Proton 1.0 design has them: a bundle with id 0 and one uint32 signal. A node producing
 it adds one to its counter (modulo 2**32) each time it sends it; a received heartbeat never
 overwrites the counter of a node that sends heartbeats itself.
 
-Peers (``peer_state``, as ``erc_codec.Liveness``): Proton defines UNCONFIGURED, INACTIVE and ACTIVE
+Peers (``peer_state``, as ``erc_codec.runtime.Liveness``): Proton defines UNCONFIGURED, INACTIVE and ACTIVE
 as a node's lifecycle and sets no timeout; here a peer's state is what this node can tell of it.
 A peer is watched when it produces a periodic bundle this node consumes: its heartbeat's period if
 it sends one, else the shortest ``period_ms`` of those bundles. A watched peer is INACTIVE until it
@@ -35,8 +35,8 @@ is first heard, ACTIVE while any bundle it produces keeps arriving (any bundle p
 only heartbeats), INACTIVE once none came within the timeout. A peer sending this node only
 triggered bundles, or nothing, is UNCONFIGURED: nothing says when to expect it. The timeout is
 three periods unless given (``peer_timeout``): a sender following Proton's node manager sends a
-period apart or more (later by however long its polls come after they are due), so the "within
-the period" of the seed would mark a healthy peer INACTIVE between its heartbeats.
+period apart or more (later by however long its polls come after they are due), so a rule of "within
+the period" would mark a healthy peer INACTIVE between its heartbeats.
 """
 
 import math
@@ -297,7 +297,7 @@ def _own(value: Value) -> Value:
 
 
 def _is_heartbeat(config: Config, bundle: BundleConfig) -> bool:
-    """The seed's heartbeat: bundle id 0 with one uint32 signal."""
+    """The heartbeat: bundle id 0 with one uint32 signal."""
     return (
         bundle.id == _HEARTBEAT
         and len(bundle.signals) == 1
