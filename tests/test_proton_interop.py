@@ -7,11 +7,11 @@ The session builds two real peers once, from the sources beside the repository
   serial framing helpers) with its vendored nanopb, and the registry its own generator
   (``generator_scripts/generator.py``, which needs jinja2 and pyyaml) writes for node ``mcu`` of
   tests/proton/types.yaml, linked with our tests/proton/driver2.c;
-- Proton 1.0 (``1.0-8c898cf``, the rover's first protocol): its C runtime ``protonc`` (``PROTON_Encode``,
-  ``PROTON_Decode``, its framing helpers) with the nanopb sources that nanopb's generator writes
-  from 1.0's own ``proto/`` and ``.options`` (version 0.4.9.1 from the test extra: the version of
-  the nanopb runtime Proton vendors, which both builds use). protonc's own generator is not
-  published: tests/proton/driver1.c builds at run time, from tests/proton/types_1_0.yaml, the
+- Proton 1.0 (``1.0-8c898cf``, the rover's first protocol): its C runtime ``protonc``
+  (``PROTON_Encode``, ``PROTON_Decode``, its framing helpers) with the nanopb sources that nanopb's
+  generator writes from 1.0's own ``proto/`` and ``.options`` (version 0.4.9.1 from the test extra:
+  the version of the nanopb runtime Proton vendors, which both builds use). protonc's own generator
+  is not published: tests/proton/driver1.c builds at run time, from tests/proton/types_1_0.yaml, the
   ``proton_bundle_t`` and ``proton_signal_t`` structures that generator wrote.
 
 For every bundle of those configurations (every signal type: 2.0's nine, 1.0's nine and nine list

@@ -53,7 +53,10 @@ _PROTOCOL = click.option(
     type=click.Choice(["2.0", "1.0"]),
     default="2.0",
     show_default=True,
-    help="Proton's protocol version: 2.0 (signal ids) or 1.0 (the rover's first design, with list types).",
+    help=(
+        "Proton's protocol version: 2.0 (signal ids) or 1.0 (the rover's first design, with "
+        "list types)."
+    ),
 )
 _SCRATCH = click.option(
     "--scratch-buffer-size",

@@ -1,9 +1,9 @@
 """Telling a stripped datagram from a cut one: which restored zeros a sender could have written.
 
-A stripped datagram lost the zeros at the end of its encoding, and they all belong to the last
-field at every level of nesting (protobuf writes a message's fields in number order): the last top-level field, and
-when that is a submessage, its last field, and so on down. Restoring them is right only when some
-encoder could have written the result, and two results no encoder writes:
+A stripped datagram lost the zeros at the end of its encoding, and they all belong to the last field
+at every level of nesting (protobuf writes a message's fields in number order): the last top-level
+field, and when that is a submessage, its last field, and so on down. Restoring them is right only
+when some encoder could have written the result, and two results no encoder writes:
 
 - a field with implicit presence holding its default (0, 0.0, false, the first enum value, an
   empty string or bytes value, an empty packed list): Google's and nanopb's proto3 encoders leave

@@ -23,20 +23,20 @@ bundle this node does not consume, is a ``DecodeError`` and changes nothing. The
 its own copies of list values: what ``get`` returns, and a received ``Bundle``'s lists, are the
 caller's to change.
 
-Heartbeats, as the rover's Proton 1.0 design has them: a bundle with id 0 and one uint32 signal. A node producing
-it adds one to its counter (modulo 2**32) each time it sends it; a received heartbeat never
-overwrites the counter of a node that sends heartbeats itself.
+Heartbeats, as the rover's Proton 1.0 design has them: a bundle with id 0 and one uint32 signal. A
+node producing it adds one to its counter (modulo 2**32) each time it sends it; a received heartbeat
+never overwrites the counter of a node that sends heartbeats itself.
 
-Peers (``peer_state``, as ``erc_codec.runtime.Liveness``): Proton defines UNCONFIGURED, INACTIVE and ACTIVE
-as a node's lifecycle and sets no timeout; here a peer's state is what this node can tell of it.
-A peer is watched when it produces a periodic bundle this node consumes: its heartbeat's period if
-it sends one, else the shortest ``period_ms`` of those bundles. A watched peer is INACTIVE until it
-is first heard, ACTIVE while any bundle it produces keeps arriving (any bundle proves it alive, not
-only heartbeats), INACTIVE once none came within the timeout. A peer sending this node only
-triggered bundles, or nothing, is UNCONFIGURED: nothing says when to expect it. The timeout is
-three periods unless given (``peer_timeout``): a sender following Proton's node manager sends a
-period apart or more (later by however long its polls come after they are due), so a rule of "within
-the period" would mark a healthy peer INACTIVE between its heartbeats.
+Peers (``peer_state``, as ``erc_codec.runtime.Liveness``): Proton defines UNCONFIGURED, INACTIVE and
+ACTIVE as a node's lifecycle and sets no timeout; here a peer's state is what this node can tell of
+it. A peer is watched when it produces a periodic bundle this node consumes: its heartbeat's period
+if it sends one, else the shortest ``period_ms`` of those bundles. A watched peer is INACTIVE until
+it is first heard, ACTIVE while any bundle it produces keeps arriving (any bundle proves it alive,
+not only heartbeats), INACTIVE once none came within the timeout. A peer sending this node only
+triggered bundles, or nothing, is UNCONFIGURED: nothing says when to expect it. The timeout is three
+periods unless given (``peer_timeout``): a sender following Proton's node manager sends a period
+apart or more (later by however long its polls come after they are due), so a rule of "within the
+period" would mark a healthy peer INACTIVE between its heartbeats.
 """
 
 import math
