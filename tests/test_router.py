@@ -286,8 +286,8 @@ def test_only_what_reaches_the_failsafes_destinations_releases_it(codec: Codec) 
 
 
 def test_each_form_is_the_codecs_own_for_every_kind(codec: Codec) -> None:
-    """The router cuts strip and pad from the exact encoding itself (``Router._form``): pinned
-    here to ``encode``'s forms, for each member, empty and with its metadata."""
+    """The router cuts strip and pad from the exact encoding (``in_form``): the same datagrams
+    as ``encode``'s forms, for each member, empty and with its metadata."""
     router = Router(codec, FORMS, [Route(("base", "jetson", "logger"))])
     for kind in codec.kinds().values():
         for metadata in ({}, {"timeout": 300}):

@@ -8,6 +8,16 @@ protobuf's JSON mapping. Nothing here does I/O or keeps time.
 
 from ._codec import Codec, Direction, Member, MessageCodec
 from ._envelope import Decoded, Mode
+from ._forms import in_form
 from ._unknown import UnknownField
 
-__all__ = ["Codec", "Decoded", "Direction", "Member", "MessageCodec", "Mode", "UnknownField"]
+__all__ = [
+    "Codec",
+    "Decoded",
+    "Direction",
+    "Member",
+    "MessageCodec",
+    "Mode",
+    "UnknownField",
+    "in_form",
+]

@@ -62,7 +62,7 @@ from erc_schema import (
 
 from ._contract import Contract, sender
 from ._foreign import Foreign
-from ._forms import Forms, Mode, as_bytes, cut_short, strict_error
+from ._forms import Forms, Mode, as_bytes, cut_short, in_form, strict_error
 from ._truncation import Table, cut_reason, presence_table
 from ._unknown import UnknownField, own_unknown_fields, unknown_fields
 
@@ -307,7 +307,7 @@ class Envelope:
         """``encode`` the plain way: every form, metadata, and the errors in its own words."""
         if metadata:
             exact = self._with_metadata(self.encode(message, "exact"), metadata)
-            return self._forms.in_form(exact, mode)
+            return in_form(exact, mode, self._max_size)
         member = self._members.get(type(message))
         if member is None:
             return self._encode_other(message, mode)
@@ -326,11 +326,7 @@ class Envelope:
             header = headers[len(body)]
         except IndexError:
             raise self._too_long(message, headers, body) from None
-        if mode == "strip":  # a body is empty or ends in a field, never in its tag
-            return header + body.rstrip(b"\0") if body else header.rstrip(b"\0")
-        if mode == "exact":
-            return header + body
-        return self._forms.in_form(header + body, mode)
+        return in_form(header + body, mode, self._max_size)
 
     def reencode(self, decoded: Decoded, mode: Mode = "strip") -> bytes:
         """The datagram ``decoded`` (what ``decode`` returned) came from, in ``mode``: its
@@ -377,7 +373,7 @@ class Envelope:
         body = message.SerializePartialToString()  # required fields: the check's, as nanopb's
         if len(body) >= len(headers):
             raise self._too_long(message, headers, body)
-        return self._forms.in_form(headers[len(body)] + body, mode)
+        return in_form(headers[len(body)] + body, mode, self._max_size)
 
     def _encode_envelope(self, message: Message, mode: Mode) -> bytes:
         """A whole envelope (of this schema's class or an equal one), checked and in ``mode``."""
@@ -392,7 +388,7 @@ class Envelope:
         data = message.SerializePartialToString()  # required fields: the check's, as nanopb's
         if len(data) > self._max_size:
             raise self._too_long(message, [b""], data)
-        datagram = self._forms.in_form(data, mode)
+        datagram = in_form(data, mode, self._max_size)
         # An envelope parsed from bytes keeps the fields this schema does not know, and some
         # (a group at the top level) are what decode refuses: never send those.
         try:

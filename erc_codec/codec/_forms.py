@@ -3,7 +3,8 @@ of its trailing zeros, and padded with zeros to the root's nanopb maximum size. 
 (an envelope root) and ``_plain`` (any other root) each keep only what is theirs.
 
 What this module guarantees, for a root of maximum size ``max_size``:
-- ``Forms.in_form`` puts an exact encoding in a form; ``Forms.oversize`` is the error for an
+- ``in_form`` puts an exact encoding in a form, the one cut every sender uses (the codecs, the
+  router); ``Forms.oversize`` is the error for an
   encoding longer than ``max_size``, which a fixed-size receiver drops.
 - ``Forms.restore`` gives back the exact encoding of a datagram sent in any form. A stripped form
   lost only zeros of the value of its last top-level field, so one walk over the top-level fields
@@ -39,7 +40,7 @@ from erc_schema import (
 from ._truncation import Table, cut_reason, presence_table
 from ._unknown import UnknownField, unknown_fields
 
-__all__ = ["Forms", "Mode", "as_bytes", "cut_short", "strict_error"]
+__all__ = ["Forms", "Mode", "as_bytes", "cut_short", "in_form", "strict_error"]
 
 Mode = Literal["strip", "exact", "pad"]
 
@@ -71,16 +72,6 @@ class Forms:
         self._inside = inside
         self._from_string = cls.FromString
         self._table = presence_table(descriptor, tables)
-
-    def in_form(self, data: bytes, mode: Mode) -> bytes:
-        """The exact encoding ``data`` in transmission form ``mode``."""
-        if mode == "strip":
-            return data.rstrip(b"\0")
-        if mode == "exact":
-            return data
-        if mode == "pad":
-            return data + bytes(self.max_size - len(data))
-        raise EncodeError(f"unknown mode {mode!r}: use 'strip', 'exact' or 'pad'")
 
     def oversize(self, name: str, length: int) -> EncodeError:
         """The error for a datagram of ``length`` bytes, carrying message ``name``, that does not
@@ -158,6 +149,19 @@ class Forms:
         with its restored bytes must not raise where the parse did not."""
         canonical = message.SerializePartialToString() == exact
         return cut_reason(self._table, exact, message, boundary, canonical, inside=self._inside)
+
+
+def in_form(exact: bytes, mode: Mode, max_size: int) -> bytes:
+    """The exact encoding ``exact`` in transmission form ``mode``: as it is, stripped of its
+    trailing zeros (every one of them belongs to the last field, so nothing else is lost), or
+    padded with zeros to ``max_size`` bytes."""
+    if mode == "strip":
+        return exact.rstrip(b"\0")
+    if mode == "exact":
+        return exact
+    if mode == "pad":
+        return exact + bytes(max_size - len(exact))
+    raise EncodeError(f"unknown mode {mode!r}: use 'strip', 'exact' or 'pad'")
 
 
 def strict_error(

@@ -29,7 +29,7 @@ from erc_schema import EncodeError, SchemaError, UnreadableKind, descriptor_of
 from ._contract import Contract
 from ._envelope import Decoded, Unsendable
 from ._foreign import Foreign
-from ._forms import Forms, Mode, as_bytes, strict_error
+from ._forms import Forms, Mode, as_bytes, in_form, strict_error
 
 __all__ = ["Plain"]
 
@@ -102,7 +102,7 @@ class Plain:
         data = message.SerializePartialToString()  # unset required fields: the check's to name
         if len(data) > self._forms.max_size:
             raise self._forms.oversize(self._name, len(data))
-        return self._forms.in_form(data, mode)
+        return in_form(data, mode, self._forms.max_size)
 
     def peek(self, data: bytes) -> tuple[str, bytes] | None:
         """The kind and exact bytes of a datagram in exact, stripped or padded form; ``None``
