@@ -103,7 +103,7 @@ def load_tree(
     if not rewritten:
         _compile(tree, root, names, includes, read)
         return tree
-    import tempfile  # only for a respelled import: bench_lint's trees need none (some 3 ms)
+    import tempfile  # only for a respelled import: a tree without one never loads it
 
     with tempfile.TemporaryDirectory(prefix="erc-lint-") as scratch:
         staged = Path(scratch)

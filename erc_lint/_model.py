@@ -113,8 +113,7 @@ class Field(NamedTuple):
 
 class EnumValue:
     # Plain classes, this and Method, as Message and Enum are: nothing reads one as a tuple, and
-    # making a NamedTuple class costs some 0.15 ms of every run's start-up (bench_lint's 30-file
-    # ratio to buf, target <= 1.0x).
+    # a NamedTuple class is slow to build at import.
     __slots__ = ("at", "name", "number", "owner", "source")
 
     kind = "enum value"
@@ -494,7 +493,7 @@ class Revision:
     def max_size(self, root: str) -> int | None:
         """nanopb's ``<root>_size`` in this revision; ``None`` where nanopb has none (an
         unbounded field on the way) or the tree has no such message. Computed once per root:
-        each computation builds a Schema (some 35 ms on bench_lint's tree)."""
+        each computation builds a Schema."""
         if root in self._sizes:
             return self._sizes[root]
         files = self._root_files(root)
@@ -503,8 +502,8 @@ class Revision:
             try:
                 schema = Schema(self.root, root, tuple(files.values()), self.tree.includes)
                 # The tree's options, resolved once for the rules, are the root files' too (when
-                # no name is declared twice): bench_lint's proto2+editions ratio to buf (<= 1.0x)
-                # spares two resolutions; test_lint_model holds the sizes to Sizes' own.
+                # no name is declared twice): Sizes does not resolve them again. test_lint_model
+                # holds the sizes to Sizes' own.
                 sizes = Sizes(
                     schema,
                     self._options_file,
@@ -527,8 +526,8 @@ class Revision:
     def refusal(self, root: str) -> str | None:
         """Why nanopb's generator writes no code for message ``root``, if it refuses its file
         (a proto2 group in it, or in a file it imports): ``nanopb's generator refuses a.proto:
-        A.g is a proto2 group, ...``. Sized only where a file ``root`` needs holds a group
-        (bench_lint's 30-file ratio: sizing a root costs some 35 ms)."""
+        A.g is a proto2 group, ...``. Sized only where a file ``root`` needs holds a group:
+        sizing a root builds a Schema."""
         files = self._root_files(root).values()
         if not any(self._has_group(file) for file in files):
             return None
@@ -574,9 +573,9 @@ class Revision:
 
     def same_size_inputs(self, other: "Revision", root: str) -> bool:
         """Whether ``root``'s size inputs (``size_inputs``) are the same in both revisions,
-        compared one by one until one differs: bench_lint's proto2+editions pair (its ratio to
-        buf, <= 1.0x) differs in a file holding a group, found before any type is serialized.
-        test_same_size_inputs_is_the_plain_comparison holds it to comparing them all."""
+        compared one by one until one differs: a differing file that holds a group is found
+        before any type is serialized. test_same_size_inputs_is_the_plain_comparison holds it to
+        comparing them all."""
         pairs = zip_longest(self.size_inputs(root), other.size_inputs(root))
         same = all(mine == theirs for mine, theirs in pairs)
         if not same:  # what went uncompared is read all the same, as comparing it all reads it
@@ -818,9 +817,8 @@ def _field(
             encoding = _GROUP
         else:
             encoding = _DELIMITED if features.delimited and not plain else _LENGTH_PREFIXED
-    # tuple.__new__ rather than Field(...), whose __new__ is a Python function of 14 parameters:
-    # some 0.4 ms of each run's 1,000 fields (bench_lint's 30-file ratio to buf, <= 1.0x);
-    # test_lint_model holds the fields made so to those Field(...) makes.
+    # tuple.__new__ rather than Field(...), whose __new__ is a Python function of 14 parameters
+    # called for every field. test_lint_model holds the fields made so to those Field(...) makes.
     return _new_field(
         Field,
         (

@@ -48,9 +48,9 @@ WIRE_GROUPS = [
 class Paired(Generic[Container]):
     """A message or enum of OLD and the same one in NEW (by full name, or renamed)."""
 
-    # A plain class, which equals, hashes and reads only as a frozen dataclass would: importing
-    # dataclasses and making one cost about 2 ms of every run (bench_lint's 30-file ratio to
-    # buf, target <= 1.0x). Not a NamedTuple: Python 3.10 cannot make a NamedTuple generic.
+    # A plain class, which equals, hashes and reads only as a frozen dataclass would: a dataclass
+    # costs an import and a slow class build at start-up. Not a NamedTuple: Python 3.10 cannot
+    # make a NamedTuple generic.
     __slots__ = ("new", "old")
     old: Container
     new: Container
@@ -83,8 +83,7 @@ class FieldPair:
     extensions of the same message, for an extension)."""
 
     # Plain classes, the three pairs: a rule reads a pair's members, never the pair as a tuple,
-    # and making a NamedTuple class costs some 0.15 ms of every run's start-up (bench_lint's
-    # 30-file ratio to buf, target <= 1.0x).
+    # and a NamedTuple class is slow to build at import.
     __slots__ = ("by_name", "by_number", "new_owner", "old", "old_owner")
 
     def __init__(
@@ -216,9 +215,9 @@ class Change:
     @functools.cached_property
     def compares_nanopb(self) -> bool:
         """Whether either revision sets any nanopb option: without any, every field has nanopb's
-        defaults on both sides and no nanopb option can have changed. (bench_lint's 30-file
-        ratios: resolving options compiles nanopb's vocabulary, some 20 ms;
-        test_a_tree_without_nanopb_options_resolves_to_defaults holds the shortcut.)"""
+        defaults on both sides and no nanopb option can have changed. The shortcut spares
+        resolving options, which compiles nanopb's vocabulary.
+        test_a_tree_without_nanopb_options_resolves_to_defaults holds it."""
         return self.old.has_nanopb_options() or self.new.has_nanopb_options()
 
     @functools.cached_property

@@ -23,8 +23,7 @@ _DOCUMENTS = ("sarif", "junit", "gitlab")
 def render(findings: Iterable[Finding], output: str) -> str:
     """The findings in ``output`` format: one line each, or one document."""
     if output in _DOCUMENTS:
-        # Only these formats pay for json, hashlib and the rules' docs (bench_lint's 30-file
-        # ratio runs the text format, where start-up is most of a run).
+        # Imported on first use: only these formats load json, hashlib and the rules' docs.
         from ._documents import gitlab, junit, sarif
 
         return {"sarif": sarif, "junit": junit, "gitlab": gitlab}[output](list(findings))

@@ -116,8 +116,7 @@ def find_ledger(tree: TreeSource, path: str | Path | None = None) -> "Ledger | N
     beside = tree.folder / LEDGER
     if path is None and not file_exists(beside):  # a FIFO there is refused by the reader
         return None
-    # Only a run with a ledger pays for its import: for bench_lint's 30-file ratio, as the
-    # module's dataclasses cost about 9 ms of start-up.
+    # Imported on first use: a run that needs no ledger never loads it.
     from ._ledger import Ledger
 
     if path is not None:

@@ -51,8 +51,7 @@ class Declaration:
     """A message or enum declared in a file."""
 
     # Plain classes, this, Extension and Service: read by their attributes only, never as
-    # tuples, and a NamedTuple class costs some 0.15 ms to make in every erc-lint start-up
-    # (bench_lint's 30-file ratio to buf, target <= 1.0x).
+    # tuples, and a NamedTuple class is slow to build at import.
     __slots__ = ("is_message", "name", "parent", "path", "proto", "scope")
 
     def __init__(

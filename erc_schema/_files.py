@@ -10,8 +10,8 @@ Guarantees:
 - ``proto_files`` lists a folder's ``*.proto`` files without entering a symlinked folder: no
   folder outside the tree is walked, and a symlink cycle is never followed, on every Python.
 
-The limits: ``SOURCE_LIMIT`` (16 MiB) for a ``.proto`` or ``.options`` file; erc-lint sets its own
-for its configuration and ledger. The largest file of the rover's tree is some 4 KiB.
+The limits: ``SOURCE_LIMIT`` (16 MiB) for a ``.proto`` or ``.options`` file; a caller passes its
+own for any other file. The largest file of the rover's tree is some 4 KiB.
 """
 
 import os

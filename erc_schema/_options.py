@@ -74,8 +74,8 @@ class ResolvedOptions:
         self.extensions: dict[str, Options] = {}
 
 
-# nanopb.proto compiled, as ``compile_vocabulary`` compiles it, shipped beside it: no run compiles
-# it again (one protoc run, 2-4 ms of bench_lint's proto2+editions ratio to buf, target <= 1.0x).
+# nanopb.proto compiled, as ``compile_vocabulary`` compiles it, shipped beside it: no process
+# spends a protoc run compiling it again.
 # test_shipped_vocabulary_is_protocs holds it to what protoc makes of the shipped nanopb.proto.
 VOCABULARY = Path(FALLBACK_INCLUDE) / "nanopb.pb"
 
@@ -148,10 +148,8 @@ def resolve_options(
             name = declaration.name
             # Where the file has no options lines and an element no annotation, it has its
             # parent's options: taken as they are, with no _merge call, and without working out
-            # its nanopb name (only options lines are matched against it). Nearly every element
-            # of bench_lint's proto2+editions pair (its ratio to buf, target <= 1.0x); the sizes
-            # are held to nanopb's generator's by test_generator_inputs, test_sizes and
-            # test_nanopb_rules.
+            # its nanopb name (only options lines are matched against it). The sizes are held
+            # to nanopb's generator's by test_generator_inputs, test_sizes and test_nanopb_rules.
             annotated = message.HasField("options")
             seen = nanopb_name(proto.package, base, name) if rules else name
             if not isinstance(message, descriptor_pb2.DescriptorProto):
@@ -283,9 +281,8 @@ def _annotations(data: bytes) -> Iterator[Options]:
 def _read_rules(path: Path | None) -> Rules:
     if path is None:  # a FIFO or a device counts as found: read_text refuses it
         return []
-    # Imported only when there is a file to read: text_format costs every erc-lint run some
-    # milliseconds of start-up, and the rover's tree has no .options file (the erc-lint/buf
-    # ratio of benchmarks/bench_lint.py, <= 1.0, counts that start-up).
+    # Imported only when there is a file to read: text_format is slow to import, and a tree
+    # without a .options file never needs it.
     from google.protobuf import text_format
 
     rules: Rules = []

@@ -40,7 +40,7 @@ if TYPE_CHECKING:
 
 try:
     # protoc's own entry point, which grpc_tools.protoc.main calls with the arguments encoded;
-    # that module also imports importlib.resources, some 4 ms of every erc-lint run.
+    # called directly, so importing this module does not import importlib.resources too.
     from grpc_tools._protoc_compiler import run_main as _run_main
 except ImportError:  # pragma: no cover - a grpcio-tools that moved it: its public wrapper
     from grpc_tools import protoc as _wrapper
@@ -157,10 +157,9 @@ class _Scratch:
     """The scratch files of one compilation, each an open descriptor and a name protoc opens it
     by; every descriptor is closed, and the folder (if any) removed, when the block ends.
 
-    In memory where the system allows it (``_memory_files``): no folder made and removed on
-    disk, about 4 ms of each compilation on an ext4 /tmp, two of them in every ``erc-lint OLD
-    NEW`` (bench_lint.py's 30-file ratio to buf, target <= 1.00x). Else in a temporary folder;
-    the tests compile the same trees both ways and compare the results byte for byte."""
+    In memory where the system allows it (``_memory_files``): no folder is made and removed on
+    disk for each compilation. Else in a temporary folder; the tests compile the same trees both
+    ways and compare the results byte for byte."""
 
     def __init__(self) -> None:
         self.in_memory = _memory_files()
@@ -184,8 +183,8 @@ class _Scratch:
             path = _memory_path(descriptor)
         else:
             if self.folder is None:
-                # Imported here: with memory files, a lint run never needs tempfile (nor the
-                # shutil, random, bz2 and lzma it imports, some 3 ms of bench_lint's ratio).
+                # Imported here: with memory files, a compilation never needs tempfile (nor
+                # the shutil, random, bz2 and lzma it imports).
                 import tempfile
 
                 self.folder = tempfile.TemporaryDirectory(prefix="erc-codec-")

@@ -52,8 +52,8 @@ class Schema:
         self.tree = tree
         self.include = tuple(include)
         self.shown = tree if shown is None else shown  # where messages say the files are
-        # a caller holding the files (erc-lint's revision model) spares copying them into a set:
-        # bench_lint's proto2+editions ratio to buf (<= 1.0x)
+        # A sequence of files is taken as it is: a caller holding them need not copy them into a
+        # FileDescriptorSet.
         if isinstance(files, descriptor_pb2.FileDescriptorSet):
             files = files.file
         self.files = tuple(files)

@@ -17,8 +17,7 @@ _GAP = rf"(?:[ \t\n\r\v\f]|{_COMMENT})"
 # One pass over a file: comments and strings whole, and each import statement with its file name
 # (its first literal, then any adjacent ones). The keyword is spelled ``i(?<!\wi)mport\b``, which
 # is ``\bimport\b``: then every alternative starts with a character (/, ", ', i), and re skips
-# ahead to the next of them instead of trying each alternative at every position, some 1 ms of
-# each erc-lint run's 60 files (bench_lint's 30-file ratio to buf, target <= 1.0x);
+# ahead to the next of them instead of trying each alternative at every position.
 # test_lint_loader holds the two spellings to the same matches.
 _IMPORTS = re.compile(
     rf"{_COMMENT}|{_STRING}|i(?<!\wi)mport\b(?:{_GAP}*(?:public|weak)\b)?"
@@ -26,15 +25,13 @@ _IMPORTS = re.compile(
     re.DOTALL,
 )
 # Comments and strings whole, and each declaration of a message, enum or group with its name.
-# Asked only of files that do not compile: compiled on first use (re caches it), not in every
-# run's start-up (bench_lint's 30-file ratio to buf, target <= 1.0x).
+# Asked only of files that do not compile: compiled on first use (re caches it), not at import.
 _DECLARATIONS = (
     rf"(?s){_COMMENT}|{_STRING}|\b(?:message|enum)\b{_GAP}+([A-Za-z_]\w*)"
     rf"|\bgroup\b{_GAP}+([A-Za-z_]\w*){_GAP}*="
 )
 # Comments and strings whole, and the package statement with its name. Asked only when sizing a
-# root: compiled on first use (re caches it), not in every run's start-up (some 0.3 ms of
-# bench_lint's 30-file ratio to buf, target <= 1.0x).
+# root: compiled on first use (re caches it), not at import.
 _PACKAGE = rf"(?s){_COMMENT}|{_STRING}|\bpackage\b{_GAP}+([A-Za-z_][\w.]*){_GAP}*;"
 # The literals of a run of them (and the comments between them, to skip), and the escapes
 # protoc's tokenizer reads inside one. Rarely needed: compiled on first use (re caches them).

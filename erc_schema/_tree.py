@@ -84,7 +84,7 @@ def open_tree(text: str, extra: Mapping[str, int] | None = None) -> Iterator[Tre
     if isinstance(spec, Path):
         yield TreeSource(spec, spec)
         return
-    import tempfile  # only for a git revision: a folder's lint run does without (some 3 ms)
+    import tempfile  # only for a git revision: opening a folder never loads it
 
     with Repository(spec.folder) as repository:
         try:

@@ -1,11 +1,12 @@
 """The ``erc-lint`` command as a process: ``main`` (the click group), then the process left with
 ``os._exit`` once standard output and standard error are flushed.
 
-A speed trick for bench_lint.py's 30-file ratios to buf (target <= 1.0x on each pair): freeing
-every module, class and descriptor one by one at interpreter shutdown takes 15 to 18 ms of a
-110 to 170 ms run. Nothing a command does is left to shutdown: every file it writes (a baseline,
-the ledger) is written and closed before it returns, and scratch folders are removed by the
-blocks that made them; nothing registers an ``atexit`` handler or starts a thread.
+A speed trick: freeing every module, class and descriptor one by one at interpreter shutdown
+takes 15 to 18 ms of a 110 to 170 ms run. Its target is erc-lint's wall time against ``buf
+breaking``, benchmarks/bench_lint.py: at most 1.0x on each pair. Nothing a command does is left
+to shutdown: every file it writes (a baseline, the ledger) is written and closed before it
+returns, and scratch folders are removed by the blocks that made them; nothing registers an
+``atexit`` handler or starts a thread.
 ``test_the_quick_exit_gives_what_the_plain_exit_gives`` runs commands both ways (``main``, the
 plain console script, and ``run``) and compares their output, files and statuses.
 """

@@ -15,8 +15,8 @@ __all__ = ["main"]
 _OPTIONS = ("-h", "--help", "--version")
 
 
-# Commands loaded on first use: linting does not pay for the history walker's imports, nor for
-# making the rules commands (some 0.2 ms of bench_lint's 30-file ratio to buf, target <= 1.0x).
+# Commands loaded on first use: linting never loads the history walker's imports, nor builds
+# the rules commands.
 _LATER = ("ledger", "rules", "explain")
 
 

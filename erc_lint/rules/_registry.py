@@ -81,10 +81,9 @@ _WIRE = ("WIRE", "WIRE_JSON")
 class Located(Protocol):
     """An element of a revision (a field, a message): a report may be located at it rather than
     at its ``Location``, which is then read only where the report becomes a finding. A tree
-    rule's reports on OLD are keys and nothing else: on bench_lint's proto2+editions pair (its
-    ratio to buf, <= 1.0x), locating EMBEDDED_UNBOUNDED's eight groups in OLD indexed eight
-    files' source info for nothing. test_a_report_at_an_element_is_found_at_its_location holds
-    it to the report at the element's location."""
+    rule's reports on OLD are keys and nothing else: locating them would index their files'
+    source info for nothing. test_a_report_at_an_element_is_found_at_its_location holds it to
+    the report at the element's location."""
 
     @property
     def location(self) -> Location: ...
@@ -93,8 +92,8 @@ class Located(Protocol):
 class Report:
     """What a rule says about the pair it was handed."""
 
-    # Plain classes, this and Found: nothing reads one as a tuple, and making a NamedTuple class
-    # costs some 0.2 ms of every run's start-up (bench_lint's 30-file ratio to buf, <= 1.0x).
+    # Plain classes, this and Found: nothing reads one as a tuple, and a NamedTuple class is slow
+    # to build at import.
     __slots__ = ("container", "fix", "in_old", "key", "like", "location", "message")
 
     def __init__(

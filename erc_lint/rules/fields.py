@@ -359,8 +359,8 @@ def default_changed(pair: FieldPair, change: Change) -> Reports:
     if taken is None or taken.cardinality == "repeated" or old.cardinality == "repeated":
         return
     if old.default is None and taken.default is None and old.kind == "scalar":
-        # bench_lint's 1,000-file tree: types that read each other's bytes have equal zero
-        # values (0, false, ""); test_implicit_defaults_of_compatible_types_agree holds it.
+        # Types that read each other's bytes have equal zero values (0, false, "").
+        # test_implicit_defaults_of_compatible_types_agree holds it.
         return
     if taken.kind == "message" or not change.compatible(old, taken):
         return

@@ -349,9 +349,8 @@ Limit = tuple[int, int, str]
 
 
 _Changes = list[tuple[str, Limit, Limit]]
-# bench_lint's proto2+editions ratio: both limit rules ask for every field pair, and computing
-# the limits once per pair spares a third of their time; test_limit_changes_once_per_pair
-# holds the memo to the plain computation.
+# Both limit rules ask for every field pair: the limits are computed once per pair, not twice.
+# test_limit_changes_once_per_pair holds the memo to the plain computation.
 _MEMO: "weakref.WeakKeyDictionary[Change, dict[int, _Changes]]" = weakref.WeakKeyDictionary()
 
 
@@ -472,10 +471,9 @@ def _layout(field: Field, options: Options) -> dict[str, str]:
 def _alike(old: Field, new: Field, old_options: Options, new_options: Options) -> bool:
     """Whether a field has the same type, cardinality and nanopb options in both revisions: then
     nanopb encodes, stores and limits it alike (but an enum's ``enum_intsize``, its enum's), and
-    neither the limit rules nor the layout rule need look further. The shortcut serves
-    bench_lint's proto2+editions ratio to buf (target <= 1.0x), where an options file makes every
-    field pair of 30 files compared; test_nanopb_shortcut_agrees_with_the_plain_rules holds it to
-    the rules without it."""
+    neither the limit rules nor the layout rule need look further. The shortcut matters where an
+    options file makes every field pair compared. test_nanopb_shortcut_agrees_with_the_plain_rules
+    holds it to the rules without it."""
     return (
         old.type == new.type and old.cardinality == new.cardinality and old_options == new_options
     )
@@ -483,7 +481,7 @@ def _alike(old: Field, new: Field, old_options: Options, new_options: Options) -
 
 def _options(revision: Revision, field: Field) -> Options:
     """nanopb's options for ``field``; its defaults where the tree sets none (resolving them
-    compiles nanopb's vocabulary: bench_lint's 30-file ratio)."""
+    compiles nanopb's vocabulary, which a tree without options never needs)."""
     return revision.field_options(field) if revision.has_nanopb_options() else _defaults()
 
 
