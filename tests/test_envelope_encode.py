@@ -55,6 +55,19 @@ def test_default_mode_is_strip(codec: Codec) -> None:
     assert codec.encode(payload) == codec.encode(payload, "strip") == h("22")
 
 
+def test_mode_as_a_keyword_is_the_mode_as_in_0_1_0(codec: Codec) -> None:
+    """``encode(message, mode="exact")`` was 0.1.0's spelling; no packaged metadata field is
+    named ``mode``, so it is the mode still, beside metadata too."""
+    go = codec.message_class("drive_motor")(distance_to_go=1.5)
+    for mode in ("exact", "strip", "pad"):
+        assert codec.encode(go, mode=mode) == codec.encode(go, mode)
+        assert erc_codec.encode(go, mode=mode) == codec.encode(go, mode)
+        timed = codec.encode(go, mode=mode, timeout=300)
+        assert timed == codec.encode(go, mode, timeout=300)
+    with pytest.raises(EncodeError, match="has no metadata field 'modes'"):
+        codec.encode(go, modes="exact")
+
+
 def test_a_whole_envelope_encodes_like_its_payload(codec: Codec) -> None:
     payload = new(codec, "BasestationObjectSelection", frame_id=300, index=2, class_id=0)
     envelope = new(codec, "PBEnvelope", object_selection=payload)

@@ -39,7 +39,7 @@ datagram without metadata (the usual one) decodes exactly as before.
 
 from collections.abc import Callable, Mapping, Sequence
 from types import MappingProxyType
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, cast
 
 from google.protobuf.descriptor import Descriptor, FieldDescriptor, OneofDescriptor
 from google.protobuf.message import DecodeError as ProtobufDecodeError
@@ -293,7 +293,10 @@ class Envelope:
 
     def encode(self, message: Message, mode: Mode = "strip", /, **metadata: object) -> bytes:
         """The datagram carrying ``message`` (a payload, or a whole envelope) in ``mode``, with
-        the envelope metadata fields named (``timeout=300``) set to their values."""
+        the envelope metadata fields named (``timeout=300``) set to their values. ``mode=`` as
+        a keyword is the mode, as in 0.1.0, unless the envelope has a metadata field so named."""
+        if metadata and "mode" in metadata and "mode" not in self._metadata:
+            mode = cast(Mode, metadata.pop("mode"))
         if mode == "strip" and not metadata:
             # The usual call in one compiled function per payload class (bench_codec's encode
             # target; tests/test_contract.py holds it to the plain path below).

@@ -20,6 +20,7 @@ checks, which it shares with ``_envelope``):
 """
 
 from collections.abc import Callable
+from typing import cast
 
 from google.protobuf.descriptor import Descriptor
 from google.protobuf.message import Message
@@ -77,7 +78,9 @@ class Plain:
 
     def encode(self, message: Message, mode: Mode = "strip", /, **metadata: object) -> bytes:
         """The datagram carrying ``message`` (an instance of the root message) in ``mode``; a
-        plain root has no envelope, so no metadata to set."""
+        plain root has no envelope, so no metadata to set (``mode=`` as a keyword is the mode)."""
+        if "mode" in metadata:
+            mode = cast(Mode, metadata.pop("mode"))
         if not isinstance(message, Message):
             raise TypeError(
                 f"encode takes a protobuf message (a {self._name}), not {type(message).__name__}"
