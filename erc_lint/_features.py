@@ -13,7 +13,7 @@ Guarantees:
   features as protoc infers them: ``required`` is ``LEGACY_REQUIRED``, a ``group`` is
   ``DELIMITED``, ``[packed = ...]`` is ``PACKED`` or ``EXPANDED``.
 
-tests/test_lint_model.py holds the resolution to the protobuf runtime's on a tree of every
+tests/lint/test_lint_model.py holds the resolution to the protobuf runtime's on a tree of every
 construct (its descriptor pool's ``is_required``, the ``TYPE_GROUP`` of a delimited field,
 ``is_closed``; its parser's UTF-8 checks), and holds the features' targets to those above.
 """

@@ -83,9 +83,10 @@ _DELIMITED = (
     "length-prefixed message field (nanopb's generated code stays the same)"
 )
 # What erc-codec and protobuf's json_format ask a message instance for: a field of one of these
-# names is what the instance's attribute gives in upb (its value, not the method), so they break
-# on it. Other public names (Clear, Extensions, ByteSize, SerializeToString: erc-codec calls the
-# class's) a field may take: tests/test_any_schema.py sends and reads such fields in every form.
+# names is what the instance's attribute gives in upb (its value, not the method), so they break on
+# it. Other public names (Clear, Extensions, ByteSize, SerializeToString: erc-codec calls the
+# class's) a field may take: tests/codec/test_any_schema.py sends and reads such fields in every
+# form.
 _MESSAGE_ATTRIBUTES = frozenset(
     (
         *("ClearField", "CopyFrom", "DESCRIPTOR", "HasField", "ListFields", "MergeFrom"),

@@ -26,6 +26,7 @@ elif os.environ.get("CI") or os.environ.get("ERC_REQUIRE_INTEROP"):
 
 REPO = Path(__file__).resolve().parent.parent
 PROTO = REPO / "proto"
+TESTS = REPO / "tests"  # the support modules and the trees the test modules read
 
 
 @pytest.fixture(scope="session")

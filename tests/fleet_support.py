@@ -194,7 +194,8 @@ def cargo_build(codec: Codec, build: Path) -> Path:
 
 def nanopb_missing() -> tuple[str, Path | None]:
     """What the board's build lacks (empty if nothing), and nanopb's generator matching the
-    installed headers (Debian's ``nanopb`` with ``libnanopb-dev``, as tests/test_interop.py)."""
+    installed headers (Debian's ``nanopb`` with ``libnanopb-dev``, as
+    tests/interop/test_interop.py)."""
     import re
 
     if shutil.which("gcc") is None:

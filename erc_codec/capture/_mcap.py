@@ -166,8 +166,8 @@ class McapWriter:
             self.unkept(field.number for field in decoded.envelope_unknown_fields)
         kind, message = decoded.kind, decoded.message
         # The message's class's serializer, kept: looking it up on each instance costs upb about
-        # half a small message's serialization (benchmarks/bench_record.py: a capture to MCAP
-        # >= 0.7x the bare libraries); tests/test_mcap.py (every kind in every form) holds the
+        # half a small message's serialization (benchmarks/bench_record.py: a capture to MCAP >=
+        # 0.7x the bare libraries); tests/capture/test_mcap.py (every kind in every form) holds the
         # bytes written equal to the payload's own SerializeToString.
         cls = type(message)
         serialize = self._serializers.get(cls)

@@ -30,10 +30,10 @@ def git_revision(tree: Path) -> str:
     is uncommitted; ``""`` outside a git work tree, before its first commit, or without git."""
     import subprocess  # here: erc-lint imports erc_codec and its start-up is measured
 
-    # One git for both (``# branch.oid``, then a line for each change under the tree), not
-    # rev-parse and status: every MCAP file starts by asking, and a git's start is some 15 ms of
-    # benchmarks/bench_record.py's capture to MCAP (>= 0.7x the bare libraries, whose files
-    # carry no origin); tests/test_mcap.py holds the revision to rev-parse's, dirty as status.
+    # One git for both (``# branch.oid``, then a line for each change under the tree), not rev-parse
+    # and status: every MCAP file starts by asking, and a git's start is some 15 ms of
+    # benchmarks/bench_record.py's capture to MCAP (>= 0.7x the bare libraries, whose files carry no
+    # origin); tests/capture/test_mcap.py holds the revision to rev-parse's, dirty as status.
     try:
         status = subprocess.run(
             ["git", "-C", str(tree), "status", "--porcelain=v2", "--branch", "--", "."],

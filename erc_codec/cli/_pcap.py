@@ -44,7 +44,7 @@ _END_OF_OPTIONS, _IF_TSRESOL, _IF_TSOFFSET = 0, 9, 14
 # of a flood of senders starts over when it is full.
 _KNOWN_ENDPOINTS = 4096
 # A CapturedDatagram built without NamedTuple's Python-level __new__ (bench_record, as above);
-# tests/test_cli_codec.py reads every field back from the datagrams of a capture.
+# tests/cli/test_cli_codec.py reads every field back from the datagrams of a capture.
 _datagram = tuple.__new__
 
 
@@ -75,7 +75,7 @@ class _Watched:
         data = self._file.read(size)
         # A whole read after a whole read changes nothing, so only the others set the flags:
         # two reads a packet (benchmarks/bench_record.py: a capture to MCAP >= 0.7x the bare
-        # libraries); tests/test_cli_codec.py cuts a capture at every byte.
+        # libraries); tests/cli/test_cli_codec.py cuts a capture at every byte.
         if self.short or size < 0 or len(data) < size:
             self.cut = self.cut or self.short or size < 0 or 0 < len(data) < size
             self.short = len(data) < size

@@ -194,9 +194,8 @@ class Codec(Envelope):
         return tuple(members)
 
     # -- protobuf's JSON mapping -----------------------------------------------------------------
-    # Each method imports ``_json`` (and with it json and json_format) when first called: erc-lint
-    # imports erc_codec at start-up, which bench_lint.py times and tests/test_lint_cli.py keeps
-    # free of json; after the first call the import is a dict look-up.
+    # Each method imports ``_json`` (and with it json and json_format) when first called: encoding
+    # and decoding never need them; after the first call the import is a dict look-up.
 
     def to_dict(self, message: Message) -> dict[str, Any]:
         """``message`` (of any type) in protobuf's JSON mapping, as ``erc-codec decode`` prints

@@ -40,8 +40,8 @@ serialize, check (the exact check's lines inline, or screen then check), prepend
 tag-and-length header and strip the trailing zeros.
 
 The tricks serve one target, the encode ratio of ``benchmarks/bench_codec.py`` (wrap, check and
-serialize in at most twice the bare serialization); ``tests/test_contract.py`` holds the compiled
-check to a plain recursive reading of the same rules, the screen to never missing what that
+serialize in at most twice the bare serialization); ``tests/codec/test_contract.py`` holds the
+compiled check to a plain recursive reading of the same rules, the screen to never missing what that
 plain check refuses, and the sender to the plain encode path.
 """
 
@@ -179,7 +179,7 @@ def sender(
         namespace.update(screen=rules.screen, check=rules.check)
         lines.append(" if screen(body): check(m)")
     # in_form(datagram, "strip", ...) written inline: the one call a payload's encode makes
-    # (bench_codec's encode target), held to the plain path by tests/test_contract.py.
+    # (bench_codec's encode target), held to the plain path by tests/codec/test_contract.py.
     lines.append(' return (headers[len(body)] + body).rstrip(b"\\0")')
     exec("\n".join(lines), namespace)  # our own generated code
     return namespace["send"]  # type: ignore[no-any-return]

@@ -148,7 +148,7 @@ class Decoded(_Payload):
 
 
 # Builds a Decoded without NamedTuple's Python-level __new__, for the decode target of
-# benchmarks/bench_codec.py (decode <= 1.25x the bare runtime); tests/test_codec.py holds it
+# benchmarks/bench_codec.py (decode <= 1.25x the bare runtime); tests/codec/test_codec.py holds it
 # equal to Decoded(kind, message).
 _decoded = tuple.__new__
 
@@ -299,7 +299,7 @@ class Envelope:
             mode = cast(Mode, metadata.pop("mode"))
         if mode == "strip" and not metadata:
             # The usual call in one compiled function per payload class (bench_codec's encode
-            # target; tests/test_contract.py holds it to the plain path below).
+            # target; tests/codec/test_contract.py holds it to the plain path below).
             try:
                 return self._senders[type(message)](message)
             except (KeyError, IndexError, ProtobufEncodeError):
@@ -487,9 +487,9 @@ class Envelope:
         """
         if strict:
             return self._decode_strict(data)
-        # peek's arithmetic, written out here once more: the call to peek would cost a tenth of
-        # a decode, and the decode target of benchmarks/bench_codec.py (exact datagrams in at
-        # most 1.25x the bare runtime's time) has no tenth to spare. tests/test_envelope_decode.py
+        # peek's arithmetic, written out here once more: the call to peek would cost a tenth of a
+        # decode, and the decode target of benchmarks/bench_codec.py (exact datagrams in at most
+        # 1.25x the bare runtime's time) has no tenth to spare. tests/codec/test_envelope_decode.py
         # holds decode equal to peek and a parse, on every form and on hostile bytes.
         if type(data) is not bytes:
             data = as_bytes(data)

@@ -7,9 +7,9 @@ every field without presence, defaults too; submessages, oneof members and ``opt
 set; enums by name (an undeclared number as the number); 64-bit integers as strings; bytes in
 base64; a ``float`` as the shortest decimal that reads back to its 32 bits, NaN and infinities as
 ``"NaN"``, ``"Infinity"``, ``"-Infinity"``; map keys as strings. It is a straight converter built
-once per message type from its descriptor rather than json_format's reflection, because
-``erc-codec listen`` writes each of 20,000 datagrams a second with it: benchmarks/bench_json.py
-measures it against ``MessageToDict``, tests/test_json.py holds it to ``MessageToDict``'s output.
+once per message type from its descriptor rather than json_format's reflection, because ``erc-codec
+listen`` writes each of 20,000 datagrams a second with it: benchmarks/bench_json.py measures it
+against ``MessageToDict``, tests/codec/test_json.py holds it to ``MessageToDict``'s output.
 
 Reading (``from_dict``, ``from_json``) takes what writing gives, and what protobuf's JSON mapping
 allows: names as in the .proto or in lowerCamelCase, enums by name or by a declared number,
@@ -224,7 +224,7 @@ def _float_value(value: float) -> float | str:
     # ToShortestFloat tries 6, 7, 8, 9 digits in turn. Whether p digits read back is monotone
     # in p (a rounding to more digits is never farther off), so this tries 7 first and then
     # 6 or 8: two formattings where it takes 2.5 on average, for the to_dict target of
-    # benchmarks/bench_json.py. tests/test_json.py holds it to ToShortestFloat.
+    # benchmarks/bench_json.py. tests/codec/test_json.py holds it to ToShortestFloat.
     pack, unpack = _F32.pack, _F32.unpack
     rounded = float(f"{value:.7g}")
     if unpack(pack(rounded))[0] == value:

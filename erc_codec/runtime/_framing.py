@@ -27,14 +27,13 @@ Guarantees:
   candidate on, at most ``max_length + 5`` of them (a candidate is decided by its
   ``max_length + 6``-th byte), and a few integers for each candidate in it;
 - time is linear in the bytes fed, whatever ``max_length`` (a slow path is a denial of service).
-  Each byte is searched for ``PR`` (in C) a bounded number of times, and passed to ``crc_hqx``
-  about three times at most: once where a candidate no other one can overtake is checked whole,
-  and once by each of two running CRCs where candidates overlap (plus, in a run of equal frames
-  broken by a bad one, up to 15 frames' CRCs for the break, see below). On top of that each
-  candidate costs a bounded amount of Python work: a push and a pop on a heap (at most 16 levels
-  deep, in C) and at most four table look-ups; each feed a bounded amount more.
-  ``benchmarks/bench_framing.py`` measures the worst cases; ``tests/test_framing.py`` counts the
-  bytes ``crc_hqx`` is given.
+  Each byte is searched for ``PR`` (in C) a bounded number of times, and passed to ``crc_hqx`` about
+  three times at most: once where a candidate no other one can overtake is checked whole, and once
+  by each of two running CRCs where candidates overlap (plus, in a run of equal frames broken by a
+  bad one, up to 15 frames' CRCs for the break, see below). On top of that each candidate costs a
+  bounded amount of Python work: a push and a pop on a heap (at most 16 levels deep, in C) and at
+  most four table look-ups; each feed a bounded amount more. ``benchmarks/bench_framing.py``
+  measures the worst cases; ``tests/runtime/test_framing.py`` counts the bytes ``crc_hqx`` is given.
 
 Overlapping candidates. Checking every candidate's CRC over its payload would cost up to
 ``max_length`` bytes per ``PR`` (``PR ff ff`` repeated: a 64 KiB CRC every 4 bytes). But CRC-16
@@ -62,15 +61,15 @@ runs once for every candidate with a good CRC, on top of the bound above: rarely
 often as a crafted stream has candidates. It must not raise: an exception from it leaves the feed
 it came from half done. (Frames are checked one at a time then, not in batches.)
 
-Speed: frames of one length back to back (a board sending padded envelopes, say) are checked a
-batch at a time, with the Python-level work per batch rather than per frame. A run's first batch
-is 16 frames, and each whole batch doubles the next (up to 256), so a CRC failure wastes at most
-as many CRCs as the run has delivered before it, plus 16. A batch ends before a frame holding a
-candidate short enough to complete inside it (one regular-expression search over the batch's
-payloads finds them), and that frame is looked at on its own. Other frames go one at a time. The
-batch serves the target of ``benchmarks/bench_framing.py`` (60-byte frames at half the bare
-CRC's rate or better); ``tests/test_framing.py`` holds the Deframer to a plain byte-at-a-time
-reading of the stream.
+Speed: frames of one length back to back (a board sending padded envelopes, say) are checked a batch
+at a time, with the Python-level work per batch rather than per frame. A run's first batch is 16
+frames, and each whole batch doubles the next (up to 256), so a CRC failure wastes at most as many
+CRCs as the run has delivered before it, plus 16. A batch ends before a frame holding a candidate
+short enough to complete inside it (one regular-expression search over the batch's payloads finds
+them), and that frame is looked at on its own. Other frames go one at a time. The batch serves the
+target of ``benchmarks/bench_framing.py`` (60-byte frames at half the bare CRC's rate or better);
+``tests/runtime/test_framing.py`` holds the Deframer to a plain byte-at-a-time reading of the
+stream.
 """
 
 import binascii

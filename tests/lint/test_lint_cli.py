@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import REPO
 from lint_support import erc_lint_cli, tree
 
 import erc_lint
@@ -151,7 +152,7 @@ def test_the_quick_exit_gives_what_the_plain_exit_gives(tmp_path: Path) -> None:
             seen = (piped.returncode, to_file.returncode, piped.stdout, report, piped.stderr)
             given.append(repr((seen, written)).replace(str(out), "OUT"))
         assert given[0] == given[1], args
-    pyproject = (Path(__file__).parent.parent / "pyproject.toml").read_text()
+    pyproject = (REPO / "pyproject.toml").read_text()
     assert '\nerc-lint = "erc_lint.cli:run"\n' in pyproject
 
 
@@ -202,7 +203,7 @@ def _close_stdout() -> None:
 
 
 def test_the_pre_commit_hook_compares_against_head(tmp_path: Path) -> None:
-    hooks = (Path(__file__).parent.parent / ".pre-commit-hooks.yaml").read_text()
+    hooks = (REPO / ".pre-commit-hooks.yaml").read_text()
     entry = hooks.split("entry: ", 1)[1].splitlines()[0]
     args = json.loads(hooks.split("\n  args: ", 1)[1].splitlines()[0])
     assert entry == "erc-lint"

@@ -22,6 +22,7 @@ from pathlib import Path
 from types import MappingProxyType
 
 import pytest
+from conftest import TESTS
 from git_support import Repo
 from recording_support import need
 from test_any_schema import INCLUDE, generator_sizes
@@ -268,7 +269,7 @@ def test_the_lint_api_takes_the_inputs_in_its_configuration(nanopb: None, tmp_pa
 
 # Pointers (bounded FT_POINTER fields) has no size by 0.4.x's rules, 97 bytes by master's;
 # HoldsPointers, which holds it, 99 (test_nanopb_rules sums them by hand).
-POINTERS = Path(__file__).resolve().parent / "nanopb_trees" / "pointers"
+POINTERS = TESTS / "nanopb_trees" / "pointers"
 NEWER = NANOPB_VERSIONS[1]
 
 

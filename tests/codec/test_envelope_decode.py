@@ -7,10 +7,10 @@ explicitly present zeros survive both; anything else is a DecodeError saying wha
 import array
 import contextlib
 import math
-from pathlib import Path
 from typing import Any, cast
 
 import pytest
+from conftest import TESTS
 from datagrams import (
     AMBIGUOUS,
     HARD_CASES,
@@ -272,7 +272,7 @@ def test_decode_is_peek_and_a_parse_on_hostile_bytes(data: bytes) -> None:
 # -- explicit presence and fixed-width integers (tests/schema_trees/presence) ------------------
 
 
-PRESENCE_TREE = Path(__file__).resolve().parent / "schema_trees" / "presence"
+PRESENCE_TREE = TESTS / "schema_trees" / "presence"
 
 
 @pytest.fixture(scope="module")
@@ -324,7 +324,7 @@ def test_explicitly_present_zeros_survive_stripping(
 
 # -- cut, not stripped: restored zeros no encoder would have sent -----------------------------
 
-LIMITS_TREE = Path(__file__).resolve().parent / "contract_tree"
+LIMITS_TREE = TESTS / "contract_tree"
 
 
 @pytest.fixture(scope="module")
@@ -357,7 +357,7 @@ def test_a_payload_missing_a_required_field_is_judged_not_refused() -> None:
     """A proto2 payload without its required field parses, so decode takes it in every form.
     Judging its restored zeros serialized it, and protobuf's serializer raised its own
     EncodeError for the missing field, out of decode (a traceback from erc-codec decode)."""
-    every = Codec.from_path(Path(__file__).resolve().parent / "wireshark_tree", "Env")
+    every = Codec.from_path(TESTS / "wireshark_tree", "Env")
     closed = new(every, "Closed", modes=[1, 0])  # no id
     for data in (h("12 04 12 02 01"), h("1a 00 12 04 12 02 01")):  # fast path, general path
         assert every.decode(data) == ("closed", closed)

@@ -7,17 +7,17 @@
   referring file's mangling makes of it, which the declaring file may never have registered
   (tests/nanopb_trees/crossfile: then no size, or a guessed 10 bytes for an enum).
 - ``nanopb_version``: "0.4.9" against each 0.4.x generator installed here, PyPI ``nanopb``
-  0.4.9.1, 0.4.9, 0.4.8 and 0.4.7 (the older three pinned in throwaway venvs made once per
-  session, sharing this environment's protobuf and grpcio-tools, so only the generator differs)
-  and Debian's 0.4.7 (``nanopb_generator.py``, with Debian's protoc), on the rule trees of
-  tests/test_sizes.py and tests/nanopb_trees (pointers, allocation, mangling, crossfile); 0.4.7
-  looks some types up otherwise (``CROSSFILE_0_4_7``). "1.0.0-dev" (nanopb's master after
+  0.4.9.1, 0.4.9, 0.4.8 and 0.4.7 (the older three pinned in throwaway venvs made once per session,
+  sharing this environment's protobuf and grpcio-tools, so only the generator differs) and Debian's
+  0.4.7 (``nanopb_generator.py``, with Debian's protoc), on the rule trees of
+  tests/schema/test_sizes.py and tests/nanopb_trees (pointers, allocation, mangling, crossfile);
+  0.4.7 looks some types up otherwise (``CROSSFILE_0_4_7``). "1.0.0-dev" (nanopb's master after
   0.4.9.1, which sizes FT_POINTER and FT_CALLBACK fields whose bound is known) against PyPI's
-  ``nanopb`` 1.0.0.dev1621 (``MASTER``, pinned in a venv the same way). Each rule set is held to
-  its generator (0.4.9.1, master) over the whole corpus, every tree of tests/size_trees,
+  ``nanopb`` 1.0.0.dev1621 (``MASTER``, pinned in a venv the same way). Each rule set is held to its
+  generator (0.4.9.1, master) over the whole corpus, every tree of tests/size_trees,
   tests/nanopb_trees and tests/any_trees and the packaged proto tree, message for message; the
-  hand-computed tables (pointers.proto's and allocation/'s sums stand beside each field) are
-  held to both.
+  hand-computed tables (pointers.proto's and allocation/'s sums stand beside each field) are held to
+  both.
 
 Without a generator (no network for pip, no Debian package) a test skips, unless
 ERC_REQUIRE_INTEROP=1 (CI), where it fails.
@@ -36,7 +36,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
-from conftest import PROTO
+from conftest import PROTO, TESTS
 from test_sizes import TREES
 
 import erc_codec
@@ -50,7 +50,7 @@ from erc_schema import (
     resolve_options,
 )
 
-NANOPB_TREES = Path(__file__).resolve().parent / "nanopb_trees"
+NANOPB_TREES = TESTS / "nanopb_trees"
 MANGLING = NANOPB_TREES / "mangling"
 POINTERS = NANOPB_TREES / "pointers"
 
@@ -531,7 +531,7 @@ def test_a_codec_takes_the_newer_rules() -> None:
 
 
 def test_an_envelope_codec_takes_the_rules_too() -> None:
-    envelope = Path(__file__).resolve().parent / "size_trees" / "envelope"
+    envelope = TESTS / "size_trees" / "envelope"
     codec = erc_codec.Codec.from_path(envelope, root="Env", nanopb_version="1.0.0-dev")
     assert not isinstance(codec, erc_codec.MessageCodec)
     assert codec.nanopb.nanopb_version == "1.0.0-dev"
@@ -561,7 +561,7 @@ def test_every_0_4_generator_sizes_as_the_0_4_9_rules(
     by the "0.4.9" rules, the pointer and allocation trees included; it refuses exactly the trees
     listed; and it names and finds types under mangle_names as 0.4.9.1 does (the two tables
     above), but for 0.4.7 (CROSSFILE_0_4_7). (The test extra's 0.4.9.1 meets the rule trees in
-    tests/test_sizes.py already: here it runs on the pointer and allocation trees alone.)"""
+    tests/schema/test_sizes.py already: here it runs on the pointer and allocation trees alone.)"""
     generator = _generator(generators, version, tmp_path_factory)
     trees = [("pointers", POINTERS, "Pointers"), ("allocation", ALLOCATION, "Leaf")]
     if version != "0.4.9.1":
@@ -595,7 +595,6 @@ def test_every_0_4_generator_sizes_as_the_0_4_9_rules(
         assert {c_name: found[c_name] for c_name, _ in case.values()} == dict(case.values())
 
 
-TESTS = Path(__file__).resolve().parent
 # Files the generators refuse (0.4.9.1 and master alike), by tree, with what they say: proto2
 # groups (NotImplementedError: 10, TYPE_GROUP), an enum or message type_override of a field of no
 # such type (the generator fails on the missing type), and files importing such a file.

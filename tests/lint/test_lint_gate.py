@@ -14,10 +14,11 @@ import jsonschema  # type: ignore[import-untyped]
 import junitparser
 import pytest
 import xmlschema
+from conftest import TESTS
 from git_support import Repo
 from lint_support import erc_lint_cli, tree
 
-FORMATS = Path(__file__).resolve().parent / "formats"
+FORMATS = TESTS / "formats"
 OLD = {
     "arm.proto": "message Arm {\n  float shoulder = 1;\n  float elbow = 2;\n"
     "  uint32 wrist = 3;\n}\n",

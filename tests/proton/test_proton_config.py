@@ -5,6 +5,7 @@ import os
 from pathlib import Path
 
 import pytest
+from conftest import REPO
 
 import erc_codec
 from erc_codec.proton import ProtonConfigError, load_config, parse_config
@@ -291,7 +292,7 @@ def test_defaults_and_sizes_follow_protons_generator() -> None:
 
 
 def test_protons_own_configurations_load() -> None:
-    shared = Path(__file__).resolve().parents[1].parent / "shared" / "peers" / "proton"
+    shared = REPO.parent / "shared" / "peers" / "proton"
     configs = sorted((shared / "2.0-d269668" / "core" / "tests" / "core").glob("*.yaml"))
     if not configs:
         reason = f"Proton's sources are not beside the repository ({shared})"
@@ -526,7 +527,7 @@ def test_what_protons_generator_cannot_build_is_a_config_error(
 
 def test_a_bundle_0_of_any_shape_loads_and_the_heartbeat_is_bundle_0_with_one_uint32() -> None:
     """Proton 2.0 reserves no bundle id: 0 is a bundle like any other (1.0's BundleCodec
-    refuses one that is not a heartbeat, tests/test_proton_codec.py)."""
+    refuses one that is not a heartbeat, tests/proton/test_proton_codec.py)."""
     config = parse_config(
         NODES
         + "signals:\n  - {name: a, id: 1, type: double}\n"

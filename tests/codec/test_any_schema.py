@@ -1,9 +1,9 @@
 """Any nanopb schema through the public API: plain-message roots, include folders, the options
 files and settings nanopb's generator takes, and schemas protobuf's Python runtime cannot build.
 
-Sizes are checked against nanopb's generator (PyPI ``nanopb`` 0.4.9.1) run as a nanopb user runs
-it, from the tree's root with the same ``-I``, ``-f`` and ``-s``; tests/test_interop_any.py holds
-the encode rules and decodes against nanopb's C library.
+Sizes are checked against nanopb's generator (PyPI ``nanopb`` 0.4.9.1) run as a nanopb user runs it,
+from the tree's root with the same ``-I``, ``-f`` and ``-s``; tests/interop/test_interop_any.py
+holds the encode rules and decodes against nanopb's C library.
 """
 
 import json
@@ -17,15 +17,16 @@ from pathlib import Path
 from typing import Any, cast
 
 import pytest
+from conftest import TESTS
 from hypothesis import given, settings
 
 import erc_codec
 from erc_codec import Codec, DecodeError, EncodeError, MessageCodec, SchemaError, strategies
 from erc_schema import Sizes, compile_files, load_schema, resolve_options
 
-TREES = Path(__file__).resolve().parent / "any_trees"
+TREES = TESTS / "any_trees"
 INCLUDE = TREES / "include"
-SCHEMA_TREES = Path(__file__).resolve().parent / "schema_trees"
+SCHEMA_TREES = TESTS / "schema_trees"
 _DEFINE = re.compile(r"^#define\s+(\w+)_size\s+(\d+)\s*$", re.MULTILINE)
 _RUNTIME = re.compile(r"/\*\s*(\w+)_size depends on runtime parameters\s*\*/")
 

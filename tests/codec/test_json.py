@@ -15,10 +15,10 @@ import math
 import struct
 import subprocess
 import sys
-from pathlib import Path
 from typing import Any, cast
 
 import pytest
+from conftest import TESTS
 from google.protobuf import json_format
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from google.protobuf.internal.type_checkers import ToShortestFloat
@@ -29,7 +29,7 @@ from hypothesis import strategies as st
 from erc_codec import Codec, DecodeError, EncodeError, SchemaError, strategies
 from erc_schema import descriptor_of, enum_of, message_of
 
-HERE = Path(__file__).resolve().parent
+HERE = TESTS
 CODEC = Codec.default()
 LIMITS = Codec.from_path(HERE / "contract_tree", root="LimitsEnvelope")
 MAPPING = Codec.from_path(HERE / "json_tree", root="JsonEnvelope")

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from conftest import PROTO
+from conftest import PROTO, TESTS
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from google.protobuf.message import DecodeError as ProtobufDecodeError
 from google.protobuf.message import Message
@@ -37,7 +37,7 @@ CODEC = erc_codec.Codec.default()
 ENVELOPE = CODEC.message_class("PBEnvelope")
 MAX = CODEC.max_size("PBEnvelope")
 KINDS = sorted(CODEC.kinds().values())
-FILTER_SOURCE = Path(__file__).parent / "interop" / "filter.c"
+FILTER_SOURCE = TESTS / "interop" / "filter.c"
 _T = FieldDescriptor
 
 

@@ -1,14 +1,15 @@
 """nanopb's field model (label_override, type_override) is one, and everything follows it.
 
 The size engine, the contract, strict decode and erc_codec.strategies ask ``Sizes`` what nanopb
-makes of a field; these tests hold each to it without the C library (tests/test_interop_overrides.py
-holds them to the C library itself).
+makes of a field; these tests hold each to it without the C library
+(tests/interop/test_interop_overrides.py holds them to the C library itself).
 """
 
 from pathlib import Path
 from typing import Any
 
 import pytest
+from conftest import TESTS
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -16,7 +17,7 @@ import erc_codec
 from erc_codec import strategies
 from erc_schema import Sizes, load_schema
 
-OVERRIDES = Path(__file__).parent / "any_trees" / "overrides"
+OVERRIDES = TESTS / "any_trees" / "overrides"
 CODECS = {
     root: erc_codec.Codec.from_path(OVERRIDES, root=root) for root in ("Overrides2", "Overrides3")
 }

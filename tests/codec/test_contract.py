@@ -9,10 +9,10 @@ import itertools
 import random
 import struct
 from collections.abc import Callable, Iterator, Mapping, MutableMapping
-from pathlib import Path
 from typing import Any, cast
 
 import pytest
+from conftest import TESTS
 from datagrams import (
     MODES,
     Build,
@@ -35,7 +35,7 @@ from erc_codec.codec._contract import Contract, contract
 from erc_schema import Sizes, descriptor_of, enum_of, message_of
 
 CODEC = erc_codec.Codec.default()
-LIMITS = erc_codec.Codec.from_path(Path(__file__).parent / "contract_tree", root="LimitsEnvelope")
+LIMITS = erc_codec.Codec.from_path(TESTS / "contract_tree", root="LimitsEnvelope")
 ENVELOPE = descriptor_of(CODEC.message_class("PBEnvelope"))
 
 

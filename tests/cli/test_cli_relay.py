@@ -16,6 +16,7 @@ import tracemalloc
 from pathlib import Path
 
 import pytest
+from conftest import REPO
 
 import erc_codec
 from erc_codec.cli._local import canonical, is_local, receives
@@ -276,7 +277,7 @@ interval = 0.1
 def test_the_readmes_rover_configuration_is_valid() -> None:
     from erc_codec.cli._relayconfig import read_config
 
-    readme = (Path(__file__).parent.parent / "README.md").read_text()
+    readme = (REPO / "README.md").read_text()
     (block,) = re.findall(r"```toml\n(# relay\.toml.*?)```", readme, re.S)
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "relay.toml"

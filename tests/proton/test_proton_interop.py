@@ -19,12 +19,12 @@ types), hypothesis draws values (full integer ranges, ±0, NaN, ±inf, subnormal
 strings and bytes, multi-byte UTF-8 to the last byte of a capacity); the C peer sets them through
 its own accessors and encodes: its bytes must be erc_codec's, exactly, and decode in Python to the
 same values; erc_codec's bytes must decode in C to the same values (the C registry set to other
-values first, so a signal C did not apply cannot pass). Serial frames made by each library's
-helpers must deframe in the other. ``erc_codec.proton.Node`` must send what 2.0's node manager
+values first, so a signal C did not apply cannot pass). Serial frames made by each library's helpers
+must deframe in the other. ``erc_codec.proton.Node`` must send what 2.0's node manager
 (``proton_node_update``) sends, in its order, polled at the same times. Every message of
-tests/test_proton_codec.py's decode tables goes to a fresh C peer: what erc_codec decodes, C reads
-as the same values; what erc_codec refuses, C refuses or misreads as recorded there. And the 2.0
-core, built for a configuration with larger capacities with its own 512-byte scratch buffer and
+tests/proton/test_proton_codec.py's decode tables goes to a fresh C peer: what erc_codec decodes, C
+reads as the same values; what erc_codec refuses, C refuses or misreads as recorded there. And the
+2.0 core, built for a configuration with larger capacities with its own 512-byte scratch buffer and
 with a larger one, shows the limit ``BundleCodec``'s ``scratch_buffer_size`` stands for.
 
 Without ``../shared``, gcc or jinja2 the tests skip, saying why, except when ERC_REQUIRE_INTEROP=1
@@ -41,6 +41,7 @@ from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 import pytest
+from conftest import REPO
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from proton_values import HERE, TYPES_1_0, TYPES_2_0, same, values
@@ -59,7 +60,7 @@ from erc_codec.proton import BundleCodec, Config, Node, SignalConfig, Value, par
 
 pytestmark = pytest.mark.interop
 
-SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "peers" / "proton"
+SHARED = REPO.parent / "shared" / "peers" / "proton"
 CORE = SHARED / "2.0-d269668"
 PROTONC = SHARED / "1.0-8c898cf"
 V2 = BundleCodec(TYPES_2_0)

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import TESTS
 from google.protobuf import descriptor_pool, message_factory
 from lint_support import READING, rules, tree
 
@@ -360,7 +361,7 @@ NANOPB_BASE = (
 
 
 def _generated(root: Path, out: Path) -> str:
-    """What nanopb's generator (PyPI nanopb, as tests/test_sizes.py runs it) writes for
+    """What nanopb's generator (PyPI nanopb, as tests/schema/test_sizes.py runs it) writes for
     ``root``/a.proto: the header and the source, without the line naming the generator."""
     out.mkdir()
     subprocess.run(
@@ -462,7 +463,7 @@ def test_an_extension_turned_into_a_field_of_the_same_type_is_not_deleted(tmp_pa
     ]
 
 
-CASES = Path(__file__).resolve().parent / "lint_cases"
+CASES = TESTS / "lint_cases"
 
 
 def test_nanopb_shortcut_agrees_with_the_plain_rules() -> None:

@@ -1,9 +1,9 @@
 """erc_codec.proton's BundleCodec: Proton's wire format, 2.0 and 1.0, byte for byte.
 
 The expected bytes here are worked out by hand from Proton's .proto files (2.0-d269668/proto and
-1.0-8c898cf/proto); tests/test_proton_interop.py checks the same against Proton's C libraries, and
-test_protons_own_proto_files_read_the_same_bytes below against Google protobuf with Proton's own
-.proto files.
+1.0-8c898cf/proto); tests/proton/test_proton_interop.py checks the same against Proton's C
+libraries, and test_protons_own_proto_files_read_the_same_bytes below against Google protobuf with
+Proton's own .proto files.
 """
 
 import contextlib
@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 import pytest
+from conftest import REPO
 from google.protobuf import descriptor_pool, message_factory
 from google.protobuf.message import Message
 from hypothesis import given, settings
@@ -31,7 +32,7 @@ from erc_schema import compile_files, encode_varint, next_field
 
 V2 = BundleCodec(TYPES_2_0)
 V1 = BundleCodec(TYPES_1_0, "1.0")
-SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "peers" / "proton"
+SHARED = REPO.parent / "shared" / "peers" / "proton"
 
 
 def field(number: int, wire_type: int, content: bytes) -> bytes:
@@ -124,7 +125,7 @@ def test_decode_accepts_any_order_and_packed_lists() -> None:
 # -- what decode accepts and refuses, and what Proton's C library does with the same bytes ------
 #
 # Each case records what Proton's C library does with the message, as the drivers of
-# tests/test_proton_interop.py report it (a fresh peer, its registry at the configuration's
+# tests/proton/test_proton_interop.py report it (a fresh peer, its registry at the configuration's
 # defaults): a refusal ("ERR 5", the driver's answer; "" where it crashes), or the bundle and the
 # values it reads instead (over the bundle's defaults), a misreading. test_proton_interop.py asks
 # the C libraries and checks every one; here erc_codec's side.
@@ -770,7 +771,7 @@ bundles:
 def test_capacities_protons_c_core_cannot_decode_are_refused_for_2_0() -> None:
     """Proton 2.0's core decodes every string and bytes value through its 512-byte scratch
     buffer (PROTON_SCRATCH_BUFFER_SIZE): a string of 512 bytes with its NUL, bytes over 512, are
-    refused whatever the signal's capacity (tests/test_proton_interop.py shows it)."""
+    refused whatever the signal's capacity (tests/proton/test_proton_interop.py shows it)."""
     config = parse_config(LARGE, "large.yaml")
     with pytest.raises(ProtonConfigError) as caught:
         BundleCodec(config)

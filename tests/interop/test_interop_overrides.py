@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from conftest import TESTS
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_interop import missing_toolchain
@@ -38,7 +39,7 @@ from erc_schema import encode_varint
 
 pytestmark = pytest.mark.interop
 
-TREES = Path(__file__).parent / "any_trees"
+TREES = TESTS / "any_trees"
 INTEGERS, OVERRIDES = TREES / "integers", TREES / "overrides"
 PYPI_GENERATOR = [sys.executable, "-m", "nanopb.generator.nanopb_generator"]
 INTEGER_CODEC = erc_codec.Codec.from_path(INTEGERS, root="Integers")

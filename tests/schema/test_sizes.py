@@ -18,12 +18,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
-from conftest import PROTO
+from conftest import PROTO, TESTS
 
 import erc_codec
 from erc_schema import Sizes, load_schema
 
-TREES_DIR = Path(__file__).resolve().parent / "size_trees"
+TREES_DIR = TESTS / "size_trees"
 
 GENERATOR = "nanopb.generator.nanopb_generator"
 _DEFINE = re.compile(r"^#define\s+(\w+)_size\s+(\d+)\s*$", re.MULTILINE)

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any, cast
 
 import pytest
-from conftest import PROTO
+from conftest import PROTO, TESTS
 from google.protobuf import descriptor_pb2
 from google.protobuf.descriptor import Descriptor
 
@@ -19,7 +19,7 @@ from erc_codec import Codec, Decoded, DecodeError, EncodeError, MessageCodec, Sc
 from erc_schema import ProtocError, compile_files, options_class
 from erc_schema._options import VOCABULARY, compile_vocabulary
 
-TREES = Path(__file__).resolve().parent / "schema_trees"
+TREES = TESTS / "schema_trees"
 ENVELOPE_PROTO = PROTO / "components" / "common" / "envelope.proto"
 
 

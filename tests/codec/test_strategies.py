@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from conftest import TESTS
 from hypothesis import Phase, find, given, settings
 from hypothesis import strategies as st
 
@@ -55,9 +56,7 @@ def test_an_unknown_message_name_is_a_schema_error() -> None:
         strategies.messages(CODEC, "NoSuchMessage")
 
 
-PRESENCE = erc_codec.Codec.from_path(
-    Path(__file__).parent / "schema_trees" / "presence", root="Env"
-)
+PRESENCE = erc_codec.Codec.from_path(TESTS / "schema_trees" / "presence", root="Env")
 
 
 @pytest.mark.parametrize("name", ["Counter", "Choice"])
@@ -123,13 +122,9 @@ def test_every_string_drawn_is_utf8(tmp_path: Path) -> None:
 
 ENVELOPES = {
     "packaged": CODEC,
-    "metadata": erc_codec.Codec.from_path(
-        Path(__file__).parent / "schema_trees" / "metadata", root="Env"
-    ),
+    "metadata": erc_codec.Codec.from_path(TESTS / "schema_trees" / "metadata", root="Env"),
     # two of its three members nobody can send as nanopb reads them, and a timeout beside them
-    "unsendable": erc_codec.Codec.from_path(
-        Path(__file__).parent / "any_trees" / "unsendable", root="Env"
-    ),
+    "unsendable": erc_codec.Codec.from_path(TESTS / "any_trees" / "unsendable", root="Env"),
 }
 
 

@@ -6,7 +6,7 @@ firing (and nothing that change does not unavoidably trigger too), either as a c
 a folder of scenarios, ``lint_cases/<RULE>/<scenario>/``, each a case; ``lint_cases/safe/<name>/``
 is a change that breaks nothing, so its ``expected.txt`` is empty.
 
-``ERC_UPDATE_EXPECTED=1 pytest tests/test_lint_cases.py`` writes each case's ``expected.txt``
+``ERC_UPDATE_EXPECTED=1 pytest tests/lint/test_lint_cases.py`` writes each case's ``expected.txt``
 from what erc-lint prints instead of comparing them, for review in the diff.
 """
 
@@ -17,11 +17,11 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import PROTO
+from conftest import PROTO, TESTS
 
 from erc_lint import RULES
 
-CASES = Path(__file__).resolve().parent / "lint_cases"
+CASES = TESTS / "lint_cases"
 SAFE = CASES / "safe"
 
 

@@ -12,8 +12,12 @@ from pathlib import Path
 import pytest
 from conftest import REPO
 
-MODULES = ["tests/test_mcap.py", "tests/test_cli_record.py", "tests/test_foxglove.py"]
-MODULES += ["tests/test_wireshark.py"]
+MODULES = [
+    "tests/capture/test_mcap.py",
+    "tests/cli/test_cli_record.py",
+    "tests/capture/test_foxglove.py",
+]
+MODULES += ["tests/capture/test_wireshark.py"]
 HIDDEN = ["mcap", "mcap_protobuf", "foxglove", "websockets", "dpkt"]
 # One test of each tool, which must be among those that need it.
 NEEDING = {
