@@ -3,15 +3,16 @@
 This module is the codec and what a user of it needs first: ``Codec`` (a schema's envelope to and
 from datagrams), ``Decoded``, ``Mode``, the errors, and ``encode``/``decode`` on the schema found.
 The rest is in one public subpackage per layer, each importing only the ones listed before it:
-``erc_codec.schema`` (the schema layer, ``erc_schema``), ``erc_codec.codec``, ``erc_codec.runtime``
-(sans-IO dispatch, watchdog, router, framing), ``erc_codec.transport`` (UDP and serial),
-``erc_codec.capture`` (MCAP, Foxglove, Wireshark), and on their own ``erc_codec.proton``
-(Clearpath's Proton protocol), ``erc_codec.strategies`` (hypothesis) and ``erc_codec.cli``.
+``erc_codec.schema`` (a module re-exporting the schema layer, ``erc_schema``), ``erc_codec.codec``,
+``erc_codec.runtime`` (sans-IO dispatch, watchdog, router, framing), ``erc_codec.transport`` (UDP
+and serial), ``erc_codec.capture`` (MCAP, Foxglove, Wireshark), and on their own
+``erc_codec.proton`` (Clearpath's Proton protocol), ``erc_codec.strategies`` (hypothesis) and
+``erc_codec.cli``.
 """
 
 from google.protobuf.message import Message as _Message
 
-from erc_schema import CodecError, DecodeError, EncodeError, SchemaError
+from erc_schema import CodecError, DecodeError, EncodeError, SchemaError, UnreadableKind
 
 from . import capture as capture
 from . import codec as codec
@@ -32,6 +33,7 @@ __all__ = [
     "Mode",
     "SchemaError",
     "UnknownField",
+    "UnreadableKind",
     "decode",
     "encode",
 ]
@@ -47,3 +49,29 @@ def decode(data: bytes, strict: bool = False) -> "Decoded":
     """``Codec.default().decode(data, strict)``: the payload of a datagram of the schema found
     (``ERC_CODEC_PROTO``, ``[tool.erc-codec]`` in a pyproject.toml, else the packaged one)."""
     return Codec.default().decode(data, strict)
+
+
+# Names 0.1.0 had at the top level that now live in a room: reaching one here says where it is
+# (an AttributeError, no alias).
+_MOVED = {
+    **dict.fromkeys(("Dispatcher", "DispatchStats", "Drop", "Watchdog", "Liveness"), "runtime"),
+    **dict.fromkeys(("Deframer", "DeframerStats", "frame", "DetectionAssembler"), "runtime"),
+    **dict.fromkeys(("DetectionFrame", "DetectionLoss", "AssemblerStats", "Rejected"), "runtime"),
+    **dict.fromkeys(("Router", "Route", "Failsafe", "FailsafeEvent", "Outgoing"), "runtime"),
+    **dict.fromkeys(("RouterStats",), "runtime"),
+    **dict.fromkeys(("UdpEndpoint", "UdpStats", "open_udp", "read_serial"), "transport"),
+    **dict.fromkeys(("McapWriter", "Recorded", "RecordingStats", "read_mcap"), "capture"),
+    **dict.fromkeys(("FoxgloveView", "wireshark_dissector"), "capture"),
+}
+_RENAMED = {
+    "Frame": "DetectionFrame",
+    "FrameAssembler": "DetectionAssembler",
+    "FrameLoss": "DetectionLoss",
+}
+
+
+def __getattr__(name: str) -> object:
+    new = _RENAMED.get(name, name)
+    if new in _MOVED:
+        raise AttributeError(f"erc_codec.{name} is erc_codec.{_MOVED[new]}.{new}")
+    raise AttributeError(f"module 'erc_codec' has no attribute {name!r}")

@@ -25,7 +25,7 @@ from hypothesis import strategies as st
 
 from erc_schema import PYTHON_INT_RANGE, SchemaError, Sizes, descriptor_of, enum_of, message_of
 
-from .codec._codec import Codec
+from .codec import Codec
 
 __all__ = ["messages"]
 

@@ -1,4 +1,5 @@
-"""The codec's exception hierarchy: one base class, one subclass per direction of failure.
+"""The exception hierarchy of erc_schema and erc_codec: one base class, one subclass per
+direction of failure.
 
 Every error names what was wrong and where (a file:line for schemas, a field path for messages, a
 byte offset for datagrams), so a caller can print ``str(error)`` as a complete one-line diagnosis.
@@ -8,7 +9,7 @@ __all__ = ["CodecError", "DecodeError", "EncodeError", "SchemaError", "Unreadabl
 
 
 class CodecError(Exception):
-    """Base class of every error erc_codec raises on purpose."""
+    """Base class of every error erc_schema and erc_codec raise on purpose."""
 
 
 class SchemaError(CodecError):

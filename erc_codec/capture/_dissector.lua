@@ -1,4 +1,4 @@
--- The dissector's runtime: erc_codec/_wireshark.py writes the SCHEMA table in front of it.
+-- The dissector's runtime: erc_codec/capture/_wireshark.py writes the SCHEMA table in front of it.
 --
 -- It decodes a datagram as erc_codec's decode does, with the same outcome on every input:
 -- 1. an empty datagram, or one longer than the envelope's maximum size, is refused;

@@ -33,8 +33,7 @@ from google.protobuf.message import Message
 
 from erc_schema import CodecError, DecodeError, descriptor_of
 
-from ..codec import Codec
-from ..codec._unknown import UnkeptFields
+from ..codec import Codec, UnkeptFields
 from ._origin import erc_codec_version, schema_origin
 from ._recording import (
     DROPS_TOPIC,

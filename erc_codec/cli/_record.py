@@ -172,7 +172,7 @@ def record(
     schema with its imports), every datagram that does not decode on
     /erc-codec/drops with its bytes, reason and sender; log time is the
     arrival time. The file opens in Foxglove and reads with any MCAP reader
-    (erc_codec.read_mcap in Python). It stops after --count datagrams,
+    (erc_codec.capture.read_mcap in Python). It stops after --count datagrams,
     --seconds, Ctrl-C, SIGTERM or SIGHUP (a dropped ssh session), always
     with a complete file; the first line on stderr is the address bound,
     the last what was received, written and dropped (by the kernel, before
@@ -420,10 +420,10 @@ def replay(
     payload is re-encoded in --mode (the fleet's strip by default), a
     capture's with all its envelope carried (metadata, fields the schema
     does not know); a datagram that did not decode is sent as received only
-    with --drops. An MCAP file is read as erc_codec.read_mcap reads it: a
-    channel that is not protobuf, a schema that does not load or a message
-    that does not parse with it stops the replay there, with its error. The last line on stderr
-    says what was sent (by kind), how late the latest send ran
+    with --drops. An MCAP file is read as erc_codec.capture.read_mcap reads
+    it: a channel that is not protobuf, a schema that does not load or a
+    message that does not parse with it stops the replay there, with its
+    error. The last line on stderr says what was sent (by kind), how late the latest send ran
     ("latest_ms"), and what was skipped: "drops" (without --drops),
     "drops_without_bytes" (JSON lines keep none), "other_kinds" (--kind),
     "unknown_kind" (not in this schema), "not_valid" (a payload or line that

@@ -9,15 +9,17 @@ protobuf's JSON mapping. Nothing here does I/O or keeps time.
 from ._codec import Codec, Direction, Member, MessageCodec
 from ._envelope import Decoded, Mode
 from ._forms import in_form
-from ._unknown import UnknownField
+from ._unknown import MAX_UNKEPT_NUMBERS, UnkeptFields, UnknownField
 
 __all__ = [
+    "MAX_UNKEPT_NUMBERS",
     "Codec",
     "Decoded",
     "Direction",
     "Member",
     "MessageCodec",
     "Mode",
+    "UnkeptFields",
     "UnknownField",
     "in_form",
 ]

@@ -160,6 +160,8 @@ def in_form(exact: bytes, mode: Mode, max_size: int) -> bytes:
     if mode == "exact":
         return exact
     if mode == "pad":
+        if len(exact) > max_size:
+            raise EncodeError(f"{len(exact)} bytes cannot be padded to {max_size}: they are more")
         return exact + bytes(max_size - len(exact))
     raise EncodeError(f"unknown mode {mode!r}: use 'strip', 'exact' or 'pad'")
 

@@ -6,7 +6,7 @@ own C libraries, in protocol 2.0 and in 1.0 (the one Proton's documentation desc
 - bundles: ``BundleCodec(config, version)`` encodes a bundle's values and decodes a message to a
   ``Bundle``, with every ``UnknownField`` it skipped;
 - a node: ``Node`` (sans-IO, an injected clock) holds the registry, says what is due (``Sent``),
-  applies what arrives, counts heartbeats and watches its peers (as ``erc_codec.Liveness``);
+  applies what arrives, counts heartbeats and watches its peers (as ``erc_codec.runtime.Liveness``);
 - links: ``open_proton_udp`` and ``run_proton_serial`` (asyncio, loaded only inside a loop),
   ``split_udp_header`` for a 2.0 sender's UDP header.
 

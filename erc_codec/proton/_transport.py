@@ -1,9 +1,9 @@
 """Thin asyncio shells around a sans-IO ``Node``: Proton over UDP and over a serial byte stream.
 
-Everything that decides lives in the node (what is due, what a message means, who is alive) and
-in the framing (``erc_codec.frame``, ``erc_codec.Deframer``); these only move bytes and read the
-clock, polling the node every ``tick`` seconds. A message that does not decode, or that the node
-does not consume, is counted by its ``DecodeError`` reason and handed to ``on_error``; the link
+Everything that decides lives in the node (what is due, what a message means, who is alive) and in
+the framing (``erc_codec.runtime.frame``, ``erc_codec.runtime.Deframer``); these only move bytes and
+read the clock, polling the node every ``tick`` seconds. A message that does not decode, or that the
+node does not consume, is counted by its ``DecodeError`` reason and handed to ``on_error``; the link
 goes on. Anything else that goes wrong (the node refusing the clock, a handler or ``on_peer``
 raising, a write that fails because the device went away) stops the link, never silently:
 ``run_proton_serial`` raises it, and a UDP link closes and ``wait_closed()`` raises it. Like

@@ -18,8 +18,7 @@ from google.protobuf.message import Message
 
 from erc_schema import DecodeError, SchemaError, UnreadableKind
 
-from ..codec import Codec
-from ..codec._unknown import UnkeptFields
+from ..codec import Codec, UnkeptFields
 
 __all__ = ["DispatchStats", "Dispatcher", "Drop"]
 

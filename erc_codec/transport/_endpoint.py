@@ -6,12 +6,12 @@ Datagrams longer than the envelope's maximum are dropped and counted by the disp
 undecodable datagram is (reason ``too_long``). What never reaches the dispatcher is counted too
 (``UdpEndpoint.stats()``): datagrams the kernel dropped (its receive buffer full), and those still
 queued when the endpoint closed. The endpoint asks for a large receive buffer (4 MiB) and reads
-the socket itself, in batches (``_udp.UdpSocket``: ``recvmsg``, for the kernel's drop count),
+the socket itself, in batches (``_socket.UdpSocket``: ``recvmsg``, for the kernel's drop count),
 rather than through asyncio's datagram transport, which would hide both.
 
 This module does not import asyncio, nor socket: ``import erc_codec`` must not pay their 20 to 40
-ms of start-up (erc-lint imports erc_codec and is measured against buf in
-``benchmarks/bench_lint.py``). Code here runs inside an event loop, where both are loaded already.
+ms of start-up for a program that only encodes and decodes. Code here runs inside an event loop,
+where both are loaded already.
 """
 
 import time

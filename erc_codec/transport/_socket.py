@@ -18,7 +18,7 @@ takes about 800 bytes of buffer) and caps it at twice ``net.core.rmem_max``; rai
 for more (``SO_RCVBUFFORCE`` would let root pass the cap: not used, the cap is the
 administrator's). A system that refuses a size instead (the BSDs above ``kern.ipc.maxsockbuf``)
 is asked for half as much, and so on down to its default. No asyncio here:
-``_transport.UdpEndpoint`` puts the socket on a loop.
+``_endpoint.UdpEndpoint`` puts the socket on a loop.
 """
 
 import socket

@@ -53,7 +53,7 @@ SCRIPT = textwrap.dedent(
         "hidden": hidden,
         "modules": sorted(
             name for name, module in sys.modules.items()
-            if name.startswith("erc_codec") and getattr(module, "__file__", None)
+            if name.startswith(("erc_codec", "erc_schema")) and getattr(module, "__file__", None)
             and inside(module.__file__, repo)
         ),
         "max_size": codec.max_size("PBEnvelope"),
@@ -66,6 +66,15 @@ SCRIPT = textwrap.dedent(
         "padded_kind": codec.decode(padded).kind,
         "feedback": codec.encode(feedback).hex(),
         "feedback_decoded": codec.decode(b"\\x22").kind,
+        "shipped": [  # beside the modules: what type checkers, the Lua dissector and protoc read
+            os.path.isfile(os.path.join(os.path.dirname(package.__file__), name))
+            for package, name in (
+                (erc_codec, "py.typed"),
+                (sys.modules["erc_schema"], "py.typed"),
+                (erc_codec.capture, "_dissector.lua"),
+                (sys.modules["erc_schema"], os.path.join("_include", "nanopb.proto")),
+            )
+        ],
     }))
     """
 )
@@ -140,3 +149,4 @@ def test_packaged_schema_works_from_an_installed_wheel(tmp_path: Path) -> None:
     assert report["equal"] is True
     assert report["feedback"] == "22"
     assert report["feedback_decoded"] == "arm_feedback"
+    assert report["shipped"] == [True, True, True, True]  # py.typed twice, the Lua, nanopb.proto
