@@ -45,7 +45,7 @@ def sarif(findings: list[Finding]) -> str:
             "ruleId": finding.rule,
             "ruleIndex": index.get(finding.rule, -1),
             "level": finding.severity,
-            "message": {"text": printable(finding.message)},
+            "message": {"text": printable(finding.text)},
             "locations": [location],
             "partialFingerprints": {"ercLintFinding/v1": fingerprint(finding)},
         }
@@ -80,7 +80,7 @@ def gitlab(findings: list[Finding]) -> str:
     """GitLab Code Quality: an array of issues (errors ``major``, warnings ``minor``)."""
     issues = [
         {
-            "description": f"{finding.rule}: {printable(finding.message)}",
+            "description": f"{finding.rule}: {printable(finding.text)}",
             "check_name": finding.rule,
             "fingerprint": fingerprint(finding),
             "severity": "major" if finding.severity == "error" else "minor",
@@ -107,10 +107,10 @@ def junit(findings: list[Finding]) -> str:
             place = finding.shown_at
             name = _attribute(f"{finding.rule} {place.path}:{place.line}:{place.column}")
             if finding.severity == "error":
-                kind, message = _attribute(finding.rule), _attribute(finding.message)
-                body = f"<failure type={kind} message={message}>{_text(finding.message)}</failure>"
+                kind, message = _attribute(finding.rule), _attribute(finding.text)
+                body = f"<failure type={kind} message={message}>{_text(finding.text)}</failure>"
             else:
-                body = f"<system-out>{_text('warning: ' + finding.message)}</system-out>"
+                body = f"<system-out>{_text('warning: ' + finding.text)}</system-out>"
             cases.append(
                 f"    <testcase name={name} classname={_attribute(path)}>{body}</testcase>\n"
             )

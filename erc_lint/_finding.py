@@ -12,7 +12,6 @@ Severity = Literal["error", "warning"]
 
 # A place inside a message (``file.proto:12:3``, ``erc-lint.lock:7``): what a line move changes.
 _PLACE = re.compile(r":\d+(?::\d+)?\b")
-_FIX = " Fix: "  # how a finding's short fix starts (rules/_registry)
 
 
 class Finding(NamedTuple):
@@ -28,6 +27,7 @@ class Finding(NamedTuple):
     # For a finding located in OLD: where NEW has the element's container (the message of a
     # deleted field, the enum of a deleted value, the file of a deleted message), if it does.
     in_new: Location | None = None
+    fix: str = ""  # what to do about it, in a few words (it may name the next free number)
 
     @classmethod
     def at(
@@ -38,10 +38,28 @@ class Finding(NamedTuple):
         severity: Severity = "error",
         in_old: bool = False,
         in_new: Location | None = None,
+        fix: str = "",
     ) -> "Finding":
         return cls(
-            location.path, location.line, location.column, rule, message, severity, in_old, in_new
+            location.path,
+            location.line,
+            location.column,
+            rule,
+            message,
+            severity,
+            in_old,
+            in_new,
+            fix,
         )
+
+    @property
+    def text(self) -> str:
+        """The message as every report prints it: with its fix, when it has one, after it."""
+        return f"{self.message} Fix: {self.fix}." if self.fix else self.message
+
+    def order(self) -> tuple[str, int, int, str, str, str, bool]:
+        """The order findings are reported in: by place, rule, then what they say."""
+        return (self.path, self.line, self.column, self.rule, self.text, self.severity, self.in_old)
 
     @property
     def shown_at(self) -> Location:
@@ -50,11 +68,10 @@ class Finding(NamedTuple):
 
 
 def stable_text(finding: Finding, path: str) -> str:
-    """``RULE path message`` with every ``:line[:column]`` and the closing ``Fix: ...`` (which
-    may name the next free number) left out of the message: the same element's finding after
-    lines moved or numbers were added, named by ``path`` (as the caller wants it shown)."""
-    message = finding.message.rsplit(_FIX, 1)[0] if _FIX in finding.message else finding.message
-    return f"{finding.rule} {path} {_PLACE.sub('', message)}"
+    """``RULE path message`` with every ``:line[:column]`` left out of the message, and without
+    the fix (which may name the next free number): the same element's finding after lines moved
+    or numbers were added, named by ``path`` (as the caller wants it shown)."""
+    return f"{finding.rule} {path} {_PLACE.sub('', finding.message)}"
 
 
 def printable(text: str) -> str:
@@ -72,5 +89,6 @@ def printable_finding(finding: Finding) -> Finding:
     return finding._replace(
         path=printable(finding.path),
         message=printable(finding.message),
+        fix=printable(finding.fix),
         in_new=where._replace(path=printable(where.path)) if where else None,
     )

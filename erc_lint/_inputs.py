@@ -104,14 +104,15 @@ def relocate(findings: Sequence[Finding], sources: Sequence[TreeSource]) -> list
 
     out = []
     for finding in findings:
-        message = finding.message
+        message, fix = finding.message, finding.fix
         for scratch, shown in moves:
-            message = message.replace(scratch, shown)
+            message, fix = message.replace(scratch, shown), fix.replace(scratch, shown)
         where = finding.in_new
         out.append(
             finding._replace(
                 path=moved(finding.path),
                 message=message,
+                fix=fix,
                 in_new=where._replace(path=moved(where.path)) if where else None,
             )
         )

@@ -43,7 +43,7 @@ def _line(finding: Finding, output: str) -> str:
                 "path": finding.path,
                 "line": finding.line,
                 "column": finding.column,
-                "message": finding.message,
+                "message": finding.text,
                 "in_old": finding.in_old,
                 "in_new": finding.in_new._asdict() if finding.in_new else None,
             }
@@ -54,7 +54,7 @@ def _line(finding: Finding, output: str) -> str:
         gone = "" if finding.rule == "COMPILE" else "gone from NEW; "
         note = f" ({gone}OLD had it at {finding.path}:{finding.line})"
     if output == "github":
-        text = _escape(f"{finding.rule} {finding.message}{note}")
+        text = _escape(f"{finding.rule} {finding.text}{note}")
         if finding.in_old and finding.in_new is None:  # no file of NEW to point at
             return f"::{finding.severity} title={finding.rule}::{text}"
         path = _escape(place.path).replace(",", "%2C").replace(":", "%3A")
@@ -63,12 +63,12 @@ def _line(finding: Finding, output: str) -> str:
     if output == "msvs":
         return (
             f"{place.path}({place.line},{place.column}) : {finding.severity} {finding.rule} : "
-            f"{finding.message}{note}"
+            f"{finding.text}{note}"
         )
     label = "" if finding.severity == "error" else " (warning)"
     return (
         f"{finding.path}:{finding.line}:{finding.column}: {finding.rule}{label} "
-        f"{finding.message}{note}"
+        f"{finding.text}{note}"
     )
 
 

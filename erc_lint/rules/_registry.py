@@ -338,7 +338,7 @@ def run(change: Change) -> list[Finding]:
     given = suppressions(change.new.tree.texts, str(change.new.root))
     found, used = apply(found, given)
     found += _on_findings(change, selected, Found(given, used))
-    return sorted(set(found), key=lambda f: f[:7])
+    return sorted(set(found), key=Finding.order)
 
 
 def _on_findings(change: Change, selected: dict[str, Severity], found: Found) -> list[Finding]:
@@ -355,8 +355,9 @@ def _on_findings(change: Change, selected: dict[str, Severity], found: Found) ->
 
 
 def _finding(report: Report, rule: str, severity: Severity) -> Finding:
-    message = f"{report.message} Fix: {report.fix}." if report.fix else report.message
-    return Finding.at(report.where, rule, message, severity, report.in_old, report.container)
+    return Finding.at(
+        report.where, rule, report.message, severity, report.in_old, report.container, report.fix
+    )
 
 
 def _ignored_path(change: Change, finding: Finding) -> bool:

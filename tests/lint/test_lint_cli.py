@@ -104,7 +104,7 @@ def test_the_command_delivers_all_its_output_before_leaving_the_process(tmp_path
     assert piped.returncode == 1
     assert len(piped.stdout) > 65536
     assert [json.loads(line)["message"] for line in piped.stdout.splitlines()] == [
-        finding.message for finding in expected
+        finding.text for finding in expected
     ]
     with (tmp_path / "report.txt").open("w") as sink:
         done = subprocess.run([sys.executable, "-m", "erc_lint", str(old), str(new)], stdout=sink)

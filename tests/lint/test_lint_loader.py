@@ -73,7 +73,7 @@ def test_imports_are_found_as_protoc_reads_them(tmp_path: Path) -> None:
             "a.proto": spellings[4] + "\nmessage A { Nope b = 1; }\n",
         },
     )
-    assert [(f.line, f.message) for f in erc_lint.lint(lines, lines)] == [
+    assert [(f.line, f.text) for f in erc_lint.lint(lines, lines)] == [
         (5, '"Nope" is not defined.')
     ]
 
@@ -120,7 +120,7 @@ def test_broken_files_are_reported_and_hide_nothing(tmp_path: Path) -> None:
         ("m5.proto", 2, "FIELD_TYPE_CHANGED"),
         ("m7.proto", 2, "COMPILE"),
     ]
-    assert findings[0].message == '"Nope" is not defined.'
+    assert findings[0].text == '"Nope" is not defined.'
     assert findings[0].column == 14
     # The broken files' messages are unknown in NEW, not deleted: only COMPILE speaks of them.
     assert all(f.severity == "error" for f in findings)
@@ -154,7 +154,7 @@ def test_protoc_warnings_read_as_protoc_wrote_them(tmp_path: Path) -> None:
     (tmp_path / "new" / "a.proto").write_text("message A { int32 x = 1; }\n")  # no syntax line
     findings = erc_lint.check(tmp_path / "new")  # against nothing (lint refuses an empty OLD)
     assert [(f.rule, f.line, f.column) for f in findings] == [("COMPILE", 1, 1), ("COMPILE", 1, 13)]
-    assert findings[0].message.startswith("No edition or syntax specified for the proto file")
+    assert findings[0].text.startswith("No edition or syntax specified for the proto file")
     assert findings[1].message == 'Expected "required", "optional", or "repeated".'
 
 

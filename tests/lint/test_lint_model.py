@@ -135,7 +135,7 @@ def test_a_root_at_the_end_of_a_long_import_chain_is_sized(tmp_path: Path) -> No
     )
     old = tree(tmp_path / "old", {**files, "env.proto": envelope + " }\n"})
     new = tree(tmp_path / "new", {**files, "env.proto": envelope + " int32 y = 2; }\n"})
-    assert [f.message.split(":")[0] for f in erc_lint.lint(old, new)] == [
+    assert [f.text.split(":")[0] for f in erc_lint.lint(old, new)] == [
         'Maximum size of message "PBEnvelope" grew from 2 to 13 bytes'
     ]
 

@@ -54,7 +54,7 @@ def test_map_entries_follow_their_map_field(tmp_path: Path) -> None:
     renamed = tree(
         tmp_path / "renamed", {"a.proto": "message Stats {\n  map<string, int32> totals = 1;\n}\n"}
     )
-    assert [(f.rule, f.message) for f in erc_lint.lint(old, renamed)] == [
+    assert [(f.rule, f.text) for f in erc_lint.lint(old, renamed)] == [
         ("FIELD_RENAMED", 'Field "1" on message "Stats" changed name from "counts" to "totals".')
     ]
     retyped = tree(
@@ -62,7 +62,7 @@ def test_map_entries_follow_their_map_field(tmp_path: Path) -> None:
     )
     (finding,) = erc_lint.lint(old, retyped)
     assert (finding.rule, finding.line, finding.column) == ("FIELD_TYPE_CHANGED", 3, 3)
-    assert finding.message == (
+    assert finding.text == (
         'Field "2" with name "value" on message "Stats.CountsEntry" changed type from "int32" '
         'to "sint32".'
     )
@@ -74,7 +74,7 @@ def test_map_entries_follow_their_map_field(tmp_path: Path) -> None:
             "  map<string, int32> more = 2;\n}\n"
         },
     )
-    assert [(f.rule, f.message) for f in erc_lint.lint(old, beside)] == [
+    assert [(f.rule, f.text) for f in erc_lint.lint(old, beside)] == [
         ("FIELD_RENAMED", 'Field "1" on message "Stats" changed name from "counts" to "totals".')
     ]
     # Renamed and retyped at once: both, the type change named in the new entry.
@@ -96,7 +96,7 @@ def test_a_renamed_message_takes_what_it_declares_along(tmp_path: Path) -> None:
     and what changed inside is reported under the new names, old damage staying old."""
     old = tree(tmp_path / "old", {"a.proto": STATUS})
     renamed = tree(tmp_path / "renamed", {"a.proto": STATUS.replace("ArmBoard", "Arm")})
-    assert [(f.rule, f.message) for f in erc_lint.lint(old, renamed)] == [
+    assert [(f.rule, f.text) for f in erc_lint.lint(old, renamed)] == [
         (
             "MESSAGE_RENAMED",
             'Message "ArmBoardStatus" was renamed to "ArmStatus"; its fields are unchanged.',
@@ -105,7 +105,7 @@ def test_a_renamed_message_takes_what_it_declares_along(tmp_path: Path) -> None:
     changed = STATUS.replace("ArmBoard", "Arm").replace("float angle", "double angle")
     changed = changed.replace("MODE_RUN = 1;", "MODE_RUN = 2;")
     retyped = tree(tmp_path / "retyped", {"a.proto": changed})
-    assert [(f.rule, f.message) for f in erc_lint.lint(old, retyped)][1:] == [
+    assert [(f.rule, f.text) for f in erc_lint.lint(old, retyped)][1:] == [
         (
             "ENUM_VALUE_RENUMBERED",
             'Enum value "MODE_RUN" on enum "ArmStatus.Mode" changed number from "1" to "2".',
@@ -144,7 +144,7 @@ def test_a_renamed_messages_nested_types_are_not_claimed_by_lookalikes(tmp_path:
             "  enum E { E0 = 0; E1 = 1; }\n  Inner i = 1;\n  E e = 2;\n}\n"
         },
     )
-    assert sorted((f.rule, f.message.split(" on ")[-1]) for f in erc_lint.lint(old, new)) == [
+    assert sorted((f.rule, f.text.split(" on ")[-1]) for f in erc_lint.lint(old, new)) == [
         (
             "ENUM_VALUE_DELETED",
             'enum "Outer2.E" was deleted without reserving its number. Fix: reserve 2 or restore '
@@ -195,7 +195,7 @@ def test_a_moved_message_brings_what_it_declares(tmp_path: Path) -> None:
             "    Kind kind = 1;\n    double angle = 2;\n  }\n  Joint shoulder = 1;\n}\n"
         },
     )
-    assert [(f.rule, f.message) for f in erc_lint.lint(old, new)] == [
+    assert [(f.rule, f.text) for f in erc_lint.lint(old, new)] == [
         ("MESSAGE_RENAMED", 'Message "Joint" was moved to "Arm.Joint".'),
         (
             "FIELD_TYPE_CHANGED",

@@ -123,8 +123,8 @@ def test_collisions_between_files_never_compiled_together(tmp_path: Path) -> Non
     )
     (collision,) = erc_lint.lint(tmp_path / "t", root)
     assert collision.rule == "NAME_COLLISION"
-    assert str(root / "gps.proto") in collision.message
-    assert str(root / "leftover/message_types.proto") in collision.message
+    assert str(root / "gps.proto") in collision.text
+    assert str(root / "leftover/message_types.proto") in collision.text
 
 
 def test_old_damage_in_an_imported_file_stays_old_when_its_importer_is_renamed(
@@ -136,7 +136,7 @@ def test_old_damage_in_an_imported_file_stays_old_when_its_importer_is_renamed(
     new = tree(tmp_path / "new", {**broken, "aa.proto": users.format(name="A")})
     (in_b,) = [f for f in erc_lint.lint(old, new) if f.path == str(new / "b.proto")]
     assert (in_b.rule, in_b.severity) == ("COMPILE", "warning")
-    assert in_b.message == 'Expected ";". (imported by aa.proto)'
+    assert in_b.text == 'Expected ";". (imported by aa.proto)'
 
 
 def test_a_file_old_could_not_compile_is_not_passed_over_in_silence(tmp_path: Path) -> None:
@@ -144,7 +144,7 @@ def test_a_file_old_could_not_compile_is_not_passed_over_in_silence(tmp_path: Pa
     new = tree(tmp_path / "new", {"a.proto": "message A { int32 x = 2; }\n"})
     findings = erc_lint.lint(old, new)
     assert [(f.rule, f.severity, f.in_old) for f in findings] == [("COMPILE", "warning", True)]
-    assert "a.proto does not compile, so its messages could not be compared" in findings[0].message
+    assert "a.proto does not compile, so its messages could not be compared" in findings[0].text
 
 
 ALIASED = (
@@ -254,7 +254,7 @@ def test_enum_aliases_are_judged_per_number(
     old_tree = tree(tmp_path / "old", {"a.proto": ALIASED})
     new_tree = tree(tmp_path / "new", {"a.proto": new})
     findings = erc_lint.lint(old_tree, new_tree)
-    assert [(f.rule, f.message) for f in findings] == expected
+    assert [(f.rule, f.text) for f in findings] == expected
 
 
 @pytest.mark.parametrize(
@@ -277,7 +277,7 @@ def test_the_envelope_size_follows_every_input_nanopb_sizes_it_from(
     changed = {**READING, name: READING[name].replace(before, after)}
     new = tree(tmp_path / "new", changed)
     (new / "reading.options").write_text(changed["reading.options"])
-    messages = [f.message for f in erc_lint.lint(old, new) if f.rule == "ENVELOPE_SIZE_GROWN"]
+    messages = [f.text for f in erc_lint.lint(old, new) if f.rule == "ENVELOPE_SIZE_GROWN"]
     assert len(messages) == (grown is not None), messages
     assert all(grown in message for message in messages if grown is not None)
 
@@ -293,7 +293,7 @@ def test_the_envelope_size_follows_the_types_the_root_imports(tmp_path: Path) ->
     old = tree(tmp_path / "old", files)
     grown = {**files, "b.proto": "message Sub { fixed32 x = 1; fixed64 y = 2; }\n"}
     new = tree(tmp_path / "new", grown)
-    messages = [f.message for f in erc_lint.lint(old, new) if f.rule == "ENVELOPE_SIZE_GROWN"]
+    messages = [f.text for f in erc_lint.lint(old, new) if f.rule == "ENVELOPE_SIZE_GROWN"]
     assert messages == [
         'Maximum size of message "PBEnvelope" grew from 7 to 16 bytes: receivers built with the '
         "old PBEnvelope_size drop the longer datagrams."
@@ -305,7 +305,7 @@ def test_a_packaged_roots_size_is_named_as_nanopb_names_it(tmp_path: Path) -> No
     old = tree(tmp_path / "old", {"env.proto": text})
     new = tree(tmp_path / "new", {"env.proto": text.replace("x = 1;", "x = 1; fixed32 y = 2;")})
     (finding,) = erc_lint.lint(old, new, Config(roots=("acme.io.Env",)))
-    assert finding.message == (
+    assert finding.text == (
         'Maximum size of message "acme.io.Env" grew from 7 to 12 bytes: receivers built with '
         "the old acme_io_Env_size drop the longer datagrams."
     )
@@ -434,7 +434,7 @@ def test_an_enums_default_from_an_include_folder_is_read_from_its_file(tmp_path:
     (include / "lib" / "mode.proto").write_text(
         enum.replace("MODE_A = 0; MODE_B = 1;", "MODE_B = 1; MODE_A = 0;")
     )
-    assert [f.message for f in erc_lint.lint(old, new, includes=[include])] == [
+    assert [f.text for f in erc_lint.lint(old, new, includes=[include])] == [
         'Field "1" with name "m" on message "M" changed default value from Mode.MODE_A to '
         "Mode.MODE_B.",
         'Field "2" with name "n" on message "M" changed default value from Mode.MODE_B to '
