@@ -115,7 +115,7 @@ class Schema:
         ``SchemaError`` when protobuf's Python runtime cannot build it (see ``refused``), unless
         ``lenient``: then the class of the copy the pool holds (required fields optional, JSON
         names the field names), for a caller that refuses to encode or decode such a message
-        itself (a codec: ``Sizes.unsendable``)."""
+        itself (a codec)."""
         cls = self._classes.get(name)
         if cls is None:
             descriptor = self.descriptor(name)

@@ -8,13 +8,11 @@ bytes ``varint(max_size) + max_size``, repeated fields ``(tag + item) * max_coun
 string, bytes or repeated field with no limit, a callback or pointer field, a type that contains
 itself) has no size, exactly where nanopb writes "depends on runtime parameters". nanopb reads the
 descriptors as written: an editions field with ``message_encoding = DELIMITED`` is sized as the
-message field it is written as (which erc-codec cannot send as nanopb reads it: ``unsendable``,
-``_DELIMITED``). nanopb's
-generator refuses a file holding a proto2 ``group`` it must generate (``NotImplementedError``: it
-has no groups) or an enum or message ``type_override`` of a field of no such type (it fails on the
-missing type), and with it every file importing that file: their messages have no size and are
-not listed. A message it writes no code for (``skip_message``, deprecated under
-``discard_deprecated``) has no size either.
+message field it is written as. nanopb's generator refuses a file holding a proto2 ``group`` it must
+generate (``NotImplementedError``: it has no groups) or an enum or message ``type_override`` of a
+field of no such type (it fails on the missing type), and with it every file importing that file:
+their messages have no size and are not listed. A message it writes no code for (``skip_message``,
+deprecated under ``discard_deprecated``) has no size either.
 
 Generator versions differ in two rules (``NANOPB_VERSIONS``). Up to 0.4.9.1 (``"0.4.9"``, the rules
 of every 0.4.x release) a ``FT_CALLBACK`` or ``FT_POINTER`` field has no size; nanopb's master
@@ -77,22 +75,6 @@ _SIZED_VARINTS = {
 # and protobuf keeps nanopb's as an unknown field, so no bytes are right for both: the codec
 # refuses to encode or decode a message holding it rather than pick one side (its size stays
 # nanopb's). Without the feature nanopb's code is the same.
-_DELIMITED = (
-    "protobuf writes it delimited (a group: wire types 3 and 4) and nanopb as a length-prefixed "
-    "message (wire type 2), so each side refuses or drops the other's bytes; make it a "
-    "length-prefixed message field (nanopb's generated code stays the same)"
-)
-# What erc-codec and protobuf's json_format ask a message instance for: a field of one of these
-# names is what the instance's attribute gives in upb (its value, not the method), so they break on
-# it. Other public names (Clear, Extensions, ByteSize, SerializeToString: erc-codec calls the
-# class's) a field may take: tests/codec/test_any_schema.py sends and reads such fields in every
-# form.
-_MESSAGE_ATTRIBUTES = frozenset(
-    (
-        *("ClearField", "CopyFrom", "DESCRIPTOR", "HasField", "ListFields", "MergeFrom"),
-        *("SerializePartialToString", "SetInParent", "WhichOneof"),
-    )
-)
 # nanopb's int_size values (IS_8 .. IS_64; IS_DEFAULT is 0) as bits.
 _INT_BITS = {8: 8, 16: 16, 32: 32, 64: 64}
 _NO_GROUPS = "which nanopb's generator does not implement"
@@ -513,63 +495,6 @@ class Sizes:
                         f"nanopb cannot size it (reached from {stack[0]} as {here})"
                     )
             pending.extend(reversed(inner))
-
-    def unsendable(
-        self, root: Descriptor, fields: Sequence[FieldDescriptor] | None = None
-    ) -> str | None:
-        """Why erc-codec cannot encode or decode ``root`` as nanopb does, or ``None``: the first
-        thing, depth first from ``root`` (through ``fields`` of it, default all), that is a
-        message protobuf's Python runtime refuses to build (``Schema.refused``), a message with a
-        field named as a method erc-codec or json_format asks a message for
-        (``_MESSAGE_ATTRIBUTES``: ignored by nanopb or not, it hides the method on every
-        instance), a field written as a group
-        where nanopb has a length-prefixed message (``_DELIMITED``), or a field whose nanopb
-        overrides protobuf does not write as nanopb reads them (``wire_mismatch``). nanopb's
-        sizes hold all the same: a codec loads such a schema and refuses only to encode or decode
-        the messages this names a reason for."""
-        refused = self._schema.refused
-        pending: list[tuple[Descriptor, str, Sequence[FieldDescriptor]]] = [
-            (root, root.full_name, root.fields if fields is None else fields)
-        ]
-        seen = {root.full_name}
-        while pending:
-            message, path, own = pending.pop()
-            why = refused.get(message.full_name)
-            if why is not None:
-                reached = "" if path == root.full_name else f" (reached as {path})"
-                return (
-                    f"{self._schema.where(message.full_name)}: {message.full_name}{reached}: "
-                    f"{why}; protobuf's Python runtime cannot encode or decode it (nanopb's "
-                    "sizes still hold)"
-                )
-            # A field hides a method of every instance, whichever fields a caller sends.
-            hiding = next((f for f in message.fields if f.name in _MESSAGE_ATTRIBUTES), None)
-            if hiding is not None:
-                return (
-                    f"{self._schema.where(hiding.full_name)}: {hiding.full_name}: the field "
-                    f"{hiding.name} hides protobuf's Message.{hiding.name} in the Python runtime "
-                    f"(reached from {root.full_name} as {path}.{hiding.name}); erc-codec cannot "
-                    "encode or decode it (nanopb's sizes still hold)"
-                )
-            inner: list[tuple[Descriptor, str, Sequence[FieldDescriptor]]] = []
-            for field in own:
-                if self.ignored(field):
-                    continue
-                here = f"{path}.{field.name}"
-                mismatch = _DELIMITED if field.type == _T.TYPE_GROUP else None
-                mismatch = mismatch or self.wire_mismatch(field)
-                if mismatch is not None:
-                    return (
-                        f"{self._schema.where(field.full_name)}: {field.full_name}: {mismatch} "
-                        f"(reached from {root.full_name} as {here}); erc-codec cannot encode or "
-                        "decode it as nanopb does (nanopb's sizes still hold)"
-                    )
-                sub = field.message_type
-                if sub is not None and sub.full_name not in seen:
-                    seen.add(sub.full_name)
-                    inner.append((sub, here, sub.fields))
-            pending.extend(reversed(inner))
-        return None
 
     def _problem(self, field: FieldDescriptor) -> str | None:
         """Why ``field`` itself (not what it contains) has no static size, if it hasn't."""

@@ -15,6 +15,7 @@ from ._contract import contract
 from ._discovery import SchemaSource, find_schema, load_source, packaged_tree, snapshot
 from ._envelope import Envelope, is_envelope
 from ._plain import Plain
+from ._sendable import unsendable
 from ._strict import refusal
 
 __all__ = ["Codec", "Direction", "Member", "MessageCodec", "default_tree", "is_envelope"]
@@ -75,7 +76,7 @@ class Codec(Envelope):
             self._sizes.max_size(self.root),
             functools.partial(contract, self._sizes),
             functools.partial(refusal, self._sizes, schema.root),
-            self._sizes.unsendable,
+            functools.partial(unsendable, schema, self._sizes),
         )
 
     def _load(
@@ -271,7 +272,7 @@ class MessageCodec(Plain, Codec):
             self._sizes.max_size(self.root),
             functools.partial(contract, self._sizes),
             functools.partial(refusal, self._sizes, schema.root),
-            self._sizes.unsendable,
+            functools.partial(unsendable, schema, self._sizes),
         )
 
 

@@ -79,7 +79,7 @@ _Member = tuple[
 
 _NO_METADATA: Mapping[str, object] = MappingProxyType({})
 # Why a message (through the given fields of it, or all) cannot be encoded or decoded as nanopb
-# does, or None: ``Sizes.unsendable``.
+# does, or None: ``_sendable.unsendable``.
 Unsendable = Callable[[Descriptor, Sequence[FieldDescriptor] | None], str | None]
 
 

@@ -12,7 +12,7 @@ checks, which it shares with ``_envelope``):
   decoder refuses are errors too, as for envelopes, in the same words.
 - Every failure is a ``DecodeError``/``EncodeError`` saying what and where; what is no message
   or no datagram a ``TypeError``. A root that cannot be encoded or decoded as nanopb does
-  (``Sizes.unsendable``: a message protobuf's Python runtime cannot build, a DELIMITED field, an
+  (``_sendable.unsendable``: a message protobuf's Python runtime cannot build, a DELIMITED field, an
   override protobuf does not write as nanopb reads it, a field hiding a Message method) still
   loads, with nanopb's size; encoding is then a ``SchemaError`` saying why, decoding an
   ``UnreadableKind`` (a ``SchemaError`` and a ``DecodeError`` of reason ``"unsupported"``), and
