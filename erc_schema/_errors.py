@@ -47,3 +47,8 @@ class UnreadableKind(SchemaError, DecodeError):
     def __init__(self, message: str, kind: str | None = None) -> None:
         DecodeError.__init__(self, message, "unsupported")
         self.kind = kind
+
+
+# Tracebacks and reprs name each class where users import it from.
+for _error in (CodecError, SchemaError, EncodeError, DecodeError, UnreadableKind):
+    _error.__module__ = "erc_schema"

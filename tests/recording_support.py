@@ -15,6 +15,7 @@ import struct
 from collections.abc import Iterable
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import pytest
 
@@ -123,3 +124,26 @@ def need_program(name: str, install: str) -> str:
         _missing(f"{name} is not installed ({install})")
         raise AssertionError("not reached")
     return found
+
+
+def read_back(path: Path) -> list[Any]:
+    """Every message, decoded from the file's own schemas, CRCs checked by both readers."""
+    reader = need("mcap.reader")
+    factory = need("mcap_protobuf.decoder").DecoderFactory
+    with path.open("rb") as file:
+        seeking = reader.make_reader(file, validate_crcs=True, decoder_factories=[factory()])
+        assert type(seeking).__name__ == "SeekingReader"
+        messages = list(seeking.iter_decoded_messages(log_time_order=False))
+    with path.open("rb") as file:  # the data section's CRC, in DataEnd, only this one reads
+        streaming = reader.NonSeekingReader(file, validate_crcs=True, decoder_factories=[factory()])
+        again = list(streaming.iter_decoded_messages())
+    assert [(m.channel.topic, m.message.data) for m in again] == [
+        (m.channel.topic, m.message.data) for m in messages
+    ]
+    return messages
+
+
+def metadata(path: Path) -> dict[str, dict[str, str]]:
+    reader = need("mcap.reader")
+    with path.open("rb") as file:
+        return {m.name: dict(m.metadata) for m in reader.make_reader(file).iter_metadata()}

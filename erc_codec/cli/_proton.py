@@ -74,11 +74,8 @@ def _codec(path: Path, protocol: str, scratch: int) -> BundleCodec:
     """The codec ``--config`` and ``--protocol`` name (one that does not load: exit 2)."""
     try:
         return BundleCodec(load_config(path), "1.0" if protocol == "1.0" else "2.0", scratch)
-    except ModuleNotFoundError as error:
-        package = "pyyaml" if error.name == "yaml" else error.name
-        raise Fatal(
-            f"reading a Proton configuration needs {package}: pip install 'erc-codec[proton]'"
-        ) from None
+    except ModuleNotFoundError as error:  # the library's words: which extra brings it
+        raise Fatal(str(error)) from None
     except CodecError as error:
         raise Fatal(one_line(str(error))) from None
 

@@ -296,6 +296,10 @@ class Envelope:
         the envelope metadata fields named (``timeout=300``) set to their values. ``mode=`` as
         a keyword is the mode, as in 0.1.0, unless the envelope has a metadata field so named."""
         if metadata and "mode" in metadata and "mode" not in self._metadata:
+            if mode != "strip":
+                raise TypeError(
+                    f"encode got the mode twice: {mode!r} and mode={metadata['mode']!r}"
+                )
             mode = cast(Mode, metadata.pop("mode"))
         if mode == "strip" and not metadata:
             # The usual call in one compiled function per payload class (bench_codec's encode

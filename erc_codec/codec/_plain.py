@@ -80,6 +80,10 @@ class Plain:
         """The datagram carrying ``message`` (an instance of the root message) in ``mode``; a
         plain root has no envelope, so no metadata to set (``mode=`` as a keyword is the mode)."""
         if "mode" in metadata:
+            if mode != "strip":
+                raise TypeError(
+                    f"encode got the mode twice: {mode!r} and mode={metadata['mode']!r}"
+                )
             mode = cast(Mode, metadata.pop("mode"))
         if not isinstance(message, Message):
             raise TypeError(

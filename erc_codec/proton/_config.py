@@ -203,7 +203,13 @@ def load_config(path: str | Path) -> Config:
 
 def parse_config(text: str, source: str = "<config>") -> Config:
     """The configuration YAML ``text`` spells; ``source`` names it in errors."""
-    import yaml  # the proton extra; loaded only when a configuration is read
+    try:
+        import yaml  # the proton extra; loaded only when a configuration is read
+    except ImportError:
+        raise ModuleNotFoundError(
+            "reading a Proton configuration needs pyyaml: pip install 'erc-codec[proton]'",
+            name="yaml",
+        ) from None
 
     try:
         document = yaml.compose(text, Loader=yaml.SafeLoader)

@@ -15,8 +15,17 @@ from typing import Any
 
 import pytest
 from datagrams import MODES, beside
-from recording_support import enhanced, frame, interface, need, section, simple, write_pcap
-from test_mcap import metadata, read_back
+from recording_support import (
+    enhanced,
+    frame,
+    interface,
+    metadata,
+    need,
+    read_back,
+    section,
+    simple,
+    write_pcap,
+)
 
 import erc_codec
 from erc_codec.capture._recording import file_descriptor_set

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import IO
 
 import pytest
-from test_cli_codec import ETHERNET, records, run, udp4, write_capture
+from cli_support import ETHERNET, records, run, udp4, write_capture
 
 import erc_codec
 from erc_codec.cli._input import LINE_LIMIT, hex_lines

@@ -66,6 +66,8 @@ def test_mode_as_a_keyword_is_the_mode_as_in_0_1_0(codec: Codec) -> None:
         assert timed == codec.encode(go, mode, timeout=300)
     with pytest.raises(EncodeError, match="has no metadata field 'modes'"):
         codec.encode(go, modes="exact")
+    with pytest.raises(TypeError, match="encode got the mode twice: 'pad' and mode='exact'"):
+        codec.encode(go, "pad", mode="exact")
 
 
 def test_a_whole_envelope_encodes_like_its_payload(codec: Codec) -> None:

@@ -9,11 +9,11 @@ import sys
 from pathlib import Path
 
 import pytest
+from cli_support import ETHERNET, one_line_error, records, run, udp4, write_capture
 from google.protobuf import json_format, wrappers_pb2
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from proton_values import HERE, TYPES_1_0, TYPES_2_0
-from test_cli_codec import ETHERNET, one_line_error, records, run, udp4, write_capture
 from test_proton_codec import LARGE, bundle2, field, signal2
 
 import erc_codec
