@@ -21,7 +21,16 @@ from . import codec as codec
 from . import runtime as runtime
 from . import schema as schema
 from . import transport as transport
-from .codec import Codec, Decoded, Direction, Member, MessageCodec, Mode, UnknownField
+from .codec import (
+    Codec,
+    Decoded,
+    Direction,
+    EnvelopeCodec,
+    Member,
+    MessageCodec,
+    Mode,
+    UnknownField,
+)
 
 __all__ = [
     "Codec",
@@ -30,6 +39,7 @@ __all__ = [
     "Decoded",
     "Direction",
     "EncodeError",
+    "EnvelopeCodec",
     "Member",
     "MessageCodec",
     "Mode",

@@ -6,7 +6,7 @@ schema does not know are kept and found on demand (``UnknownField``); messages g
 protobuf's JSON mapping. Nothing here does I/O or keeps time.
 """
 
-from ._codec import Codec, Direction, Member, MessageCodec
+from ._codec import Codec, Direction, EnvelopeCodec, Member, MessageCodec
 from ._envelope import Decoded, Mode
 from ._forms import in_form
 from ._unknown import MAX_UNKEPT_NUMBERS, UnkeptFields, UnknownField
@@ -16,6 +16,7 @@ __all__ = [
     "Codec",
     "Decoded",
     "Direction",
+    "EnvelopeCodec",
     "Member",
     "MessageCodec",
     "Mode",

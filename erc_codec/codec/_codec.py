@@ -1,4 +1,9 @@
-"""``Codec``: one loaded schema with its nanopb sizes, its envelope encoder/decoder and its JSON."""
+"""``Codec``: one loaded schema with its nanopb sizes and its JSON, and a root handler beside it.
+
+A codec is one of two classes, each a root handler (``Envelope``, ``Plain``: the encoding and
+decoding of its root) with ``Codec``'s schema-level half: ``EnvelopeCodec`` for an envelope root,
+``MessageCodec`` for any other message. ``Codec(schema)`` is the envelope codec.
+"""
 
 import functools
 import os
@@ -13,12 +18,20 @@ from erc_schema import NANOPB_VERSIONS, Schema, SchemaError, Sizes, load_schema,
 
 from ._contract import contract
 from ._discovery import SchemaSource, find_schema, load_source, packaged_tree, snapshot
-from ._envelope import Envelope, is_envelope
+from ._envelope import Decoded, Envelope, Mode, is_envelope
 from ._plain import Plain
 from ._sendable import unsendable
 from ._strict import refusal
 
-__all__ = ["Codec", "Direction", "Member", "MessageCodec", "default_tree", "is_envelope"]
+__all__ = [
+    "Codec",
+    "Direction",
+    "EnvelopeCodec",
+    "Member",
+    "MessageCodec",
+    "default_tree",
+    "is_envelope",
+]
 
 # A member's trailing comment, as the rover's envelope writes it: ``// direction: ROS2 -> BS``.
 _DIRECTION = re.compile(r"direction:[ \t]*(\S.*?)[ \t]*->[ \t]*(\S.*?)[ \t]*$", re.MULTILINE)
@@ -47,8 +60,9 @@ def default_tree() -> Path:
     return packaged_tree()
 
 
-class Codec(Envelope):
-    """Encoder and decoder for one schema revision, rooted at its envelope message.
+class Codec:
+    """Encoder and decoder for one schema revision, rooted at its envelope message (or, from
+    ``from_path`` with another root, at that message: a ``MessageCodec``).
 
     Loading compiles the root's file and its imports, computes every message's nanopb maximum size
     and checks that everything reachable from the root is fixed-size; any problem is a
@@ -63,6 +77,9 @@ class Codec(Envelope):
     0.4.9.1: see ``erc_codec.schema.Sizes``).
     """
 
+    def __new__(cls, *args: Any, **kwargs: Any) -> "Codec":
+        return super().__new__(EnvelopeCodec if cls is Codec else cls)
+
     def __init__(
         self,
         schema: Schema,
@@ -70,8 +87,16 @@ class Codec(Envelope):
         settings: Sequence[str] = (),
         nanopb_version: str = NANOPB_VERSIONS[0],
     ) -> None:
-        self._load(schema, options_file, settings, nanopb_version)
-        super().__init__(
+        _require_compiled_runtime()
+        self._schema = schema
+        self._sizes = Sizes(schema, options_file, settings, nanopb_version)
+        self._sizes.require_fixed(schema.root)
+        self.root = schema.root.full_name
+
+    def _handler_arguments(self) -> tuple[Any, ...]:
+        """What a root handler (``Envelope``, ``Plain``) is made of, for this schema's root."""
+        schema = self._schema
+        return (
             schema.message_class(self.root, lenient=True),
             self._sizes.max_size(self.root),
             functools.partial(contract, self._sizes),
@@ -79,14 +104,37 @@ class Codec(Envelope):
             functools.partial(unsendable, schema, self._sizes),
         )
 
-    def _load(
-        self, schema: Schema, options_file: str, settings: Sequence[str], nanopb_version: str
-    ) -> None:
-        _require_compiled_runtime()
-        self._schema = schema
-        self._sizes = Sizes(schema, options_file, settings, nanopb_version)
-        self._sizes.require_fixed(schema.root)
-        self.root = schema.root.full_name
+    # What the root handler defines: the encoding and decoding of the root.
+    def kinds(self) -> dict[int, str]:
+        """The envelope's members: field number → kind (``{}`` for a plain root)."""
+        raise NotImplementedError
+
+    def metadata_fields(self) -> dict[int, str]:
+        """The envelope's metadata fields: field number → name (``{}`` for a plain root)."""
+        raise NotImplementedError
+
+    def payload_class(self, kind: str) -> type[Message]:
+        """The message class member ``kind`` carries."""
+        raise NotImplementedError
+
+    def encode(self, message: Message, mode: Mode = "strip", /, **metadata: object) -> bytes:
+        """The datagram carrying ``message`` in ``mode``, with metadata fields set."""
+        raise NotImplementedError
+
+    def reencode(self, decoded: Decoded, mode: Mode = "strip") -> bytes:
+        """The datagram ``decoded`` came from, in ``mode``, with all it carried."""
+        raise NotImplementedError
+
+    def peek(self, data: bytes) -> tuple[str, bytes] | None:
+        """The kind and exact payload bytes of a datagram in its usual shape, else ``None``."""
+        raise NotImplementedError
+
+    def decode(self, data: bytes, strict: bool = False) -> Decoded:
+        """The payload of a datagram in exact, stripped or zero-padded form."""
+        raise NotImplementedError
+
+    def _root_class(self) -> type[Message]:
+        raise NotImplementedError
 
     @property
     def schema(self) -> Schema:
@@ -252,6 +300,21 @@ class Codec(Envelope):
             ) from None
 
 
+class EnvelopeCodec(Envelope, Codec):
+    """The ``Codec`` of an envelope root: what ``Codec(schema)``, ``Codec.default()`` and
+    ``Codec.from_path`` of an envelope give."""
+
+    def __init__(
+        self,
+        schema: Schema,
+        options_file: str = "%s.options",
+        settings: Sequence[str] = (),
+        nanopb_version: str = NANOPB_VERSIONS[0],
+    ) -> None:
+        Codec.__init__(self, schema, options_file, settings, nanopb_version)
+        Envelope.__init__(self, *self._handler_arguments())
+
+
 class MessageCodec(Plain, Codec):
     """A ``Codec`` rooted at a plain message (not an envelope): ``encode`` takes an instance of
     the root, ``decode`` returns it with the root's full name as the kind; the three forms,
@@ -265,15 +328,8 @@ class MessageCodec(Plain, Codec):
         settings: Sequence[str] = (),
         nanopb_version: str = NANOPB_VERSIONS[0],
     ) -> None:
-        self._load(schema, options_file, settings, nanopb_version)
-        Plain.__init__(
-            self,
-            schema.message_class(self.root, lenient=True),
-            self._sizes.max_size(self.root),
-            functools.partial(contract, self._sizes),
-            functools.partial(refusal, self._sizes, schema.root),
-            functools.partial(unsendable, schema, self._sizes),
-        )
+        Codec.__init__(self, schema, options_file, settings, nanopb_version)
+        Plain.__init__(self, *self._handler_arguments())
 
 
 def _defined(schema: Schema, name: str) -> bool:

@@ -111,6 +111,15 @@ class Plain:
             raise self._forms.oversize(self._name, len(data))
         return in_form(data, mode, self._forms.max_size)
 
+    def reencode(self, decoded: Decoded, mode: Mode = "strip") -> bytes:
+        """The datagram ``decoded`` (what ``decode`` returned) came from, in ``mode``: the root's
+        message as it is now, with the fields the schema does not know that it kept."""
+        if not isinstance(decoded, Decoded):
+            raise TypeError(
+                f"reencode takes what decode returned (a Decoded), not {type(decoded).__name__}"
+            )
+        return self.encode(decoded.message, mode)
+
     def peek(self, data: bytes) -> tuple[str, bytes] | None:
         """The kind and exact bytes of a datagram in exact, stripped or padded form; ``None``
         where only ``decode`` can say what is wrong with it (a cut datagram among them)."""

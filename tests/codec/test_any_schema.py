@@ -1011,7 +1011,20 @@ def test_nesting_deeper_than_python_recurses(tmp_path: Path) -> None:
 
 
 def test_default_codec_is_unchanged() -> None:
-    assert type(erc_codec.Codec.default()) is Codec
+    assert type(erc_codec.Codec.default()) is erc_codec.EnvelopeCodec
+
+
+def test_each_codec_is_one_root_handler_and_the_codecs_schema_half() -> None:
+    """No diamond: a ``MessageCodec`` is no ``Envelope``, and ``Codec(schema)`` is the envelope
+    codec, as before."""
+    from erc_codec.codec._envelope import Envelope
+    from erc_codec.codec._plain import Plain
+
+    envelope = erc_codec.Codec.default()
+    plain = Codec.from_path(TREES / "rules", "Probe")
+    assert [isinstance(envelope, base) for base in (Codec, Envelope, Plain)] == [True, True, False]
+    assert [isinstance(plain, base) for base in (Codec, Envelope, Plain)] == [True, False, True]
+    assert type(Codec(envelope.schema)) is erc_codec.EnvelopeCodec
 
 
 # -- the command line ----------------------------------------------------------------------------
