@@ -10,7 +10,7 @@ and serial), ``erc_codec.capture`` (MCAP, Foxglove, Wireshark), and on their own
 ``erc_codec.cli``.
 """
 
-from typing import TYPE_CHECKING as _TYPE_CHECKING
+from typing import TYPE_CHECKING
 
 from google.protobuf.message import Message as _Message
 
@@ -82,10 +82,13 @@ _RENAMED = {
 }
 
 
-if not _TYPE_CHECKING:  # a type checker flags every name this module does not define
+if not TYPE_CHECKING:  # a type checker flags every name this module does not define
 
     def __getattr__(name: str) -> object:
         new = _RENAMED.get(name, name)
         if new in _MOVED:
             raise AttributeError(f"erc_codec.{name} is erc_codec.{_MOVED[new]}.{new}")
         raise AttributeError(f"module 'erc_codec' has no attribute {name!r}")
+
+
+del TYPE_CHECKING

@@ -77,8 +77,22 @@ class Codec:
     0.4.9.1: see ``erc_codec.schema.Sizes``).
     """
 
-    def __new__(cls, *args: Any, **kwargs: Any) -> "Codec":
+    def __new__(
+        cls,
+        schema: Schema,
+        options_file: str = "%s.options",
+        settings: Sequence[str] = (),
+        nanopb_version: str = NANOPB_VERSIONS[0],
+    ) -> "Codec":
         return super().__new__(EnvelopeCodec if cls is Codec else cls)
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if not issubclass(cls, (Envelope, Plain)):
+            raise TypeError(
+                f"{cls.__name__}: a codec is an EnvelopeCodec or a MessageCodec (its root's "
+                "encoding and decoding): subclass one of them, not Codec"
+            )
 
     def __init__(
         self,
@@ -107,34 +121,34 @@ class Codec:
     # What the root handler defines: the encoding and decoding of the root.
     def kinds(self) -> dict[int, str]:
         """The envelope's members: field number → kind (``{}`` for a plain root)."""
-        raise NotImplementedError
+        raise NotImplementedError("a codec's root handler (Envelope, Plain) defines it")
 
     def metadata_fields(self) -> dict[int, str]:
         """The envelope's metadata fields: field number → name (``{}`` for a plain root)."""
-        raise NotImplementedError
+        raise NotImplementedError("a codec's root handler (Envelope, Plain) defines it")
 
     def payload_class(self, kind: str) -> type[Message]:
         """The message class member ``kind`` carries."""
-        raise NotImplementedError
+        raise NotImplementedError("a codec's root handler (Envelope, Plain) defines it")
 
     def encode(self, message: Message, mode: Mode = "strip", /, **metadata: object) -> bytes:
         """The datagram carrying ``message`` in ``mode``, with metadata fields set."""
-        raise NotImplementedError
+        raise NotImplementedError("a codec's root handler (Envelope, Plain) defines it")
 
     def reencode(self, decoded: Decoded, mode: Mode = "strip") -> bytes:
         """The datagram ``decoded`` came from, in ``mode``, with all it carried."""
-        raise NotImplementedError
+        raise NotImplementedError("a codec's root handler (Envelope, Plain) defines it")
 
     def peek(self, data: bytes) -> tuple[str, bytes] | None:
         """The kind and exact payload bytes of a datagram in its usual shape, else ``None``."""
-        raise NotImplementedError
+        raise NotImplementedError("a codec's root handler (Envelope, Plain) defines it")
 
     def decode(self, data: bytes, strict: bool = False) -> Decoded:
         """The payload of a datagram in exact, stripped or zero-padded form."""
-        raise NotImplementedError
+        raise NotImplementedError("a codec's root handler (Envelope, Plain) defines it")
 
     def _root_class(self) -> type[Message]:
-        raise NotImplementedError
+        raise NotImplementedError("a codec's root handler (Envelope, Plain) defines it")
 
     @property
     def schema(self) -> Schema:

@@ -1025,6 +1025,15 @@ def test_each_codec_is_one_root_handler_and_the_codecs_schema_half() -> None:
     assert [isinstance(envelope, base) for base in (Codec, Envelope, Plain)] == [True, True, False]
     assert [isinstance(plain, base) for base in (Codec, Envelope, Plain)] == [True, False, True]
     assert type(Codec(envelope.schema)) is erc_codec.EnvelopeCodec
+    with pytest.raises(TypeError, match="Mine: a codec is an EnvelopeCodec or a MessageCodec"):
+
+        class Mine(Codec):  # no root handler: it could encode nothing
+            pass
+
+    class Yours(erc_codec.EnvelopeCodec):
+        pass
+
+    assert Yours(envelope.schema).encode(envelope.message_class("drive_motor")()) == b"\x4a"
 
 
 # -- the command line ----------------------------------------------------------------------------

@@ -5,7 +5,9 @@ import ast
 import re
 import subprocess
 import sys
+from pathlib import Path
 
+import pytest
 from conftest import REPO
 
 import erc_codec
@@ -77,3 +79,24 @@ def test_erc_codec_schema_is_the_schema_layer() -> None:
 
     assert erc_codec.schema.__all__ == erc_schema.__all__
     assert all(getattr(erc_codec.schema, n) is getattr(erc_schema, n) for n in erc_schema.__all__)
+
+
+def test_a_moved_name_is_an_error_to_a_type_checker_and_says_where_at_run_time(
+    tmp_path: Path,
+) -> None:
+    """The hint for 0.1.0's top-level names is for people at run time; mypy still reports them
+    (and any misspelling) as missing, which a module ``__getattr__`` it could see would hide."""
+    script = tmp_path / "old.py"
+    script.write_text("import erc_codec\n\nerc_codec.Router\nerc_codec.Codecc\n")
+    done = subprocess.run(
+        [sys.executable, "-m", "mypy", "--strict", "--cache-dir", str(tmp_path / "cache"), script],
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd=REPO,
+    )
+    assert done.returncode == 1, done.stdout
+    assert 'Module has no attribute "Router"' in done.stdout
+    assert 'Module has no attribute "Codecc"' in done.stdout
+    with pytest.raises(AttributeError, match=r"erc_codec\.Router is erc_codec\.runtime\.Router"):
+        erc_codec.Router  # type: ignore[attr-defined]  # noqa: B018
