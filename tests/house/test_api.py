@@ -100,3 +100,8 @@ def test_a_moved_name_is_an_error_to_a_type_checker_and_says_where_at_run_time(
     assert 'Module has no attribute "Codecc"' in done.stdout
     with pytest.raises(AttributeError, match=r"erc_codec\.Router is erc_codec\.runtime\.Router"):
         erc_codec.Router  # type: ignore[attr-defined]  # noqa: B018
+
+
+def test_no_name_is_listed_twice() -> None:
+    for room in ROOMS:
+        assert len(room.__all__) == len(set(room.__all__)), room.__name__
