@@ -1,8 +1,11 @@
 """``Codec``: one loaded schema with its nanopb sizes and its JSON, and a root handler beside it.
 
-A codec is one of two classes, each a root handler (``Envelope``, ``Plain``: the encoding and
-decoding of its root) with ``Codec``'s schema-level half: ``EnvelopeCodec`` for an envelope root,
-``MessageCodec`` for any other message. ``Codec(schema)`` is the envelope codec.
+A codec joins ``Codec``'s schema-level half to a root handler, which encodes and decodes the root.
+There are two such classes:
+- ``EnvelopeCodec``, with ``Envelope``, for an envelope root;
+- ``MessageCodec``, with ``Plain``, for any other message.
+
+``Codec(schema)`` is the envelope codec.
 """
 
 import functools
@@ -45,9 +48,13 @@ class Direction(NamedTuple):
 
 
 class Member(NamedTuple):
-    """One member of the envelope's oneof: its field ``number``, its ``kind`` (the member name a
-    decode returns), the full name of its ``message`` type, and its ``direction`` (``None`` where
-    the schema does not give one)."""
+    """One member of the envelope's oneof.
+
+    - ``number``: its field number.
+    - ``kind``: the member name a decode returns.
+    - ``message``: the full name of its message type.
+    - ``direction``: who sends and receives it; ``None`` where the schema does not give one.
+    """
 
     number: int
     kind: str
@@ -61,20 +68,31 @@ def default_tree() -> Path:
 
 
 class Codec:
-    """Encoder and decoder for one schema revision, rooted at its envelope message (or, from
-    ``from_path`` with another root, at that message: a ``MessageCodec``).
+    """Encoder and decoder for one schema revision, rooted at its envelope message.
 
-    Loading compiles the root's file and its imports, computes every message's nanopb maximum size
-    and checks that everything reachable from the root is fixed-size; any problem is a
-    ``SchemaError`` naming the file and line. A message erc-codec cannot encode or decode as
-    nanopb does (one protobuf's Python runtime cannot build: more than 63 required fields,
-    clashing JSON names; an editions DELIMITED field; an override protobuf does not write as
-    nanopb reads it; a field named as a method erc-codec asks a message for) keeps nanopb's
-    size in ``sizes()`` and ``max_size``: only encoding or decoding it (a member carrying it, or
-    the whole root) is a ``SchemaError`` saying why.
-    ``options_file`` and ``settings`` are nanopb's generator's ``-f`` and ``-s``,
-    ``nanopb_version`` whose sizing rules apply (``"0.4.9"``, or ``"1.0.0-dev"``, master after
-    0.4.9.1: see ``erc_codec.schema.Sizes``).
+    ``from_path`` with another root gives a ``MessageCodec`` rooted at that message.
+
+    Loading does three things:
+    - it compiles the root's file and its imports;
+    - it computes every message's nanopb maximum size;
+    - it checks that everything reachable from the root is fixed-size.
+
+    Any problem in loading is a ``SchemaError`` naming the file and line.
+
+    Some messages erc-codec cannot encode or decode as nanopb does:
+    - one protobuf's Python runtime cannot build (more than 63 required fields, clashing JSON
+      names);
+    - one with an editions DELIMITED field;
+    - one with an override that protobuf does not write as nanopb reads it;
+    - one with a field named as a method erc-codec asks a message for.
+
+    Such a message keeps nanopb's size in ``sizes()`` and ``max_size``. Only encoding or decoding
+    it (a member carrying it, or the whole root) is a ``SchemaError`` saying why.
+
+    Parameters:
+    - ``options_file`` and ``settings`` are nanopb's generator's ``-f`` and ``-s``.
+    - ``nanopb_version`` is the generator version whose sizing rules apply: ``"0.4.9"``, or
+      ``"1.0.0-dev"`` (master after 0.4.9.1); see ``erc_codec.schema.Sizes``.
     """
 
     def __new__(
@@ -170,13 +188,17 @@ class Codec:
         settings: Sequence[str] = (),
         nanopb_version: str = NANOPB_VERSIONS[0],
     ) -> "Codec":
-        """Load the proto tree under ``tree`` (the import root), starting from message ``root``
-        (its full name), with ``include`` as further import folders (``-I``), sized as nanopb's
-        generator ``nanopb_version`` sizes it (``-f options_file``, ``-s`` each of ``settings``).
+        """Load the proto tree under ``tree`` and give its codec.
+
+        - ``tree`` is the import root.
+        - ``root`` is the full name of the message to start from.
+        - ``include`` lists further import folders (``-I``).
+        - The sizes are those nanopb's generator ``nanopb_version`` computes, with
+          ``-f options_file`` and ``-s`` for each of ``settings``.
 
         An envelope root (one oneof of messages, metadata fields beside it) gives the envelope
-        codec; any other message a ``MessageCodec``, which sends that message alone in the same
-        three forms.
+        codec. Any other message gives a ``MessageCodec``, which sends that message alone in the
+        same three forms.
         """
         if not isinstance(tree, (str, os.PathLike)):
             raise TypeError(f"tree is a folder (str or os.PathLike), not {type(tree).__name__}")
@@ -188,9 +210,12 @@ class Codec:
 
     @classmethod
     def from_source(cls, source: SchemaSource) -> "Codec":
-        """Load the schema ``source`` names (``find_schema``): a folder, or a git revision
-        ``GITDIR#ref=REF[,subdir=PATH]`` read without a checkout, with its include folders,
-        options file, generator settings and the generator version whose sizing rules apply."""
+        """Load the schema ``source`` names (``find_schema``).
+
+        The source is a folder, or a git revision ``GITDIR#ref=REF[,subdir=PATH]`` read without
+        a checkout. It also gives the include folders, the options file, the generator settings
+        and the generator version whose sizing rules apply.
+        """
         return load_source(
             source,
             lambda tree: cls.from_schema(
@@ -217,13 +242,18 @@ class Codec:
 
     @classmethod
     def default(cls) -> "Codec":
-        """The codec for the schema found as every command finds it (``find_schema``):
-        ``ERC_CODEC_PROTO``, else ``[tool.erc-codec]`` in the nearest ``pyproject.toml`` from the
-        working folder up, else the packaged rover schema. It is found anew on each call and
-        loaded once for each state of it (``snapshot``), then shared: a new commit on a git
-        input's ref or branch, or an edited file of a folder, is loaded by the next call. That
-        check costs a ``git rev-parse`` for a git input and a stat of each file for a folder:
-        in a loop, keep the codec."""
+        """The codec for the schema found as every command finds it (``find_schema``).
+
+        The schema is the first of:
+        - ``ERC_CODEC_PROTO``;
+        - ``[tool.erc-codec]`` in the nearest ``pyproject.toml`` from the working folder up;
+        - the packaged rover schema.
+
+        The schema is found anew on each call. It is loaded once for each state of it
+        (``snapshot``), then shared. So the next call loads a new commit on a git input's ref or
+        branch, or an edited file of a folder. That check costs a ``git rev-parse`` for a git
+        input and a stat of each file for a folder, so in a loop, keep the codec.
+        """
         return _loaded(*snapshot(find_schema()))
 
     def max_size(self, name: str) -> int:
@@ -236,9 +266,12 @@ class Codec:
 
     def message_class(self, name: str) -> type[Message]:
         """The message class for a kind (``"gps_info"``) or a full message name
-        (``"SensorBoardGPSInfo"``); a kind wins where a message has the same name. A member
-        or root the codec cannot send (see the class's docstring) is a ``SchemaError`` saying
-        why; an envelope with other members that it sends gives its class."""
+        (``"SensorBoardGPSInfo"``).
+
+        A kind wins where a message has the same name. A member or root the codec cannot send
+        (see the class's docstring) is a ``SchemaError`` saying why. An envelope that has other
+        members the codec sends still gives its class.
+        """
         if name in self.kinds().values():
             return self.payload_class(name)
         if name == self.root:
@@ -262,9 +295,16 @@ class Codec:
 
     def to_dict(self, message: Message) -> dict[str, Any]:
         """``message`` (of any type) in protobuf's JSON mapping, as ``erc-codec decode`` prints
-        it: field names as in the .proto, in its order at every level, every field without
-        presence shown, enums by name, 64-bit integers as strings, bytes in base64, a float as
-        the shortest decimal of its 32 bits, ``"NaN"`` and ``"Infinity"`` as strings."""
+        it.
+
+        - Field names are as in the .proto, in its order at every level.
+        - Every field without presence is shown.
+        - Enums are by name.
+        - 64-bit integers are strings.
+        - Bytes are in base64.
+        - A float is the shortest decimal of its 32 bits.
+        - ``"NaN"`` and ``"Infinity"`` are strings.
+        """
         from ._json import to_dict
 
         return to_dict(_a_message(message))
@@ -276,20 +316,30 @@ class Codec:
         return to_json(_a_message(message))
 
     def from_dict(self, kind_or_class: str | type[Message], document: Mapping[str, Any]) -> Message:
-        """The message ``document`` spells in protobuf's JSON mapping (what ``to_dict`` gives, or
-        json.loads of such text), of payload kind ``kind_or_class`` (``"gps_info"``), of the
-        message so named (``"SensorBoardGPSInfo"``) or of that message class. Names as in the
-        .proto or in lowerCamelCase, enums by name or a declared number, 64-bit integers as
-        numbers or strings; every value range-checked before it is converted. A value that does
-        not fit is an ``EncodeError`` naming its full path and what the field takes; an unknown
-        kind or name a ``SchemaError``. nanopb's own limits are checked by ``encode``."""
+        """The message ``document`` spells in protobuf's JSON mapping.
+
+        ``document`` is what ``to_dict`` gives, or json.loads of such text. ``kind_or_class`` is
+        a payload kind (``"gps_info"``), a message name (``"SensorBoardGPSInfo"``) or a message
+        class.
+
+        What the document may spell:
+        - names as in the .proto or in lowerCamelCase;
+        - enums by name or by a declared number;
+        - 64-bit integers as numbers or strings.
+
+        Every value is range-checked before it is converted. A value that does not fit is an
+        ``EncodeError`` naming its full path and what the field takes. An unknown kind or name is
+        a ``SchemaError``. ``encode`` checks nanopb's own limits.
+        """
         from ._json import from_dict
 
         return from_dict(self._json_class(kind_or_class), document)
 
     def from_json(self, kind_or_class: str | type[Message], text: str | bytes) -> Message:
-        """``from_dict`` of JSON text, read strictly (a key given twice is an ``EncodeError``,
-        numbers are read exactly)."""
+        """``from_dict`` of JSON text, read strictly.
+
+        A key given twice is an ``EncodeError``. Numbers are read exactly.
+        """
         from ._json import from_json
 
         return from_json(self._json_class(kind_or_class), text)
@@ -330,10 +380,13 @@ class EnvelopeCodec(Envelope, Codec):
 
 
 class MessageCodec(Plain, Codec):
-    """A ``Codec`` rooted at a plain message (not an envelope): ``encode`` takes an instance of
-    the root, ``decode`` returns it with the root's full name as the kind; the three forms,
-    the contract and the errors are the envelope codec's. ``kinds()`` and ``members()`` are
-    empty."""
+    """A ``Codec`` rooted at a plain message, not an envelope.
+
+    - ``encode`` takes an instance of the root.
+    - ``decode`` returns it, with the root's full name as the kind.
+    - The three forms, the contract and the errors are the envelope codec's.
+    - ``kinds()`` and ``members()`` are empty.
+    """
 
     def __init__(
         self,
@@ -363,11 +416,14 @@ def _a_message(message: object) -> Message:
 
 
 def _require_compiled_runtime() -> None:
-    """protobuf's pure-Python runtime keeps no serialized descriptors and reads some malformed
-    bytes otherwise than upb does, so a codec on it would answer otherwise than the one tested.
-    nanopb's generator switches to it for its own process (it sets
-    ``PROTOCOL_BUFFERS_PYTHON_IMPLEMENTATION=python`` in ``os.environ`` on import), and every
-    process started after that inherits it: say so, rather than decode differently."""
+    """Refuse protobuf's pure-Python runtime with a ``SchemaError``, rather than decode
+    differently.
+
+    That runtime keeps no serialized descriptors and reads some malformed bytes otherwise than
+    upb does. So a codec on it would answer otherwise than the one tested. nanopb's generator
+    switches to it for its own process: it sets ``PROTOCOL_BUFFERS_PYTHON_IMPLEMENTATION=python``
+    in ``os.environ`` on import. Every process started after that inherits it.
+    """
     from google.protobuf.internal import api_implementation
 
     if api_implementation.Type() == "python":
@@ -379,10 +435,13 @@ def _require_compiled_runtime() -> None:
 
 
 def _loaded(source: SchemaSource, state: Hashable) -> Codec:
-    """The codec of ``source`` in ``state``. The packaged schema's is kept for the life of the
-    process, so ``Codec.default()`` and its message classes stay the same objects however many
-    other schemas are loaded meanwhile; another schema's are kept while they are among the
-    eight last used (an edited folder's old state is soon let go)."""
+    """The codec of ``source`` in ``state``.
+
+    The packaged schema's codec is kept for the life of the process. So ``Codec.default()`` and
+    its message classes stay the same objects however many other schemas are loaded meanwhile.
+    Another schema's codecs are kept while they are among the eight last used, so an edited
+    folder's old state is soon let go.
+    """
     if source.origin == "packaged":
         return _packaged(source)
     return _edited(source, state)

@@ -2,39 +2,55 @@
 
 What this module guarantees:
 - ``encode`` produces exactly the bytes protobuf (and nanopb) would for the envelope, then strips
-  or pads trailing zeros; it never lets through what a fixed-size receiver would drop.
-- ``decode`` accepts the exact, the stripped and the zero-padded form of an envelope and returns the
-  same message for all three. A stripped form loses only zeros that belonged to the value of the
-  last top-level field, so restoring them takes one walk over the top-level fields (one, in an
-  envelope): bytes past the end count as zeros for as long as that field needs, and a zero byte
-  where a tag is expected ends the message, provided nothing but zeros follows it.
-- It restores only zeros some encoder could have written: a restoration giving a field without
-  presence its default is a datagram cut short, reason ``truncated`` (see ``_truncation``).
-- ``encode`` never produces a datagram ``decode`` refuses, and ``decode`` takes any bytes-like
-  object (a ``str`` is a ``TypeError``).
+  or pads trailing zeros.
+- ``encode`` never lets through what a fixed-size receiver would drop.
+- ``encode`` never produces a datagram ``decode`` refuses.
+- ``decode`` accepts the exact, the stripped and the zero-padded form of an envelope, and returns
+  the same message for all three.
+- ``decode`` takes any bytes-like object; a ``str`` is a ``TypeError``.
+- ``decode`` restores only zeros some encoder could have written. A restoration that gives a field
+  without presence its default is a datagram cut short, reason ``truncated`` (see
+  ``_truncation``).
 - Fields the schema does not know are kept and listed: the payload's, and those beside it on the
-  envelope (``Decoded.envelope_unknown_fields``, path the envelope's name), which ``reencode``
-  sends on. Only the general path can meet the latter: the fast path takes a datagram that is
-  one member field and nothing else, so the usual datagram pays nothing for them.
-- Every failure is a ``DecodeError``/``EncodeError`` saying what and where (offset, field path).
+  envelope (``Decoded.envelope_unknown_fields``, whose path is the envelope's name).
+  ``reencode`` sends both on.
+- Every failure is a ``DecodeError`` or ``EncodeError`` saying what and where (offset, field
+  path).
+
+Restoring a stripped form: it loses only zeros of the value of the last top-level field. So
+restoring them takes one walk over the top-level fields (one, in an envelope):
+- bytes past the end count as zeros for as long as that field needs;
+- a zero byte where a tag is expected ends the message, provided nothing but zeros follows it.
 
 Both directions run per datagram, so the common case is the protobuf call plus a few byte
-operations. Encoding looks the payload class up in a dict and prepends a precomputed tag-and-length
-header to the payload's own serialization; in the default form (stripped, no metadata) one
-function compiled per payload class does all of it, the contract's check inline
-(``_contract.sender``). Decoding reads that header itself (``peek``: tag → kind,
-length → where the payload ends), so protobuf parses only the payload bytes: a stripped datagram
-gets its missing zeros appended and a padded one is cut, by arithmetic, before the one parse;
-only a datagram whose zeros were restored has its parse serialized again, and only when that
-differs from the restored bytes is the payload walked for a cut field. Datagrams of any other
-shape (several top-level fields, unknown members, corruption) take the general path: the repair
-walk over the whole envelope, then the envelope parse, as ``_forms`` does them for any root.
+operations.
 
-Metadata: fields an envelope declares beside its oneof (the rover's ``timeout``) are encoded on
-request (``encode(message, timeout=300)``) and returned on ``Decoded.metadata``. A datagram
-carrying one has a last field that is not the payload; it takes the general path, whose walk
-treats every top-level field alike, so stripping, padding and restoring need nothing new. A
-datagram without metadata (the usual one) decodes exactly as before.
+Encoding looks the payload class up in a dict. It prepends a precomputed tag-and-length header to
+the payload's own serialization. In the default form (stripped, no metadata), one function
+compiled per payload class does all of it, with the contract's check inline
+(``_contract.sender``).
+
+Decoding reads that header itself (``peek``: tag → kind, length → where the payload ends), so
+protobuf parses only the payload bytes:
+- a stripped datagram gets its missing zeros appended, by arithmetic, before the one parse;
+- a padded datagram is cut, by arithmetic, before the one parse;
+- only a datagram whose zeros were restored has its parse serialized again;
+- only when that serialization differs from the restored bytes is the payload walked for a cut
+  field.
+
+Datagrams of any other shape (several top-level fields, unknown members, corruption) take the
+general path. It is the repair walk over the whole envelope, then the envelope parse, as
+``_forms`` does them for any root. Only the general path can meet unknown fields beside the
+payload. The fast path takes only a datagram that is one member field and nothing else, so the
+usual datagram pays nothing for them.
+
+Metadata is the fields an envelope declares beside its oneof (the rover's ``timeout``):
+- they are encoded on request (``encode(message, timeout=300)``);
+- they are returned on ``Decoded.metadata``;
+- a datagram carrying one has a last field that is not the payload, so it takes the general path;
+- that path's walk treats every top-level field alike, so stripping, padding and restoring need
+  nothing new;
+- a datagram without metadata (the usual one) decodes as it would with no metadata declared.
 """
 
 from collections.abc import Callable, Mapping, Sequence
@@ -89,19 +105,24 @@ class _Payload(NamedTuple):
 
 
 class Decoded(_Payload):
-    """A decoded datagram: the oneof member name (``kind``) and the payload message, unpacked
-    as ``kind, message = codec.decode(data)``; besides them, the envelope's metadata and the
-    fields the envelope itself carried that the schema does not know.
+    """A decoded datagram: the oneof member name (``kind``) and the payload message.
 
-    ``metadata`` maps each field outside the envelope's oneof that the datagram carried to its
-    value (a field holding 0 is never sent, so a missing one is 0); it is an attribute, not a
-    third item, so two-name unpacking keeps working, and equality compares kind and message.
-    ``timeout`` is the rover envelope's ``timeout`` (milliseconds; 0: not sent, or not declared).
-    ``envelope_unknown_fields`` are the unknown fields beside the payload, on the envelope
-    itself (``path`` is the envelope's name, ``codec.root``), a cheap test: ``()`` for a datagram
-    of this schema. ``envelope`` is the envelope message where decode parsed the whole envelope
-    (a datagram carrying more than its payload: metadata, unknown fields beside it), ``None``
-    where it parsed the payload alone. ``codec.reencode(decoded)`` sends on all of it.
+    It unpacks as ``kind, message = codec.decode(data)``. It also carries the envelope's metadata
+    and the fields the envelope itself carried that the schema does not know.
+
+    - ``metadata`` maps each field outside the envelope's oneof that the datagram carried to its
+      value. A field holding 0 is never sent, so a missing one is 0. It is an attribute, not a
+      third item, so two-name unpacking keeps working. Equality compares kind and message only.
+    - ``timeout`` is the rover envelope's ``timeout`` in milliseconds; 0 means not sent, or not
+      declared.
+    - ``envelope_unknown_fields`` are the unknown fields beside the payload, on the envelope
+      itself; their ``path`` is the envelope's name, ``codec.root``. They are a cheap test:
+      ``()`` for a datagram of this schema.
+    - ``envelope`` is the envelope message where decode parsed the whole envelope, which it does
+      for a datagram carrying more than its payload (metadata, unknown fields beside it). It is
+      ``None`` where decode parsed the payload alone.
+
+    ``codec.reencode(decoded)`` sends on all of it.
     """
 
     metadata: Mapping[str, object] = _NO_METADATA
@@ -121,10 +142,15 @@ class Decoded(_Payload):
         return self.envelope_unknown_fields + unknown_fields(self.message)
 
     def to_dict(self) -> dict[str, Any]:
-        """The datagram as ``erc-codec decode`` prints it (without its ``length``): ``kind``,
-        ``message`` in protobuf's JSON mapping (``Codec.to_dict``) and, if the datagram carried
-        any, ``metadata`` (the envelope's fields beside its payload, ``timeout`` ..., in the same
-        mapping) and ``unknown_fields`` (``path``, ``number``, ``wire_type`` each)."""
+        """The datagram as ``erc-codec decode`` prints it, without its ``length``.
+
+        - ``kind``.
+        - ``message``, in protobuf's JSON mapping (``Codec.to_dict``).
+        - ``metadata``, if the datagram carried any: the envelope's fields beside its payload
+          (``timeout`` ...), in the same mapping.
+        - ``unknown_fields``, if the datagram carried any: ``path``, ``number`` and ``wire_type``
+          each.
+        """
         from ._json import to_dict
 
         record: dict[str, Any] = {"kind": self.kind, "message": to_dict(self.message)}
@@ -170,8 +196,11 @@ class Envelope:
         unsendable: Unsendable | None = None,
     ) -> None:
         """``unsendable`` says which members (or the envelope itself) cannot be encoded or
-        decoded as nanopb does: those are left out of every table, and encoding or decoding
-        them is a ``SchemaError`` saying why, while every other member works."""
+        decoded as nanopb does.
+
+        Those members are left out of every table. Encoding or decoding them is a
+        ``SchemaError`` saying why. Every other member works.
+        """
         descriptor = descriptor_of(envelope)
         self._refusal = refusal  # what nanopb's decoder refuses, for strict decodes
         oneofs = [oneof for oneof in descriptor.oneofs if not _synthetic(oneof)]
@@ -292,9 +321,12 @@ class Envelope:
     # -- encoding ------------------------------------------------------------------------------
 
     def encode(self, message: Message, mode: Mode = "strip", /, **metadata: object) -> bytes:
-        """The datagram carrying ``message`` (a payload, or a whole envelope) in ``mode``, with
-        the envelope metadata fields named (``timeout=300``) set to their values. ``mode=`` as
-        a keyword is the mode, as in 0.1.0, unless the envelope has a metadata field so named."""
+        """The datagram carrying ``message`` (a payload, or a whole envelope) in ``mode``.
+
+        Each keyword names an envelope metadata field and sets it to its value (``timeout=300``).
+        ``mode=`` as a keyword is the mode, as in 0.1.0, unless the envelope has a metadata field
+        so named.
+        """
         if metadata and "mode" in metadata and "mode" not in self._metadata:
             if mode != "strip":
                 raise TypeError(
@@ -336,10 +368,12 @@ class Envelope:
         return in_form(header + body, mode, self._max_size)
 
     def reencode(self, decoded: Decoded, mode: Mode = "strip") -> bytes:
-        """The datagram ``decoded`` (what ``decode`` returned) came from, in ``mode``: its
-        payload, its metadata and the fields the schema does not know, those beside the payload
-        included, each as protobuf kept it, byte for byte (what a relay sends on). A payload
-        changed since the decode is sent as it is now."""
+        """The datagram ``decoded`` (what ``decode`` returned) came from, in ``mode``.
+
+        It carries the payload, the metadata and the fields the schema does not know, those
+        beside the payload included. Each is as protobuf kept it, byte for byte: what a relay
+        sends on. A payload changed since the decode is sent as it is now.
+        """
         if not isinstance(decoded, Decoded):
             raise TypeError(
                 f"reencode takes what decode returned (a Decoded), not {type(decoded).__name__}"
@@ -436,11 +470,14 @@ class Envelope:
     # -- decoding ------------------------------------------------------------------------------
 
     def peek(self, data: bytes) -> tuple[str, bytes] | None:
-        """The kind and exact payload bytes of a datagram in its usual shape (one member, with
-        a tag of at most two bytes and a length of at most two, sent exact, stripped or
-        zero-padded), found by arithmetic on its header; ``None`` for any other datagram, which
-        only the general decoder can judge, and for a cut one (see ``decode``). Only a datagram
-        whose zeros were restored has its payload parsed, to tell stripped from cut."""
+        """The kind and exact payload bytes of a datagram in its usual shape, found by arithmetic
+        on its header.
+
+        The usual shape is one member, with a tag of at most two bytes and a length of at most
+        two, sent exact, stripped or zero-padded. Any other datagram is ``None``: only the general
+        decoder can judge it. A cut datagram (see ``decode``) is ``None`` too. Only a datagram
+        whose zeros were restored has its payload parsed, to tell stripped from cut.
+        """
         if type(data) is not bytes:
             data = as_bytes(data)
         size = len(data)
@@ -481,13 +518,18 @@ class Envelope:
     def decode(self, data: bytes, strict: bool = False) -> Decoded:  # noqa: C901
         """The payload of a datagram in exact, stripped or zero-padded form.
 
-        ``data`` is bytes or any bytes-like object (``bytearray``, ``memoryview``). Restored
-        zeros that give a field without presence its default, which no proto3 encoder sends,
-        are a datagram cut short: ``DecodeError`` with reason ``"truncated"``. Fields the schema
-        does not know are kept (``Decoded.unknown_fields``). With ``strict``, they are a
-        ``DecodeError`` with reason ``"unknown_fields"``, and so is what nanopb's decoder refuses
-        (a missing required field, a string, bytes or array over its limit, a fixed-length field
-        of the wrong size).
+        ``data`` is bytes or any bytes-like object (``bytearray``, ``memoryview``).
+
+        Restored zeros that give a field without presence its default are a datagram cut short:
+        no proto3 encoder sends that. It is a ``DecodeError`` with reason ``"truncated"``.
+
+        Fields the schema does not know are kept (``Decoded.unknown_fields``).
+
+        With ``strict``, decoding refuses more:
+        - fields the schema does not know are a ``DecodeError`` with reason ``"unknown_fields"``;
+        - what nanopb's decoder refuses is a ``DecodeError`` too (reason ``"corrupt"``): a missing
+          required field, a string, bytes or array over its limit, a fixed-length field of the
+          wrong size.
         """
         if strict:
             return self._decode_strict(data)

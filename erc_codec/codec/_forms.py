@@ -1,24 +1,35 @@
-"""The three transmission forms of a root message, written once for both codecs: exact, stripped
-of its trailing zeros, and padded with zeros to the root's nanopb maximum size. ``_envelope``
-(an envelope root) and ``_plain`` (any other root) each keep only what is theirs.
+"""The three transmission forms of a root message, written once for both codecs.
+
+The forms are:
+- exact;
+- stripped of its trailing zeros;
+- padded with zeros to the root's nanopb maximum size.
+
+``_envelope`` (an envelope root) and ``_plain`` (any other root) each keep only what is theirs.
 
 What this module guarantees, for a root of maximum size ``max_size``:
-- ``in_form`` puts an exact encoding in a form, the one cut every sender uses (the codecs, the
-  router); ``Forms.oversize`` is the error for an
-  encoding longer than ``max_size``, which a fixed-size receiver drops.
-- ``Forms.restore`` gives back the exact encoding of a datagram sent in any form. A stripped form
-  lost only zeros of the value of its last top-level field, so one walk over the top-level fields
-  restores them (bytes past the end count as zeros for as long as that field needs), and a zero
-  byte where a tag is expected ends the message, provided nothing but zeros follows it.
-- ``Forms.parse`` restores and parses, and refuses restored zeros that make what no encoder sends
-  (a field without presence at its default, a varint ending in ``80 00``: see ``_truncation``):
-  a datagram cut short, reason ``"truncated"``. ``Forms.peek`` is the exact encoding without the
-  parse where no zeros were restored, ``None`` for what ``parse`` would refuse before parsing.
-- ``strict_error`` is what a strict decode refuses beyond that: fields the schema does not know,
-  the envelope's own and the payload's (reason ``"unknown_fields"``), then what nanopb's decoder
-  refuses.
-- Every failure is a ``DecodeError``/``EncodeError`` saying what and where (offset, field path);
-  a datagram is bytes or any bytes-like object (``as_bytes``), a ``str`` is a ``TypeError``.
+- ``in_form`` puts an exact encoding in a form. It is the one cut every sender uses (the codecs,
+  the router).
+- ``Forms.oversize`` is the error for an encoding longer than ``max_size``, which a fixed-size
+  receiver drops.
+- ``Forms.restore`` gives back the exact encoding of a datagram sent in any form.
+- ``Forms.parse`` restores and parses.
+- ``Forms.parse`` refuses restored zeros that make what no encoder sends: a field without presence
+  at its default, or a varint ending in ``80 00`` (see ``_truncation``). That is a datagram cut
+  short, reason ``"truncated"``.
+- ``Forms.peek`` is the exact encoding, without the parse where no zeros were restored.
+- ``Forms.peek`` is ``None`` for what ``parse`` would refuse before parsing.
+- ``strict_error`` is what a strict decode refuses beyond that. First come fields the schema does
+  not know, the envelope's own and the payload's (reason ``"unknown_fields"``). Then comes what
+  nanopb's decoder refuses.
+- Every failure is a ``DecodeError`` or ``EncodeError`` saying what and where (offset, field
+  path).
+- A datagram is bytes or any bytes-like object (``as_bytes``); a ``str`` is a ``TypeError``.
+
+A stripped form lost only zeros of the value of its last top-level field. So one walk over the
+top-level fields restores them:
+- bytes past the end count as zeros for as long as that field needs;
+- a zero byte where a tag is expected ends the message, provided nothing but zeros follows it.
 """
 
 from collections.abc import Callable
@@ -48,10 +59,11 @@ Mode = Literal["strip", "exact", "pad"]
 class Forms:
     """The forms of root message ``cls``, whose longest encoding is ``max_size`` bytes.
 
-    ``whose`` names the root in errors (``"the envelope's"``, ``"Probe's"``); ``groups``: whether
-    a group may stand at the top level (a proto3 envelope has none); ``inside``: cut fields are
-    named from the envelope's member type, not from the root; ``tables``: the presence tables
-    already built (see ``presence_table``), shared with the caller's.
+    - ``whose`` names the root in errors (``"the envelope's"``, ``"Probe's"``).
+    - ``groups`` says whether a group may stand at the top level; a proto3 envelope has none.
+    - ``inside`` names cut fields from the envelope's member type, not from the root.
+    - ``tables`` holds the presence tables already built (see ``presence_table``), shared with
+      the caller's.
     """
 
     def __init__(
@@ -127,9 +139,11 @@ class Forms:
         return message
 
     def peek(self, data: bytes) -> bytes | None:
-        """The exact encoding of a datagram (``bytes``) in exact, stripped or padded form;
-        ``None`` where ``parse`` refuses it for its form, its length or a cut. Only a datagram
-        whose zeros were restored is parsed, to tell stripped from cut."""
+        """The exact encoding of a datagram (``bytes``) in exact, stripped or padded form.
+
+        It is ``None`` where ``parse`` refuses the datagram for its form, its length or a cut.
+        Only a datagram whose zeros were restored is parsed, to tell stripped from cut.
+        """
         try:
             exact = self.restore(data)
         except DecodeError:
@@ -152,9 +166,13 @@ class Forms:
 
 
 def in_form(exact: bytes, mode: Mode, max_size: int) -> bytes:
-    """The exact encoding ``exact`` in transmission form ``mode``: as it is, stripped of its
-    trailing zeros (every one of them belongs to the last field, so nothing else is lost), or
-    padded with zeros to ``max_size`` bytes."""
+    """The exact encoding ``exact`` in transmission form ``mode``.
+
+    - ``"exact"``: as it is.
+    - ``"strip"``: stripped of its trailing zeros. Every one of them belongs to the last field,
+      so nothing else is lost.
+    - ``"pad"``: padded with zeros to ``max_size`` bytes.
+    """
     if mode == "strip":
         return exact.rstrip(b"\0")
     if mode == "exact":

@@ -1,22 +1,29 @@
 """One plain message (a root that is not an envelope) in the three transmission forms.
 
-What this module guarantees, beside ``_forms`` (the forms, restoring, cut detection and strict
-checks, which it shares with ``_envelope``):
+The forms, restoring, cut detection and strict checks are ``_forms``', shared with
+``_envelope``. What this module guarantees beside them:
 - ``encode`` produces exactly the bytes protobuf (and nanopb) would for the message, after the
-  fixed-size contract's checks, in the form asked for; it never lets through what a fixed-size
-  receiver would drop, nor a class of another schema named as the root (``_foreign``). A plain
-  root has no metadata to set.
-- ``decode`` returns the same message for the exact, the stripped and the zero-padded form; an
-  empty datagram is the message with every field at its default. A cut datagram is reason
-  ``"truncated"``; with ``strict``, unknown fields (reason ``"unknown_fields"``) and what nanopb's
-  decoder refuses are errors too, as for envelopes, in the same words.
-- Every failure is a ``DecodeError``/``EncodeError`` saying what and where; what is no message
-  or no datagram a ``TypeError``. A root that cannot be encoded or decoded as nanopb does
-  (``_sendable.unsendable``: a message protobuf's Python runtime cannot build, a DELIMITED field, an
-  override protobuf does not write as nanopb reads it, a field hiding a Message method) still
-  loads, with nanopb's size; encoding is then a ``SchemaError`` saying why, decoding an
-  ``UnreadableKind`` (a ``SchemaError`` and a ``DecodeError`` of reason ``"unsupported"``), and
-  ``peek`` finds nothing.
+  fixed-size contract's checks, in the form asked for.
+- ``encode`` never lets through what a fixed-size receiver would drop.
+- ``encode`` never lets through a class of another schema named as the root (``_foreign``).
+- A plain root has no metadata to set.
+- ``decode`` returns the same message for the exact, the stripped and the zero-padded form.
+- An empty datagram is the message with every field at its default.
+- A cut datagram is a ``DecodeError`` of reason ``"truncated"``.
+- With ``strict``, unknown fields (reason ``"unknown_fields"``) and what nanopb's decoder refuses
+  are errors too, as for envelopes, in the same words.
+- Every failure is a ``DecodeError`` or ``EncodeError`` saying what and where.
+- What is no message or no datagram is a ``TypeError``.
+
+Some roots cannot be encoded or decoded as nanopb does (``_sendable.unsendable``):
+- a message protobuf's Python runtime cannot build;
+- one with a DELIMITED field;
+- one with an override protobuf does not write as nanopb reads it;
+- one with a field hiding a Message method.
+
+Such a root still loads, with nanopb's size. Encoding it is a ``SchemaError`` saying why.
+Decoding it is an ``UnreadableKind``: a ``SchemaError`` and a ``DecodeError`` of reason
+``"unsupported"``. ``peek`` finds nothing in it.
 """
 
 from collections.abc import Callable
@@ -77,8 +84,10 @@ class Plain:
         return self._class
 
     def encode(self, message: Message, mode: Mode = "strip", /, **metadata: object) -> bytes:
-        """The datagram carrying ``message`` (an instance of the root message) in ``mode``; a
-        plain root has no envelope, so no metadata to set (``mode=`` as a keyword is the mode)."""
+        """The datagram carrying ``message`` (an instance of the root message) in ``mode``.
+
+        A plain root has no envelope, so no metadata to set. ``mode=`` as a keyword is the mode.
+        """
         if "mode" in metadata:
             if mode != "strip":
                 raise TypeError(
@@ -112,8 +121,11 @@ class Plain:
         return in_form(data, mode, self._forms.max_size)
 
     def reencode(self, decoded: Decoded, mode: Mode = "strip") -> bytes:
-        """The datagram ``decoded`` (what ``decode`` returned) came from, in ``mode``: the root's
-        message as it is now, with the fields the schema does not know that it kept."""
+        """The datagram ``decoded`` (what ``decode`` returned) came from, in ``mode``.
+
+        It is the root's message as it is now, with the fields it kept that the schema does not
+        know.
+        """
         if not isinstance(decoded, Decoded):
             raise TypeError(
                 f"reencode takes what decode returned (a Decoded), not {type(decoded).__name__}"
@@ -121,17 +133,23 @@ class Plain:
         return self.encode(decoded.message, mode)
 
     def peek(self, data: bytes) -> tuple[str, bytes] | None:
-        """The kind and exact bytes of a datagram in exact, stripped or padded form; ``None``
-        where only ``decode`` can say what is wrong with it (a cut datagram among them)."""
+        """The kind and exact bytes of a datagram in exact, stripped or padded form.
+
+        It is ``None`` where only ``decode`` can say what is wrong with the datagram; a cut
+        datagram is one such.
+        """
         if self._root_blocked is not None:
             return None  # decode says why
         exact = self._forms.peek(as_bytes(data))
         return None if exact is None else (self._name, exact)
 
     def decode(self, data: bytes, strict: bool = False) -> Decoded:
-        """The message of a datagram in exact, stripped or zero-padded form (bytes or any
-        bytes-like object); with ``strict``, a ``DecodeError`` too for fields the schema does not
-        know and for what nanopb's decoder refuses (as ``Envelope.decode``)."""
+        """The message of a datagram in exact, stripped or zero-padded form.
+
+        ``data`` is bytes or any bytes-like object. With ``strict``, fields the schema does not
+        know and what nanopb's decoder refuses are a ``DecodeError`` too, as in
+        ``Envelope.decode``.
+        """
         if self._root_blocked is not None:
             raise UnreadableKind(self._root_blocked)
         received = as_bytes(data)

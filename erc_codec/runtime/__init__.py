@@ -1,10 +1,12 @@
 """The runtime room, sans-IO: what a comms node does with datagrams, given them and the clock.
 
-``Dispatcher`` hands each datagram's payload to its kind's handler, every drop counted;
-``Watchdog`` says which kinds went silent; ``Router`` sends each datagram to the destinations that
-want it, in each one's form, and a failsafe message while a watched kind is silent;
-``DetectionAssembler`` puts chunked detection frames back together; ``Deframer`` and ``frame``
-are the envelope's serial framing. ``checks`` validates the times and counts they take.
+- ``Dispatcher`` hands each datagram's payload to its kind's handler, every drop counted.
+- ``Watchdog`` says which kinds went silent.
+- ``Router`` sends each datagram to the destinations that want it, in each one's form. It also
+  sends a failsafe message while a watched kind is silent.
+- ``DetectionAssembler`` puts chunked detection frames back together.
+- ``Deframer`` and ``frame`` are the envelope's serial framing.
+- ``checks`` validates the times and counts they take.
 """
 
 from ._detections import (

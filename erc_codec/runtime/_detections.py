@@ -1,19 +1,28 @@
 """Reassembly of camera frames sent one ``BasestationDetectedObject`` per datagram.
 
-Each object carries ``frame_id``, ``total_count`` and its ``index`` (0 ≤ index < total_count); a
-frame with no detections is one object with ``total_count`` 0. Guarantees:
-- a frame is returned once, when all ``total_count`` objects have arrived, ordered by index,
-  whatever the arrival order, with duplicates ignored (and counted);
-- an object that cannot belong to its frame (index out of range, a ``total_count`` other than
-  the frame's, more objects than ``max_objects``) is rejected, counted and reported;
-- an incomplete frame is dropped when ``timeout`` passes after its first object, or when starting
-  a newer frame would leave more than ``keep_frames`` incomplete; each drop is counted and
-  reported with how many objects had arrived;
-- memory stays bounded whatever arrives: at most ``keep_frames`` frames of at most
+Each object carries ``frame_id``, ``total_count`` and its ``index`` (0 ≤ index < total_count).
+A frame with no detections is one object with ``total_count`` 0.
+
+Guarantees:
+- A frame is returned once, when all ``total_count`` objects have arrived.
+- Its objects are ordered by index, whatever the arrival order.
+- Duplicates are ignored, and counted.
+- An object that cannot belong to its frame is rejected, counted and reported. That is an index
+  out of range, a ``total_count`` other than the frame's, or more objects than ``max_objects``.
+- An incomplete frame is dropped when ``timeout`` passes after its first object.
+- An incomplete frame is also dropped when starting a newer frame would leave more than
+  ``keep_frames`` incomplete.
+- Each drop is counted, and reported with how many objects had arrived.
+- Memory stays bounded whatever arrives: at most ``keep_frames`` frames of at most
   ``max_objects`` objects, and the ids of the last completed frames (to recognise late repeats).
-The clock is the caller's ``now``; nothing here reads time. ``timeout`` must be positive and
-finite seconds, ``keep_frames`` and ``max_objects`` whole numbers of at least 1, ``now`` finite:
-anything else (NaN, an infinity, a float count) is a ``ValueError`` naming it, and changes nothing.
+
+Inputs:
+- The clock is the caller's ``now``; nothing here reads time.
+- ``timeout`` must be positive and finite seconds.
+- ``keep_frames`` and ``max_objects`` must be whole numbers of at least 1.
+- ``now`` must be finite.
+- Anything else (NaN, an infinity, a float count) is a ``ValueError`` naming it, and changes
+  nothing.
 """
 
 from collections import deque

@@ -1,12 +1,19 @@
 """Dispatch: each decoded payload to the handler registered for its kind, and nothing lost silently.
 
-Guarantees: every datagram fed ends in exactly one counter: handled (per kind), unhandled (a kind
-with no handler), undecodable (per ``DecodeError.reason``) or a handler error (per kind). A
-handler takes a payload: fields the schema does not know beside it, on the envelope, are counted
-by number (``unkept``, at most ``MAX_UNKEPT_NUMBERS`` numbers, the rest in ``unkept_unlisted``),
-not passed on. Every drop also goes to the optional ``on_drop`` callback with the datagram and
-the reason. A handler's exception is caught and counted; the next datagram is dispatched as
-usual. No threads, no I/O.
+Every datagram fed ends in exactly one counter:
+- handled, per kind;
+- unhandled, per kind: a kind with no handler;
+- undecodable, per ``DecodeError.reason``;
+- a handler error, per kind.
+
+Guarantees:
+- A handler takes a payload only.
+- Fields the schema does not know beside the payload, on the envelope, are not passed on. They
+  are counted by number in ``unkept``, for at most ``MAX_UNKEPT_NUMBERS`` numbers; the rest are
+  counted in ``unkept_unlisted``.
+- Every drop also goes to the optional ``on_drop`` callback, with the datagram and the reason.
+- A handler's exception is caught and counted, and the next datagram is dispatched as usual.
+- No threads, no I/O.
 """
 
 from collections.abc import Callable, Mapping
@@ -69,10 +76,14 @@ class Dispatcher:
         on_decoded: Callable[[str], object] | None = None,
         on_arrival: Callable[[str, float | None], object] | None = None,
     ) -> None:
-        """``on_drop`` hears of every drop; ``on_decoded`` (an attribute, too) of the kind of every
-        datagram that decodes, handled or not, before its handler runs: liveness feeds on it.
-        ``on_arrival`` (an attribute, too) hears the same with the timeout the datagram's sender
-        advertised, in seconds (``None``: none), as ``Watchdog.seen`` takes it."""
+        """The callbacks, each optional.
+
+        - ``on_drop`` hears of every drop.
+        - ``on_decoded`` hears the kind of every datagram that decodes, handled or not, before
+          its handler runs. Liveness feeds on it. It is an attribute, too.
+        - ``on_arrival`` hears the same, with the timeout the datagram's sender advertised in
+          seconds (``None``: none), as ``Watchdog.seen`` takes it. It is an attribute, too.
+        """
         self._codec = codec or Codec.default()
         self.on_decoded = on_decoded
         self.on_arrival = on_arrival
@@ -122,10 +133,10 @@ class Dispatcher:
 
     def feed(self, data: bytes) -> bool:
         """Decode one datagram and hand it to its handler; whether a handler took it."""
-        # The usual datagram is located by the codec's peek and parsed here, which spares the
-        # decoder's call and result tuple (the Dispatcher.feed target of bench_runtime.py: at
-        # most 1.2x codec.decode). Anything else, and a payload that does not parse, goes the
-        # general way, which also says what is wrong.
+        # The usual datagram is located by the codec's peek and parsed here, sparing the
+        # decoder's call and result tuple. Target: Dispatcher.feed in bench_runtime.py, at most
+        # 1.2x codec.decode. Anything else, and a payload that does not parse, goes the general
+        # way, which also says what is wrong.
         found = self._peek(data)
         message: Message | None = None
         advertised = 0  # peek's datagrams are one member alone: no metadata, so no timeout

@@ -4,36 +4,49 @@ The CRC is CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, no reflection) over the
 which is what ``binascii.crc_hqx(payload, 0xFFFF)`` computes.
 
 ``Deframer`` is incremental and sans-IO, in the manner of h11's receive buffer. Its rule: judge
-the stream as if its bytes arrived one at a time. A candidate is a ``PR``. Once its length is in,
-a candidate claiming more than ``max_length`` bytes is rejected at once (``too_long``); any other
-is decided at the byte that completes it. The first candidate to complete with a good CRC (ties:
-the earlier start) is delivered, every candidate that started before its end is dropped
-(``overtaken`` if it started before the frame), and scanning goes on after it. A candidate that
-completes with a bad CRC is rejected (``bad_crc``) and the candidates after its first byte carry
-on. So a frame comes out as soon as its last byte is in, whatever came before it: a glitch that
-reads as a long header does not hold it back. The price: a frame whose payload holds a whole valid
-frame loses to that inner frame.
+the stream as if its bytes arrived one at a time.
+- A candidate is a ``PR``.
+- Once its length is in, a candidate claiming more than ``max_length`` bytes is rejected at once
+  (``too_long``).
+- Any other candidate is decided at the byte that completes it.
+- The first candidate to complete with a good CRC is delivered; of two that tie, the earlier
+  start wins.
+- Every candidate that started before a delivered frame's end is dropped. It is ``overtaken`` if
+  it started before the frame.
+- Scanning goes on after a delivered frame.
+- A candidate that completes with a bad CRC is rejected (``bad_crc``), and the candidates after
+  its first byte carry on.
+
+So a frame comes out as soon as its last byte is in, whatever came before it. A glitch that reads
+as a long header does not hold it back. The price: a frame whose payload holds a whole valid frame
+loses to that inner frame.
 
 Guarantees:
-- any chunking of the same bytes gives the same payloads and the same counters: the rule speaks
-  of single bytes, and what a feed leaves behind depends on the bytes fed so far only;
-- every discarded byte is counted by reason as it leaves the window: the first byte of a
-  rejected candidate under the candidate's reason (and the candidate in ``rejected``), any other
-  byte outside a frame under ``garbage``; a candidate whose first byte ends up inside a delivered
-  frame is counted nowhere;
-- ``flush()`` (the stream ended) discards what the window still holds, counted as ``unfinished``,
-  and returns it: a frame is never lost silently, since a complete one is already out;
-- memory is bounded: between feeds the window holds the bytes from the earliest undecided
-  candidate on, at most ``max_length + 5`` of them (a candidate is decided by its
-  ``max_length + 6``-th byte), and a few integers for each candidate in it;
-- time is linear in the bytes fed, whatever ``max_length`` (a slow path is a denial of service).
-  Each byte is searched for ``PR`` (in C) a bounded number of times, and passed to ``crc_hqx`` about
-  three times at most: once where a candidate no other one can overtake is checked whole, and once
-  by each of two running CRCs where candidates overlap (plus, in a run of equal frames broken by a
-  bad one, up to 15 frames' CRCs for the break, see below). On top of that each candidate costs a
-  bounded amount of Python work: a push and a pop on a heap (at most 16 levels deep, in C) and at
-  most four table look-ups; each feed a bounded amount more. ``benchmarks/bench_framing.py``
-  measures the worst cases; ``tests/runtime/test_framing.py`` counts the bytes ``crc_hqx`` is given.
+- Any chunking of the same bytes gives the same payloads and the same counters. The rule speaks
+  of single bytes, and what a feed leaves behind depends on the bytes fed so far only.
+- Every discarded byte is counted by reason as it leaves the window:
+  - the first byte of a rejected candidate, under the candidate's reason, with the candidate in
+    ``rejected``;
+  - any other byte outside a frame, under ``garbage``;
+  - a candidate whose first byte ends up inside a delivered frame is counted nowhere.
+- ``flush()`` (the stream ended) discards what the window still holds, counted as
+  ``unfinished``, and returns it. A frame is never lost silently, since a complete one is already
+  out.
+- Memory is bounded. Between feeds the window holds the bytes from the earliest undecided
+  candidate on, at most ``max_length + 5`` of them, as a candidate is decided by its
+  ``max_length + 6``-th byte. It also holds a few integers for each candidate in it.
+- Time is linear in the bytes fed, whatever ``max_length``, as a slow path is a denial of service:
+  - each byte is searched for ``PR`` (in C) a bounded number of times;
+  - each byte is passed to ``crc_hqx`` about three times at most: once where a candidate no other
+    one can overtake is checked whole, and once by each of two running CRCs where candidates
+    overlap;
+  - in a run of equal frames broken by a bad one, the break costs up to 15 frames' CRCs more (see
+    below);
+  - each candidate costs a bounded amount of Python work: a push and a pop on a heap (at most 16
+    levels deep, in C) and at most four table look-ups;
+  - each feed costs a bounded amount more.
+- ``benchmarks/bench_framing.py`` measures the worst cases. ``tests/runtime/test_framing.py``
+  counts the bytes ``crc_hqx`` is given.
 
 Overlapping candidates. Checking every candidate's CRC over its payload would cost up to
 ``max_length`` bytes per ``PR`` (``PR ff ff`` repeated: a 64 KiB CRC every 4 bytes). But CRC-16
@@ -48,18 +61,23 @@ overlap: a candidate incomplete at the end of the data with another one starting
 one holding another that may complete first. Frames back to back, however chunked, are checked
 whole as they complete.
 
-CRC-16's blind spots. A good CRC is evidence, not proof. The CRC of ``ff ff`` followed by any
-number of zeros is 0 (``ff ff`` empties the register the init value 0xFFFF filled, and zeros keep
-it empty): ``50 52 02 00 ff ff 00 00`` is a valid frame, and a line that idles high then drops
-can forge one. And any 16-bit check passes about 1 in 65,536 random candidates: a noisy line full
-of ``PR`` delivers a false frame now and then. A caller can check payloads too: with
-``accept=callable``, a frame with a good CRC whose payload ``accept`` refuses is rejected as if
-its CRC were bad (``undecodable``), and the candidates after its first byte carry on, so a frame
-it was hiding (one starting inside it and ending later) still comes out;
-``Deframer.for_codec(codec, validate=True)`` accepts what ``codec.decode`` decodes. ``accept``
-runs once for every candidate with a good CRC, on top of the bound above: rarely on noise, but as
-often as a crafted stream has candidates. It must not raise: an exception from it leaves the feed
-it came from half done. (Frames are checked one at a time then, not in batches.)
+CRC-16's blind spots. A good CRC is evidence, not proof.
+- The CRC of ``ff ff`` followed by any number of zeros is 0. ``ff ff`` empties the register the
+  init value 0xFFFF filled, and zeros keep it empty. So ``50 52 02 00 ff ff 00 00`` is a valid
+  frame, and a line that idles high then drops can forge one.
+- Any 16-bit check passes about 1 in 65,536 random candidates. So a noisy line full of ``PR``
+  delivers a false frame now and then.
+
+A caller can check payloads too, with ``accept=callable``:
+- a frame with a good CRC whose payload ``accept`` refuses is rejected as if its CRC were bad
+  (``undecodable``);
+- the candidates after its first byte carry on, so a frame it was hiding (one starting inside it
+  and ending later) still comes out;
+- ``Deframer.for_codec(codec, validate=True)`` accepts what ``codec.decode`` decodes;
+- ``accept`` runs once for every candidate with a good CRC, on top of the bound above: rarely on
+  noise, but as often as a crafted stream has candidates;
+- ``accept`` must not raise: an exception from it leaves the feed it came from half done;
+- with ``accept``, frames are checked one at a time, not in batches.
 
 Speed: frames of one length back to back (a board sending padded envelopes, say) are checked a batch
 at a time, with the Python-level work per batch rather than per frame. A run's first batch is 16
@@ -130,10 +148,15 @@ class Deframer:
     def __init__(
         self, max_length: int | None = None, *, accept: Callable[[bytes], bool] | None = None
     ) -> None:
-        """``max_length``: the longest payload accepted (``Deframer.for_codec(codec)``: the
-        codec's envelope size). Leaving it out is deprecated: it loads the packaged schema.
-        ``accept``: if given, a frame is delivered only if ``accept(payload)`` is true; else it
-        is rejected as ``undecodable``, like a bad CRC."""
+        """Parameters:
+
+        - ``max_length`` is the longest payload accepted. ``Deframer.for_codec(codec)`` sets it
+          to the codec's envelope size. Leaving it out is deprecated: it loads the packaged
+          schema.
+        - ``accept``, if given, decides delivery: a frame is delivered only if
+          ``accept(payload)`` is true. Otherwise it is rejected as ``undecodable``, like a bad
+          CRC.
+        """
         if max_length is None:
             warnings.warn(
                 "Deframer() without max_length is deprecated: give max_length, or use "

@@ -1,32 +1,45 @@
 """Routing: each datagram to the destinations that want its kind, in each destination's form, and
 a failsafe message while a watched command stream is silent.
 
-Guarantees: sans-IO, like the ``Dispatcher`` beside it (the caller passes datagrams, their source
-and the clock; the router returns what to send where). Every datagram routed ends in exactly one
-place: forwarded (counted per destination), or dropped and counted by reason: ``unrouted`` (no
-route wants it), ``contract`` (it decodes but breaks the fixed-size contract, so it cannot be
-re-sent as is to a fixed-size receiver), or its ``DecodeError.reason`` (``unknown_member`` for a
-member this schema does not know, ``corrupt``, ...). With a ``debug`` destination, every dropped
-datagram goes there too, raw, as it arrived.
+The router is sans-IO, like the ``Dispatcher`` beside it. The caller passes datagrams, their
+source and the clock. The router returns what to send where.
 
-Forms: each destination takes ``exact`` (prost and Google protobuf receivers, boards decoding
-with plain ``pb_decode`` on the datagram's length), ``strip`` (receivers that follow the envelope
-contract and restore the zeros) or ``pad``. A datagram is decoded once and encoded once, exact,
-with the metadata it carried (``timeout``) and the fields this schema does not know, the
-payload's and those beside it on the envelope, byte for byte (a newer sender's fields reach a
-newer receiver through an older relay); the stripped and padded forms are cut from that.
+Every datagram routed ends in exactly one place:
+- forwarded, counted per destination;
+- dropped as ``unrouted``: no route wants it;
+- dropped as ``contract``: it decodes but breaks the fixed-size contract, so it cannot be re-sent
+  as is to a fixed-size receiver;
+- dropped as its ``DecodeError.reason``: ``unknown_member`` for a member this schema does not
+  know, ``corrupt``, ...
 
-Failsafe: for each ``Failsafe(kind, ...)`` (one per kind) the router watches ``kind`` with its
-configured timeout (a sender's advertised ``timeout`` metadata can shorten it for the gap up to
-the next arrival, never lengthen it, see ``Watchdog``). Its timing is bounded: a timeout from
-1 ms to 1 h, a rate from 0.01 to 1000 Hz; a value outside can only mean always braking or never.
-Only what reaches the failsafe's destinations counts as an arrival: a datagram
-of the kind forwarded to at least one of them (from one of its ``sources``, when it names them);
-one dropped, or routed elsewhere only, does not release the brake. The first ``poll`` counts as
-an arrival, so a kind that never arrives engages its failsafe one timeout after the router
-started. Once the kind stays silent past its timeout, ``poll`` returns the failsafe message for
-its destinations at once and then every ``1 / rate`` seconds, until the kind arrives again; each
-change is a ``FailsafeEvent``.
+With a ``debug`` destination, every dropped datagram goes there too, raw, as it arrived.
+
+Forms: each destination takes one of
+- ``exact``: prost and Google protobuf receivers, and boards decoding with plain ``pb_decode`` on
+  the datagram's length;
+- ``strip``: receivers that follow the envelope contract and restore the zeros;
+- ``pad``.
+
+A datagram is decoded once and encoded once, exact. The encoding carries the metadata it carried
+(``timeout``). It also carries the fields this schema does not know, the payload's and those
+beside it on the envelope, byte for byte. So a newer sender's fields reach a newer receiver
+through an older relay. The stripped and padded forms are cut from that exact encoding.
+
+Failsafe: the router watches ``kind`` for each ``Failsafe(kind, ...)``, one per kind.
+- It watches with the failsafe's configured timeout.
+- A sender's advertised ``timeout`` metadata can shorten that timeout for the gap up to the next
+  arrival, never lengthen it (see ``Watchdog``).
+- The timing is bounded: a timeout from 1 ms to 1 h, a rate from 0.01 to 1000 Hz. A value outside
+  can only mean always braking or never.
+- Only what reaches the failsafe's destinations counts as an arrival. That is a datagram of the
+  kind forwarded to at least one of them, from one of its ``sources`` when it names them.
+- A datagram dropped, or routed elsewhere only, does not release the brake.
+- The first ``poll`` counts as an arrival. So a kind that never arrives engages its failsafe one
+  timeout after the router started.
+- Once the kind stays silent past its timeout, ``poll`` returns the failsafe message for its
+  destinations at once. It then returns it every ``1 / rate`` seconds, until the kind arrives
+  again.
+- Each change is a ``FailsafeEvent``.
 """
 
 from collections.abc import Callable, Iterable, Mapping
@@ -57,9 +70,15 @@ _TIMEOUTS = (0.001, 3600.0)  # seconds of silence before a failsafe engages
 
 
 class Route(NamedTuple):
-    """Datagrams that match every criterion given go ``to`` these destinations: of one of
-    ``kinds``, from one of ``sources``, of a member whose ``// direction:`` names this ``sender``
-    or ``receiver``. A route with no criterion takes every datagram."""
+    """Datagrams that match every criterion given go ``to`` these destinations.
+
+    The criteria:
+    - of one of ``kinds``;
+    - from one of ``sources``;
+    - of a member whose ``// direction:`` names this ``sender`` or ``receiver``.
+
+    A route with no criterion takes every datagram.
+    """
 
     to: tuple[str, ...]
     kinds: tuple[str, ...] | None = None
@@ -69,10 +88,14 @@ class Route(NamedTuple):
 
 
 class Failsafe(NamedTuple):
-    """While ``kind`` is silent past ``timeout`` seconds (counted from the router's first poll
-    too), send ``message`` (a payload of the envelope) ``to`` these destinations, ``rate`` times a
-    second. Only a datagram of ``kind`` forwarded to one of them, from one of ``sources`` (any
-    source: ``None``), counts as an arrival."""
+    """While ``kind`` is silent past ``timeout`` seconds, send ``message`` ``to`` these
+    destinations, ``rate`` times a second.
+
+    - The silence is counted from the router's first poll too.
+    - ``message`` is a payload of the envelope.
+    - Only a datagram of ``kind`` forwarded to one of these destinations counts as an arrival.
+    - It must come from one of ``sources``; ``None`` means any source.
+    """
 
     kind: str
     message: Message
@@ -201,8 +224,11 @@ class Router:
         return out
 
     def poll(self, now: float) -> list[Outgoing]:
-        """The failsafe datagrams due at ``now``: call it often (every few milliseconds). The
-        first call starts the watch: a kind that has not arrived yet counts as arriving now."""
+        """The failsafe datagrams due at ``now``.
+
+        Call it often, every few milliseconds. The first call starts the watch, so a kind that
+        has not arrived yet counts as arriving now.
+        """
         if not self._started:
             self._start(now)
         for kind in self._watchdog.poll(now):
@@ -223,8 +249,11 @@ class Router:
 
     def bypassing(self, kind: str) -> list[int]:
         """The routes (by index) that deliver ``kind`` to its failsafe's destinations from
-        senders the failsafe's ``sources`` does not name: while the failsafe is engaged, those
-        destinations receive their commands between its own datagrams."""
+        senders the failsafe's ``sources`` does not name.
+
+        While the failsafe is engaged, those destinations receive those routes' commands between
+        the failsafe's own datagrams.
+        """
         to, sources = self._brakes[kind]
         if sources is None:
             return []

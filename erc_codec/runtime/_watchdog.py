@@ -1,27 +1,40 @@
 """Liveness: which periodic messages are arriving, and the moment one stops ("engage the brakes").
 
-Guarantees: the clock is the caller's (``now`` in seconds, any origin); nothing here reads time,
-sleeps or starts a thread. Each watched kind follows Proton's node states: INACTIVE until its
-first arrival, ACTIVE while arrivals keep within the timeout, INACTIVE again once ``poll`` sees the
-timeout pass, which calls ``on_timeout(kind)`` once; the next arrival calls ``on_recover(kind)``.
-A clock that steps backwards never fires a timeout early and delays one by at most one timeout
-(the last arrival is re-anchored to the new clock). Every kind reported, watched or not, has its
-arrival rate measured, two ways: ``rate`` over its last 16 arrivals, and ``recent_rate`` over the
-5 s before a given moment (what a live display shows: it falls to 0 once a kind stops, and a burst
-counts as so many arrivals in the window, not as the rate between two of them). Memory per kind is
-bounded (16 arrival times, 20 counters). Periods and timeouts must be positive and finite, ``now``
-finite: a NaN or an infinity is a ``ValueError`` naming it, and changes nothing (a NaN arrival
-time would otherwise compare false with every later clock reading, and the kind would never time
-out again).
+Guarantees:
+- The clock is the caller's: ``now`` in seconds, any origin.
+- Nothing here reads time, sleeps or starts a thread.
+- A clock that steps backwards never fires a timeout early. It delays one by at most one timeout,
+  as the last arrival is re-anchored to the new clock.
+- Memory per kind is bounded: 16 arrival times, 20 counters.
+- Periods and timeouts must be positive and finite; ``now`` must be finite.
+- A NaN or an infinity is a ``ValueError`` naming it, and changes nothing. A NaN arrival time
+  would otherwise compare false with every later clock reading, and the kind would never time
+  out again.
 
-Timeouts from the wire: ``seen(kind, now, timeout=...)`` takes the timeout the sender advertised
-(the envelope's ``timeout`` metadata, converted to seconds). It applies to the gap it promises,
-the one up to the next arrival, which brings its own. A configured kind is watched with the
-shorter of the two, so a sender can make its watch stricter but never looser, and an arrival
-advertising 0 or ``None`` is watched with the configured timeout: a sender cannot switch its own
-brake off, nor leave a shortened timeout behind for arrivals that promise nothing. A kind nobody
-configured is watched while its arrivals advertise a timeout, and not after one that advertises
-none.
+Each watched kind follows Proton's node states:
+- INACTIVE until its first arrival;
+- ACTIVE while arrivals keep within the timeout;
+- INACTIVE again once ``poll`` sees the timeout pass, which calls ``on_timeout(kind)`` once;
+- the next arrival calls ``on_recover(kind)``.
+
+Every kind reported, watched or not, has its arrival rate measured two ways:
+- ``rate``, over its last 16 arrivals;
+- ``recent_rate``, over the 5 s before a given moment. This is what a live display shows. It
+  falls to 0 once a kind stops. A burst counts as so many arrivals in the window, not as the rate
+  between two of them.
+
+Timeouts from the wire:
+- ``seen(kind, now, timeout=...)`` takes the timeout the sender advertised: the envelope's
+  ``timeout`` metadata, converted to seconds.
+- An advertised timeout applies to the gap it promises, the one up to the next arrival, which
+  brings its own.
+- A configured kind is watched with the shorter of the configured and the advertised timeout. So
+  a sender can make its watch stricter, never looser.
+- An arrival advertising 0 or ``None`` is watched with the configured timeout. So a sender cannot
+  switch its own brake off, nor leave a shortened timeout behind for arrivals that promise
+  nothing.
+- A kind nobody configured is watched while its arrivals advertise a timeout, and not after one
+  that advertises none.
 """
 
 import enum
@@ -92,10 +105,13 @@ class Watchdog:
         self._watched[kind] = _Watched(period, timeout, configured=True)
 
     def seen(self, kind: str, now: float, timeout: float | None = None) -> None:
-        """``kind`` arrived at ``now``, its sender advertising ``timeout`` seconds (``None`` or 0:
-        none) until the next arrival. An unwatched kind without one only has its rate measured;
-        with one it becomes watched. A configured timeout wins over a longer advertised one and
-        applies again when an arrival advertises none."""
+        """``kind`` arrived at ``now``, its sender advertising ``timeout`` seconds until the next
+        arrival (``None`` or 0: none).
+
+        An unwatched kind arriving without a timeout only has its rate measured. With one, it
+        becomes watched. A configured timeout wins over a longer advertised one. It applies again
+        when an arrival advertises none.
+        """
         instant("now", now)
         if timeout:
             try:
@@ -166,9 +182,12 @@ class Watchdog:
         return (len(arrivals) - 1) / span if span > 0 else None
 
     def recent_rate(self, kind: str, now: float) -> float:
-        """Arrivals of ``kind`` per second over the 5 s before ``now`` (or since its first
-        arrival, if that is later, but over at least a second: one arrival is no rate of
-        thousands); 0.0 once it has not arrived for 5 s, and for a kind never seen."""
+        """Arrivals of ``kind`` per second over the 5 s before ``now``.
+
+        - If its first arrival is later, the window starts there instead.
+        - The window is at least a second, so one arrival is no rate of thousands.
+        - It is 0.0 once the kind has not arrived for 5 s, and for a kind never seen.
+        """
         instant("now", now)
         recent = self._recent.get(kind)
         if not recent:
