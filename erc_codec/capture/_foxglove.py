@@ -2,18 +2,27 @@
 ``foxglove`` extra) showing datagrams as they arrive.
 
 What it guarantees:
-- one channel per envelope member, ``/erc/<kind>``, with its payload's protobuf schema (the same
-  name and ``FileDescriptorSet`` as in a recording), all advertised when the server starts, so
-  panels can be set up before anything arrives; each payload in the exact protobuf form;
-- the drops on ``/erc-codec/drops`` (a ``DroppedDatagram``, as in a recording); the rover's
-  position as a ``foxglove.LocationFix`` on ``/erc-codec/fix``, from every ``gps_info`` that has
-  a fix (``fix_quality`` other than 0), for the Map panel; and every ``interval`` seconds on
-  ``/erc-codec/stats`` (JSON) the counts and rates by kind, the drops by reason, and the
-  datagrams the view failed to show (``view_errors``: it never fails its caller);
-- bound to 127.0.0.1 unless told otherwise: a view of the rover is not served to the whole
-  network by accident.
-The server runs in the SDK's own native threads and the statistics in one thread of this view;
-nothing here reads a socket: the caller hands over each payload (``message``) and each drop.
+- There is one channel per envelope member, ``/erc/<kind>``.
+- Each channel has its payload's protobuf schema, with the same name and ``FileDescriptorSet``
+  as in a recording.
+- All channels are advertised when the server starts, so panels can be set up before anything
+  arrives.
+- Each payload is sent in the exact protobuf form.
+- Drops go on ``/erc-codec/drops`` as a ``DroppedDatagram``, as in a recording.
+- The rover's position goes on ``/erc-codec/fix`` as a ``foxglove.LocationFix``, for the Map
+  panel.
+  It comes from every ``gps_info`` that has a fix (``fix_quality`` other than 0).
+- Every ``interval`` seconds, ``/erc-codec/stats`` (JSON) carries:
+  - the counts and rates by kind;
+  - the drops by reason;
+  - the datagrams the view failed to show (``view_errors``).
+- The view never fails its caller.
+- The server binds 127.0.0.1 unless told otherwise, so a view of the rover is not served to the
+  whole network by accident.
+
+The server runs in the SDK's own native threads.
+The statistics run in one thread of this view.
+Nothing here reads a socket: the caller hands over each payload (``message``) and each drop.
 """
 
 import time
@@ -70,8 +79,10 @@ _STATS_SCHEMA = {
 
 
 class FoxgloveView:
-    """A Foxglove WebSocket server on ``host:port`` (port 0: any free one) for ``codec``'s
-    envelope; hand it every payload (``message``) and every drop (``drop``), ``close()`` it."""
+    """A Foxglove WebSocket server on ``host:port`` for ``codec``'s envelope.
+
+    ``port`` 0 binds any free port.
+    Hand it every payload (``message``) and every drop (``drop``), then ``close()`` it."""
 
     def __init__(
         self,

@@ -2,22 +2,31 @@
 (the ``mcap`` extra).
 
 What it guarantees:
-- every datagram written is in the file: a datagram that decodes as a message on its member's
-  channel (``/erc/<kind>``, the payload re-encoded in the exact protobuf form, which every
-  protobuf reader accepts, schema as ``_recording`` builds it), one that does not as a
-  ``DroppedDatagram`` on ``/erc-codec/drops`` with its bytes as received;
-- log time is the arrival (or capture) time, publish time the same: a ``PBEnvelope`` is one
-  oneof and carries no time of its own (a payload's own times stay in the payload); a message's
-  ``sequence`` is the datagram's number in the recording, so gaps and order show across channels;
-- the file says where its schema came from (the tree, its git revision, a digest of the
-  envelope's descriptors, ``<root>_size``) in a metadata record ``erc-codec`` written first, and
-  what it holds (counts by kind and by reason, senders, and ``unkept.<number>``: datagrams whose
-  envelope carried field ``number``, unknown to the schema, beside the payload, which a payload
-  channel cannot hold, for the first ``MAX_UNKEPT_NUMBERS`` numbers, and ``unkept.unlisted``:
-  the fields of the others) in ``erc-codec.summary`` written last;
-- memory stays flat: the writer streams chunks (zstd, CRCs on chunks and on the data section);
-  what it keeps per datagram is counters.
-The file must be seekable (the library goes back to write its indexes).
+- Every datagram written is in the file.
+- A datagram that decodes is a message on its member's channel, ``/erc/<kind>``.
+  - Its payload is re-encoded in the exact protobuf form, which every protobuf reader accepts.
+  - Its schema is the one ``_recording`` builds.
+- A datagram that does not decode is a ``DroppedDatagram`` on ``/erc-codec/drops``, with its
+  bytes as received.
+- Log time is the arrival (or capture) time, and publish time is the same.
+  A ``PBEnvelope`` is one oneof and carries no time of its own.
+  A payload's own times stay in the payload.
+- A message's ``sequence`` is the datagram's number in the recording, so gaps and order show
+  across channels.
+- A metadata record ``erc-codec``, written first, says where the schema came from:
+  - the tree and its git revision;
+  - a digest of the envelope's descriptors;
+  - ``<root>_size``.
+- A metadata record ``erc-codec.summary``, written last, says what the file holds:
+  - counts by kind and by reason, and senders;
+  - ``unkept.<number>``, for the first ``MAX_UNKEPT_NUMBERS`` numbers: the datagrams whose
+    envelope carried field ``number``, unknown to the schema, beside the payload.
+    A payload channel cannot hold such a field.
+  - ``unkept.unlisted``: the fields of the other numbers.
+- Memory stays flat: the writer streams chunks, and what it keeps per datagram is counters.
+- Chunks are zstd-compressed, with CRCs on chunks and on the data section.
+
+The file must be seekable, because the library goes back to write its indexes.
 """
 
 import os
@@ -91,10 +100,11 @@ def _mcap(module: str, what: str) -> Any:
 class McapWriter:
     """Writes datagrams (or decoded payloads, and drops) to an MCAP file.
 
-    ``output`` is a path or a seekable binary file; ``source`` says where the datagrams came
-    from (``"udp 127.0.0.1:5000"``, ``"capture rover.pcapng"``) in the file's metadata. Use it
-    as a context manager, or call ``close()``: the file is complete (indexed, summarised) only
-    then.
+    - ``output`` is a path or a seekable binary file.
+    - ``source`` says in the file's metadata where the datagrams came from, such as
+      ``"udp 127.0.0.1:5000"`` or ``"capture rover.pcapng"``.
+    - Use it as a context manager, or call ``close()``.
+      The file is complete (indexed, summarised) only then.
     """
 
     def __init__(
@@ -331,14 +341,21 @@ def _text(text: str) -> str:
 
 
 def read_mcap(path: str | os.PathLike[str]) -> Iterator[Recorded]:
-    """Every message of an MCAP file that erc-codec wrote, in log-time order, decoded with the
-    schemas the file carries (as Foxglove decodes it, so an old recording reads right whatever
-    the tree is now): ``Recorded(log_time, kind, message)``; a drop comes as kind ``None`` with a
-    ``DroppedDatagram`` (``reason``, ``error``, ``length``, ``data``, ``source``,
-    ``destination``). Only the ``/erc/<kind>`` and drops channels are read (a file may carry
-    others, such as JSON statistics). Chunk and summary CRCs are checked; a damaged file is a
-    ``CodecError`` naming it, and so is one whose channel is not protobuf, whose schema does not
-    load or whose message does not parse with it."""
+    """Every message of an MCAP file that erc-codec wrote, as ``Recorded(log_time, kind, message)``.
+
+    - Messages come in log-time order.
+    - They are decoded with the schemas the file carries, as Foxglove decodes them.
+      So an old recording reads right whatever the tree is now.
+    - A drop comes as kind ``None`` with a ``DroppedDatagram`` (``reason``, ``error``,
+      ``length``, ``data``, ``source``, ``destination``).
+    - Only the ``/erc/<kind>`` and drops channels are read.
+      A file may carry others, such as JSON statistics.
+    - Chunk and summary CRCs are checked.
+    - Each of these files is a ``CodecError`` naming it:
+      - a damaged file;
+      - one whose channel is not protobuf;
+      - one whose schema does not load;
+      - one whose message does not parse with its schema."""
     for message, kind, decoded in _decoded(path):
         yield Recorded(message.log_time, kind, decoded)
 

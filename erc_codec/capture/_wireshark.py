@@ -1,11 +1,15 @@
 """A Wireshark dissector for a schema's envelope, generated as one self-contained Lua file.
 
-What it guarantees: the Lua decodes every datagram as ``Codec.decode`` does (the runtime,
-``_dissector.lua``, states how), with the schema's descriptors written into it as tables, so
-Wireshark needs no .proto files and no protobuf search path. Every field shows with its name and
-value; a field not on the wire shows its default, marked as generated (as ``decode`` shows every
-field); unknown members, unknown fields and corrupt datagrams are marked with expert info and
-never shown as fields. The schema's digest and origin are written at the top of the file.
+What it guarantees:
+- The Lua decodes every datagram as ``Codec.decode`` does.
+  The runtime, ``_dissector.lua``, states how.
+- The schema's descriptors are written into the Lua as tables.
+  So Wireshark needs no .proto files and no protobuf search path.
+- Every field shows with its name and value.
+- A field not on the wire shows its default, marked as generated, as ``decode`` shows every field.
+- Unknown members, unknown fields and corrupt datagrams are marked with expert info.
+  They are never shown as fields.
+- The schema's digest and origin are written at the top of the file.
 
 Pure text generation: nothing here runs Wireshark or writes a file.
 """
@@ -30,8 +34,8 @@ _F = FieldDescriptor
 def wireshark_dissector(codec: Codec | None = None, ports: Iterable[int] = DEFAULT_PORTS) -> str:
     """The Lua source of a dissector for ``codec``'s envelope on UDP ``ports``.
 
-    Refused with a ``SchemaError``: a tree of editions files, whose per-field features the
-    dissector's parser does not read (no fleet schema has them)."""
+    A tree of editions files is refused with a ``SchemaError``.
+    The dissector's parser does not read their per-field features; no fleet schema has them."""
     codec = codec or Codec.default()
     ports = sorted(set(ports))
     if not ports or any(not 0 < port < 65536 for port in ports):

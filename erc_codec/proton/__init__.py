@@ -1,19 +1,23 @@
 """Proton in Python: Clearpath's protobuf protocol for MCU <-> PC links, byte for byte with Proton's
 own C libraries, in protocol 2.0 and in 1.0 (the one Proton's documentation describes).
 
-- configurations: ``load_config``/``parse_config`` (Proton's YAML, read as its generator reads it)
-  into ``Config`` records; a mistake is a ``ProtonConfigError`` naming the file, line and key;
-- bundles: ``BundleCodec(config, version)`` encodes a bundle's values and decodes a message to a
-  ``Bundle``, with every ``UnknownField`` it skipped;
-- a node: ``Node`` (sans-IO, an injected clock) holds the registry, says what is due (``Sent``),
-  applies what arrives, counts heartbeats and watches its peers (as ``erc_codec.runtime.Liveness``);
-- links: ``open_proton_udp`` and ``run_proton_serial`` (asyncio, loaded only inside a loop),
-  ``split_udp_header`` for a 2.0 sender's UDP header.
+- Configurations: ``load_config``/``parse_config`` read Proton's YAML into ``Config`` records.
+  They read it as Proton's generator reads it.
+  A mistake is a ``ProtonConfigError`` naming the file, line and key.
+- Bundles: ``BundleCodec(config, version)`` encodes a bundle's values.
+  It decodes a message to a ``Bundle``, with every ``UnknownField`` it skipped.
+- A node: ``Node`` is sans-IO, with an injected clock.
+  It holds the registry, says what is due (``Sent``) and applies what arrives.
+  It counts heartbeats and watches its peers (as ``erc_codec.runtime.Liveness``).
+- Links: ``open_proton_udp`` and ``run_proton_serial`` use asyncio, loaded only inside a loop.
+  ``split_udp_header`` reads a 2.0 sender's UDP header.
 
-Mistakes, one kind each: a configuration that cannot be used is a ``ProtonConfigError``; a name
-it (or a node's part in it) does not have a ``KeyError``; a value that cannot be sent an
-``EncodeError``; a message that cannot be read a ``DecodeError``; any other bad argument (a
-version, a clock reading, a tick) a ``ValueError``.
+Mistakes, one kind each:
+- a configuration that cannot be used is a ``ProtonConfigError``;
+- a name the configuration (or a node's part in it) does not have is a ``KeyError``;
+- a value that cannot be sent is an ``EncodeError``;
+- a message that cannot be read is a ``DecodeError``;
+- any other bad argument (a version, a clock reading, a tick) is a ``ValueError``.
 
 Reading a configuration needs the ``proton`` extra (pyyaml); nothing else here does.
 """

@@ -1,42 +1,61 @@
 """A sans-IO Proton node: its registry of signal values, the bundles it owes its peers, the
 bundles and heartbeats it receives.
 
-Guarantees: the clock is the caller's (``now`` in seconds, any origin, kept to the microsecond;
-anything but a finite number is a ``ValueError`` naming ``now``, so no NaN ever reaches a
-schedule or a peer's last arrival); nothing here reads time, sleeps, starts a thread or touches a
-socket. ``poll(now)`` returns every bundle due at ``now``, encoded, in the order Proton's node
-manager (``proton_node_update``, called until it has nothing left) sends them: triggered bundles
-first, then periodic ones; within each, the most overdue first, the higher id first among equals
-(the C node picks the last of its id-sorted table). The first ``poll`` is the node's boot, as
-uptime 0 is the C node's: every bundle counts as sent then, so a periodic bundle first goes out
-``period_ms`` after it, and then whenever ``period_ms`` has passed since it was last sent (when
-triggered too). A late poll delays what follows, as in C (the period counts from the actual send).
-A clock that steps back never makes a bundle due early (the C node's unsigned uptime would make
-every bundle due at once). ``poll`` encodes every due bundle before it changes any schedule or
-counter: it either returns them all or, raising, changes nothing.
+The clock:
+- The clock is the caller's: ``now`` in seconds, any origin, kept to the microsecond.
+- Anything but a finite number is a ``ValueError`` naming ``now``.
+  So no NaN ever reaches a schedule or a peer's last arrival.
+- Nothing here reads time, sleeps, starts a thread or touches a socket.
 
-The registry holds the signals of the bundles the node produces or consumes (those Proton's
-generator puts in its registry), starting at their configured defaults; ``set`` refuses, with an
-``EncodeError``, what a signal cannot send unchanged, so every due bundle encodes. ``receive``
-decodes one message, applies its values and calls the bundle's handler; anything undecodable, or a
-bundle this node does not consume, is a ``DecodeError`` and changes nothing. The registry holds
-its own copies of list values: what ``get`` returns, and a received ``Bundle``'s lists, are the
-caller's to change.
+Polling:
+- ``poll(now)`` returns every bundle due at ``now``, encoded.
+- They come in the order Proton's node manager sends them (``proton_node_update``, called until
+  it has nothing left):
+  - triggered bundles first, then periodic ones;
+  - within each, the most overdue first;
+  - among equals, the higher id first, as the C node picks the last of its id-sorted table.
+- The first ``poll`` is the node's boot, as uptime 0 is the C node's.
+  Every bundle counts as sent then.
+- A periodic bundle first goes out ``period_ms`` after the boot.
+  It then goes out whenever ``period_ms`` has passed since it was last sent, triggered or not.
+- A late poll delays what follows, as in C: the period counts from the actual send.
+- A clock that steps back never makes a bundle due early.
+  The C node's unsigned uptime would make every bundle due at once.
+- ``poll`` encodes every due bundle before it changes any schedule or counter.
+  It either returns them all or, raising, changes nothing.
+
+The registry:
+- It holds the signals of the bundles the node produces or consumes, those Proton's generator
+  puts in its registry.
+- They start at their configured defaults.
+- ``set`` refuses, with an ``EncodeError``, what a signal cannot send unchanged.
+  So every due bundle encodes.
+- ``receive`` decodes one message, applies its values and calls the bundle's handler.
+- Anything undecodable, or a bundle this node does not consume, is a ``DecodeError`` and changes
+  nothing.
+- The registry holds its own copies of list values.
+  What ``get`` returns, and a received ``Bundle``'s lists, are the caller's to change.
 
 Heartbeats, as the rover's Proton 1.0 design has them: a bundle with id 0 and one uint32 signal. A
 node producing it adds one to its counter (modulo 2**32) each time it sends it; a received heartbeat
 never overwrites the counter of a node that sends heartbeats itself.
 
-Peers (``peer_state``, as ``erc_codec.runtime.Liveness``): Proton defines UNCONFIGURED, INACTIVE and
-ACTIVE as a node's lifecycle and sets no timeout; here a peer's state is what this node can tell of
-it. A peer is watched when it produces a periodic bundle this node consumes: its heartbeat's period
-if it sends one, else the shortest ``period_ms`` of those bundles. A watched peer is INACTIVE until
-it is first heard, ACTIVE while any bundle it produces keeps arriving (any bundle proves it alive,
-not only heartbeats), INACTIVE once none came within the timeout. A peer sending this node only
-triggered bundles, or nothing, is UNCONFIGURED: nothing says when to expect it. The timeout is three
-periods unless given (``peer_timeout``): a sender following Proton's node manager sends a period
-apart or more (later by however long its polls come after they are due), so a rule of "within the
-period" would mark a healthy peer INACTIVE between its heartbeats.
+Peers (``peer_state``, as ``erc_codec.runtime.Liveness``):
+- Proton defines UNCONFIGURED, INACTIVE and ACTIVE as a node's lifecycle and sets no timeout.
+  Here a peer's state is what this node can tell of it.
+- A peer is watched when it produces a periodic bundle this node consumes.
+- Its period is its heartbeat's period if it sends one, else the shortest ``period_ms`` of those
+  bundles.
+- A watched peer is INACTIVE until it is first heard.
+- It is ACTIVE while any bundle it produces keeps arriving; any bundle proves it alive, not only
+  heartbeats.
+- It is INACTIVE once none came within the timeout.
+- A peer sending this node only triggered bundles, or nothing, is UNCONFIGURED.
+  Nothing says when to expect it.
+- The timeout is three periods unless given (``peer_timeout``).
+  A sender following Proton's node manager sends a period apart or more, later by however long
+  its polls come after they are due.
+  So a rule of "within the period" would mark a healthy peer INACTIVE between its heartbeats.
 """
 
 import math
@@ -84,12 +103,15 @@ class _Schedule:
 class Node:
     """One node of a Proton configuration, speaking ``version`` to its peers.
 
-    Mistakes, one kind each: a name the configuration or this node's part in it does not have
-    (a node, signal, bundle or peer; a bundle it does not produce, to ``trigger``, or consume, to
-    ``register``) is a ``KeyError``; a value a signal cannot send an ``EncodeError``; a message
-    that does not decode (or that this node does not consume) a ``DecodeError``; a configuration
-    this version cannot use a ``ProtonConfigError``; a ``now`` that is not a finite number a
-    ``ValueError``."""
+    Mistakes, one kind each:
+    - A name the configuration or this node's part in it does not have is a ``KeyError``.
+      This covers a node, signal, bundle or peer.
+      It also covers a bundle the node does not produce, given to ``trigger``, or does not
+      consume, given to ``register``.
+    - A value a signal cannot send is an ``EncodeError``.
+    - A message that does not decode, or that this node does not consume, is a ``DecodeError``.
+    - A configuration this version cannot use is a ``ProtonConfigError``.
+    - A ``now`` that is not a finite number is a ``ValueError``."""
 
     def __init__(
         self,

@@ -1,20 +1,31 @@
 """Thin asyncio shells around a sans-IO ``Node``: Proton over UDP and over a serial byte stream.
 
-Everything that decides lives in the node (what is due, what a message means, who is alive) and in
-the framing (``erc_codec.runtime.frame``, ``erc_codec.runtime.Deframer``); these only move bytes and
-read the clock, polling the node every ``tick`` seconds. A message that does not decode, or that the
-node does not consume, is counted by its ``DecodeError`` reason and handed to ``on_error``; the link
-goes on. Anything else that goes wrong (the node refusing the clock, a handler or ``on_peer``
-raising, a write that fails because the device went away) stops the link, never silently:
-``run_proton_serial`` raises it, and a UDP link closes and ``wait_closed()`` raises it. Like
-erc_codec's own UDP endpoint, this module does not import asyncio at import time (``import
-erc_codec.proton`` stays cheap): its code runs inside an event loop, where asyncio is loaded, and
+Everything that decides lives in the node (what is due, what a message means, who is alive).
+The framing lives in ``erc_codec.runtime.frame`` and ``erc_codec.runtime.Deframer``.
+These shells only move bytes and read the clock, polling the node every ``tick`` seconds.
+
+Errors:
+- A message that does not decode, or that the node does not consume, is counted by its
+  ``DecodeError`` reason and handed to ``on_error``; the link goes on.
+- Anything else that goes wrong stops the link, never silently.
+  Examples: the node refusing the clock, a handler or ``on_peer`` raising, a write that fails
+  because the device went away.
+- ``run_proton_serial`` raises it.
+- A UDP link closes, and ``wait_closed()`` raises it.
+
+Like erc_codec's own UDP endpoint, this module does not import asyncio at import time.
+So ``import erc_codec.proton`` stays cheap.
+Its code runs inside an event loop, where asyncio is loaded.
 ``ProtonUdp`` implements asyncio's datagram protocol methods itself.
 
-UDP, as Proton's udp4 transport: one message per datagram, no CRC; a 2.0 sender's optional 4-byte
-header is read and none is sent. A datagram's sender is the peer at its address; from an address
-no peer has, the node whose id its header names (any id, 0 included). The local address and the
-peers' addresses come from the configuration's connections (a udp4 endpoint each) unless given.
+UDP, as Proton's udp4 transport:
+- One message goes per datagram, with no CRC.
+- A 2.0 sender's optional 4-byte header is read; none is sent.
+- A datagram's sender is the peer at its address.
+- From an address no peer has, the sender is the node whose id its header names (any id, 0
+  included).
+- The local address and the peers' addresses come from the configuration's connections (a udp4
+  endpoint each) unless given.
 """
 
 import time
@@ -207,10 +218,14 @@ async def open_proton_udp(
     tick: float = 0.005,
     on_error: OnError | None = None,
 ) -> ProtonUdp:
-    """``node`` on UDP: bound to ``host:port`` (default: its endpoint of its first udp4
-    connection), sending each due bundle to its consumers' addresses (``peers`` by name; default:
-    their endpoints of those connections), polled every ``tick`` seconds until closed or until
-    something stops it (``ProtonUdp.wait_closed`` raises what)."""
+    """``node`` on UDP.
+
+    - It is bound to ``host:port``; the default is its endpoint of its first udp4 connection.
+    - It sends each due bundle to its consumers' addresses.
+    - ``peers`` gives those addresses by name; the default is their endpoints of those
+      connections.
+    - It is polled every ``tick`` seconds until closed or until something stops it.
+    - ``ProtonUdp.wait_closed`` raises what stopped it."""
     import asyncio
 
     tick = duration("tick", tick)
@@ -247,11 +262,13 @@ async def run_proton_serial(
     tick: float = 0.005,
     on_error: OnError | None = None,
 ) -> LinkStats:
-    """``node`` on a serial link (pyserial-asyncio's streams, a socket, a pipe): every frame that
-    arrives is received from ``peer``, every due bundle for ``peer`` (any bundle, without one) is
-    framed and written, until ``reader`` ends; the link's counters. What stops the reading or
-    the writing otherwise (a failed write, a handler raising, the node refusing the clock) stops
-    both and is raised here."""
+    """``node`` on a serial link, until ``reader`` ends; it returns the link's counters.
+
+    - The link may be pyserial-asyncio's streams, a socket or a pipe.
+    - Every frame that arrives is received from ``peer``.
+    - Every due bundle for ``peer`` is framed and written; without a ``peer``, every due bundle.
+    - Anything else that stops the reading or the writing stops both and is raised here.
+      Examples: a failed write, a handler raising, the node refusing the clock."""
     import asyncio
 
     tick = duration("tick", tick)

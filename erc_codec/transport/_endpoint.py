@@ -1,17 +1,22 @@
 """Thin asyncio shells around the sans-IO core: a UDP endpoint and a serial (byte-stream) reader.
 
-Everything that decides lives in the core (codec, ``Dispatcher``, ``Watchdog``, ``Deframer``);
-these only move bytes and read the clock. The UDP endpoint binds 127.0.0.1 unless told otherwise.
-Datagrams longer than the envelope's maximum are dropped and counted by the dispatcher, as every
-undecodable datagram is (reason ``too_long``). What never reaches the dispatcher is counted too
-(``UdpEndpoint.stats()``): datagrams the kernel dropped (its receive buffer full), and those still
-queued when the endpoint closed. The endpoint asks for a large receive buffer (4 MiB) and reads
-the socket itself, in batches (``_socket.UdpSocket``: ``recvmsg``, for the kernel's drop count),
-rather than through asyncio's datagram transport, which would hide both.
+Everything that decides lives in the core (codec, ``Dispatcher``, ``Watchdog``, ``Deframer``).
+These shells only move bytes and read the clock.
 
-This module does not import asyncio, nor socket: ``import erc_codec`` must not pay their 20 to 40
-ms of start-up for a program that only encodes and decodes. Code here runs inside an event loop,
-where both are loaded already.
+- The UDP endpoint binds 127.0.0.1 unless told otherwise.
+- A datagram longer than the envelope's maximum is dropped with reason ``too_long``.
+  The dispatcher counts it, as it counts every undecodable datagram.
+- ``UdpEndpoint.stats()`` counts what never reaches the dispatcher:
+  - datagrams the kernel dropped because its receive buffer was full;
+  - datagrams still queued when the endpoint closed.
+- The endpoint asks for a large receive buffer (4 MiB).
+- It reads the socket itself, in batches (``_socket.UdpSocket``).
+  It uses ``recvmsg`` for the kernel's drop count.
+  Asyncio's datagram transport would hide both the drops and the unread datagrams.
+
+This module imports neither asyncio nor socket at import time.
+A program that only encodes and decodes must not pay their 20 to 40 ms of start-up.
+Code here runs inside an event loop, where both are loaded already.
 """
 
 import time
@@ -56,16 +61,19 @@ class UdpStats(NamedTuple):
 
 
 class UdpEndpoint:
-    """Every datagram received goes to the dispatcher; ``send`` encodes and sends a message.
-    Without a dispatcher (``None``: a relay, which routes bytes) datagrams go to
-    ``on_datagram`` only, and ``send_datagram`` sends bytes as they are.
+    """A UDP endpoint, made by ``open_udp``.
 
-    Made by ``open_udp``. With a watchdog it polls it every ``poll_interval`` seconds while the
-    socket is open, so ``on_timeout`` fires while the loop runs. ``on_datagram(data, sender)``
-    (an attribute, too) hears every datagram before the dispatcher does, with the sender's
-    address. If polling fails (the clock read NaN, ``on_timeout`` raised), the endpoint closes
-    and ``wait_closed()`` raises what stopped it, as Proton's links do: a watchdog that stopped
-    polling would otherwise be a silent one."""
+    - Every datagram received goes to the dispatcher.
+    - ``send`` encodes and sends a message.
+    - Without a dispatcher (``None``, a relay that routes bytes), datagrams go to ``on_datagram``
+      only, and ``send_datagram`` sends bytes as they are.
+    - With a watchdog, the endpoint polls it every ``poll_interval`` seconds while the socket is
+      open, so ``on_timeout`` fires while the loop runs.
+    - ``on_datagram(data, sender)`` hears every datagram, with the sender's address, before the
+      dispatcher does; it is an attribute too.
+    - If polling fails (the clock read NaN, or ``on_timeout`` raised), the endpoint closes and
+      ``wait_closed()`` raises what stopped it, as Proton's links do.
+      Otherwise a watchdog that stopped polling would be a silent one."""
 
     def __init__(
         self,
@@ -271,14 +279,17 @@ async def open_udp(
     on_datagram: Heard | None = None,
     receive_buffer: int = RECEIVE_BUFFER,
 ) -> UdpEndpoint:
-    """A UDP endpoint bound to ``host:port`` (port 0: any free one) feeding ``dispatcher``
-    (``None``: only ``on_datagram`` hears what arrives).
+    """A UDP endpoint bound to ``host:port``, feeding ``dispatcher``.
 
-    With a ``watchdog``, every decoded kind counts as an arrival and the watchdog is polled every
-    ``poll_interval`` seconds, so its ``on_timeout`` fires while the loop runs. ``on_datagram``
-    hears every datagram, with its sender, before the dispatcher does. ``receive_buffer``: the
-    bytes of receive buffer asked for (``stats().receive_buffer`` says what was granted: Linux
-    caps it at twice ``net.core.rmem_max``).
+    - ``port`` 0 binds any free port.
+    - With ``dispatcher`` ``None``, only ``on_datagram`` hears what arrives.
+    - With a ``watchdog``, every decoded kind counts as an arrival.
+    - The watchdog is polled every ``poll_interval`` seconds, so its ``on_timeout`` fires while
+      the loop runs.
+    - ``on_datagram`` hears every datagram, with its sender, before the dispatcher does.
+    - ``receive_buffer`` is the bytes of receive buffer asked for.
+    - ``stats().receive_buffer`` says what was granted; Linux caps it at twice
+      ``net.core.rmem_max``.
     """
     endpoint = UdpEndpoint(dispatcher, watchdog, clock, poll_interval, on_datagram)
     await endpoint.open(host, port, receive_buffer)
@@ -300,9 +311,12 @@ async def read_serial(
     deframer: Deframer | None = None,
     chunk: int = 4096,
 ) -> Deframer:
-    """Feed every framed payload arriving on ``reader`` (a serial port through pyserial-asyncio,
-    a socket, a pipe) to ``dispatcher`` until the stream ends; the deframer, for its counters
-    (flushed: a frame cut off by the end of the stream counts as ``unfinished`` bytes)."""
+    """Feed every framed payload arriving on ``reader`` to ``dispatcher`` until the stream ends.
+
+    ``reader`` may be a serial port through pyserial-asyncio, a socket or a pipe.
+    It returns the deframer, for its counters.
+    The deframer is flushed, so a frame cut off by the end of the stream counts as ``unfinished``
+    bytes."""
     count("chunk", chunk)
     deframer = deframer or Deframer.for_codec(dispatcher.codec)
     while data := await reader.read(chunk):

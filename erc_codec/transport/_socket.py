@@ -1,24 +1,34 @@
 """A non-blocking UDP socket that says what the kernel dropped: the bytes under ``UdpEndpoint``.
 
-Guarantees: every datagram the kernel took for this socket is either returned by ``receive`` or
-counted in ``kernel_dropped()`` (the socket's own drop counter, ``sk_drops``: datagrams that
-found the receive buffer full, or whose checksum was bad), or, when the socket closes with
-datagrams still queued, counted by ``close()`` as unread. Where the system cannot tell (not
-Linux), ``kernel_dropped()`` is ``None``, never a made-up 0.
+Guarantees:
+- Every datagram the kernel took for this socket is accounted for in one of these ways:
+  - returned by ``receive``;
+  - counted in ``kernel_dropped()``, the socket's own drop counter (``sk_drops``), which counts
+    datagrams that found the receive buffer full or whose checksum was bad;
+  - counted by ``close()`` as unread, when the socket closes with datagrams still queued.
+- Where the system cannot tell (not Linux), ``kernel_dropped()`` is ``None``, never a made-up 0.
 
-How (Linux): ``SO_RXQ_OVFL`` makes the kernel attach the socket's cumulative drop count to each
-datagram it queues after a drop (read here with ``recvmsg``), and ``SO_MEMINFO`` (Linux 4.6)
-reads the counter at any moment, which also covers drops after the last datagram read: a flood
-into a full buffer queues nothing that could carry their count. The counter is 32 bits; readings
-are merged by serial-number arithmetic, so it may wrap and a stale reading never counts twice.
+How the drops are read on Linux:
+- ``SO_RXQ_OVFL`` makes the kernel attach the socket's cumulative drop count to each datagram it
+  queues after a drop; ``recvmsg`` reads it here.
+- ``SO_MEMINFO`` (Linux 4.6) reads the counter at any moment.
+  It also covers drops after the last datagram read, since a flood into a full buffer queues
+  nothing that could carry their count.
+- The counter is 32 bits and may wrap.
+  Readings are merged by serial-number arithmetic, so a stale reading never counts twice.
 
-The receive buffer is asked for with ``SO_RCVBUF``; ``buffer`` is what the kernel granted, as
-it reports it. Linux doubles the request (half of it is bookkeeping: a datagram of a few bytes
-takes about 800 bytes of buffer) and caps it at twice ``net.core.rmem_max``; raise that sysctl
-for more (``SO_RCVBUFFORCE`` would let root pass the cap: not used, the cap is the
-administrator's). A system that refuses a size instead (the BSDs above ``kern.ipc.maxsockbuf``)
-is asked for half as much, and so on down to its default. No asyncio here:
-``_endpoint.UdpEndpoint`` puts the socket on a loop.
+The receive buffer:
+- It is asked for with ``SO_RCVBUF``.
+- ``buffer`` is what the kernel granted, as it reports it.
+- Linux doubles the request, because half of it is bookkeeping.
+  A datagram of a few bytes takes about 800 bytes of buffer.
+- Linux caps the buffer at twice ``net.core.rmem_max``; raise that sysctl for more.
+- ``SO_RCVBUFFORCE`` would let root pass the cap; it is not used, because the cap is the
+  administrator's.
+- A system that refuses a size instead (the BSDs above ``kern.ipc.maxsockbuf``) is asked for half
+  as much, and so on down to its default.
+
+There is no asyncio here: ``_endpoint.UdpEndpoint`` puts the socket on a loop.
 """
 
 import socket
